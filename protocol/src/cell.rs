@@ -1,0 +1,163 @@
+//! One cell's network stack: [`Organizer`] and [`Router`] joined.
+//!
+//! The firmware and the simulator drive a cell the same way: hand it the
+//! bytes that arrived on a port ([`Cell::receive`]), let time pass
+//! ([`Cell::poll`] at [`Cell::poll_at`]), give it the cell's own messages
+//! ([`Cell::send`]), and whenever a port's transmitter is free ask for the
+//! next frame ([`Cell::transmit`]).
+
+use crate::address::Address;
+use crate::frame::{Frame, Header, Kind};
+use crate::message::{Message, Port};
+use crate::organize::{Config, IdStore, Organizer, Out, Outs};
+use crate::router::{Drop, Router, Source};
+
+/// Why [`Cell::send`] refused a message.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SendError {
+    /// The cell has no ID yet, so its frames could not be told apart.
+    NoId,
+    /// The cell's own queue is full.
+    QueueFull,
+}
+
+/// The network side of one skin cell.
+#[derive(Debug)]
+pub struct Cell {
+    organizer: Organizer,
+    router: Router,
+}
+
+impl Cell {
+    /// A cell booting at `now_us` with the ID `store` holds, if any.
+    pub fn new(config: Config, store: &impl IdStore, now_us: u64) -> Cell {
+        Cell { organizer: Organizer::new(config, store, now_us), router: Router::new() }
+    }
+
+    /// Self-organization state.
+    pub fn organizer(&self) -> &Organizer {
+        &self.organizer
+    }
+
+    /// Forwarding state and counters.
+    pub fn router(&self) -> &Router {
+        &self.router
+    }
+
+    /// This cell's address.
+    pub fn id(&self) -> Address {
+        self.organizer.id()
+    }
+
+    /// Takes the bytes of one frame received on `port`. Returns a message
+    /// addressed to this cell's application (a configuration write).
+    pub fn receive(
+        &mut self,
+        port: Port,
+        bytes: &[u8],
+        now_us: u64,
+        store: &mut impl IdStore,
+    ) -> Option<(Header, Message)> {
+        let Ok(frame) = Frame::parse(bytes) else {
+            self.router.count_corrupt();
+            return None;
+        };
+        self.organizer.heard(port, now_us);
+        let header = frame.header();
+        let mine = header.dst == self.id() && self.id() != Address::UNASSIGNED;
+        let delivered = if header.kind.is_link_local() {
+            self.control(port, &frame, now_us, store);
+            None
+        } else if Some(port) != self.organizer.master() {
+            // From below: on toward the host. Drops are counted by the router.
+            let _ = self.router.upstream(Source::Port(port), frame);
+            None
+        } else if header.kind == Kind::IdAssign && (mine || header.dst == Address::UNASSIGNED) {
+            self.control(port, &frame, now_us, store);
+            None
+        } else if mine {
+            self.local(&frame)
+        } else if header.dst == Address::BROADCAST {
+            self.router.downstream(frame);
+            self.local(&frame)
+        } else {
+            self.router.downstream(frame);
+            None
+        };
+        self.sync();
+        delivered
+    }
+
+    fn local(&mut self, frame: &Frame) -> Option<(Header, Message)> {
+        match frame.message() {
+            Ok(m) => Some((frame.header(), m)),
+            Err(_) => {
+                self.router.count_corrupt();
+                None
+            }
+        }
+    }
+
+    fn control(&mut self, port: Port, frame: &Frame, now_us: u64, store: &mut impl IdStore) {
+        match frame.message() {
+            Ok(m) => {
+                let outs = self.organizer.handle(port, frame.header(), &m, now_us, store);
+                self.route(outs);
+            }
+            Err(_) => self.router.count_corrupt(),
+        }
+    }
+
+    fn route(&mut self, outs: Outs) {
+        self.sync();
+        for out in outs {
+            // Full queues are counted by the router; the organizer repeats
+            // everything that matters.
+            let _ = match out {
+                Out::Link(p, f) => self.router.link(p, f),
+                Out::Up(f) => self.router.upstream(Source::Own, f),
+            };
+        }
+    }
+
+    /// Keeps the router's view of the tree equal to the organizer's.
+    fn sync(&mut self) {
+        self.router.set_master(self.organizer.master());
+        for p in Port::ALL {
+            self.router.set_child(p, self.organizer.is_child(p));
+        }
+    }
+
+    /// Lets time pass: probes, timeouts, retries.
+    pub fn poll(&mut self, now_us: u64) {
+        let outs = self.organizer.poll(now_us);
+        self.route(outs);
+    }
+
+    /// The next time [`Cell::poll`] has work to do.
+    pub fn poll_at(&self) -> u64 {
+        self.organizer.poll_at()
+    }
+
+    /// Sends one of this cell's own messages (sample, event, ack) upstream.
+    pub fn send(&mut self, message: &Message) -> Result<(), SendError> {
+        if self.id() == Address::UNASSIGNED {
+            return Err(SendError::NoId);
+        }
+        let frame = Frame::new(self.id(), Address::HOST, message);
+        self.router.upstream(Source::Own, frame).map_err(|e| match e {
+            Drop::QueueFull | Drop::Reroute => SendError::QueueFull,
+        })
+    }
+
+    /// The next frame for `port`'s transmitter, if any.
+    pub fn transmit(&mut self, port: Port) -> Option<Frame> {
+        self.router.transmit(port)
+    }
+
+    /// True when `port` has a frame waiting.
+    pub fn has_pending(&self, port: Port) -> bool {
+        self.router.has_pending(port)
+    }
+}

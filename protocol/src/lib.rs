@@ -1,0 +1,35 @@
+//! What both ends of a skin wire agree on.
+//!
+//! Every skin cell, the network simulator and the robot PC compile this one
+//! crate, so a frame means the same thing everywhere. Each piece is a pure
+//! state machine in the smoltcp style: frames and a time go in, frames and
+//! state changes come out, and nothing here does I/O. Any byte sequence fed
+//! to a decoder gives a value or a typed error, never a panic.
+//!
+//! - [`frame`]: the 20-byte cell-2-cell frame (header, postcard payload, CRC-16).
+//! - [`message`]: the payload of every message kind.
+//! - [`sample`]: one multi-modal sensor sample, bit-packed into a frame.
+//! - [`router`]: one cell's bounded, round-robin forwarding.
+//! - [`organize`]: the four-phase network self-organization of one cell,
+//!   the interface-port side of it, and the ID allocator of the host.
+//! - [`cell`]: one cell's network stack, `organize` and `router` joined.
+//! - [`event`]: Table 3 tactile levels with hysteresis, and send-on-delta.
+//! - [`interface`]: the UDP datagram between an interface port and the host.
+#![cfg_attr(not(feature = "std"), no_std)]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod address;
+pub mod cell;
+pub mod event;
+pub mod frame;
+pub mod interface;
+pub mod message;
+pub mod organize;
+pub mod router;
+pub mod sample;
+
+pub use address::Address;
+pub use frame::{Frame, FrameError, Header, Kind, FRAME_LEN};
+pub use message::{Message, Port};
+pub use sample::Sample;

@@ -1,0 +1,366 @@
+//! The payload of every message kind.
+//!
+//! Payloads are postcard-encoded into the 13 payload bytes of a [`Frame`];
+//! `frame` proves at compile time that each one fits. Enums on the wire
+//! (ports, channels, settings) make out-of-range values undecodable instead
+//! of checks scattered over the receivers.
+//!
+//! [`Frame`]: crate::frame::Frame
+
+use postcard::experimental::max_size::MaxSize;
+use serde::{Deserialize, Serialize};
+
+use crate::address::Address;
+use crate::frame::Kind;
+use crate::sample::Sample;
+
+/// One of the four cell-2-cell ports of a hexagonal cell (Figure 6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize, MaxSize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Port {
+    /// Port 0.
+    P0,
+    /// Port 1.
+    P1,
+    /// Port 2.
+    P2,
+    /// Port 3.
+    P3,
+}
+
+impl Port {
+    /// All ports, in order.
+    pub const ALL: [Port; 4] = [Port::P0, Port::P1, Port::P2, Port::P3];
+
+    /// The port's number, 0..4.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The port numbered `i`, if `i < 4`.
+    pub fn from_index(i: usize) -> Option<Port> {
+        Port::ALL.get(i).copied()
+    }
+}
+
+/// Phase 1 and 4: "I am here, on this port, with this ID".
+///
+/// Sent as [`Message::Probe`] periodically on every port (it doubles as the
+/// link keep-alive) and answered at once with [`Message::ProbeAck`], so both
+/// sides learn the link is up and who is on the other end.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Probe {
+    /// The sender's port this frame left on.
+    pub port: Port,
+    /// The sender's address ([`Address::UNASSIGNED`] before phase 3).
+    pub id: Address,
+    /// True when this port is the sender's master port: the receiver is its
+    /// parent in the tree and must deliver downstream traffic to it.
+    pub master: bool,
+}
+
+/// Phase 2: one wave of a tree beacon, started by an interface port every
+/// beacon period and relayed by each cell away from its master port.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Beacon {
+    /// The interface port that is the sink of this tree.
+    pub interface: u8,
+    /// Wave number, wrapping; newer waves replace stale routes.
+    pub seq: u16,
+    /// Hops from the interface port to the sender of this frame.
+    pub hops: u16,
+}
+
+/// Phase 3: a cell without an ID asks the host for one. The cell is named
+/// by its parent and the parent's port toward it, the only name it has.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, MaxSize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct IdRequest {
+    /// The parent's address (a cell or an interface port).
+    pub parent: Address,
+    /// The parent's port toward the asking cell.
+    pub port: Port,
+}
+
+/// Phase 3: the host's answer to an [`IdRequest`], sent down to the parent,
+/// which hands it on through `port` to the child.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct IdAssign {
+    /// The parent's port toward the new cell.
+    pub port: Port,
+    /// The new, unique cell ID.
+    pub id: Address,
+}
+
+/// The far end of a link: which cell, on which of its ports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, MaxSize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Neighbour {
+    /// The neighbour's address (a cell ID or an interface port).
+    pub id: Address,
+    /// The neighbour's port on this link.
+    pub port: Port,
+}
+
+/// Phase 4: one row of the sender's neighbour table (the sender is the
+/// frame's source), sent upstream on every change and as a heartbeat.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct NeighbourReport {
+    /// The sender's own port.
+    pub port: Port,
+    /// Who is on the other end, or `None` when the link is down.
+    pub neighbour: Option<Neighbour>,
+}
+
+/// A tactile channel that events are quantized on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, MaxSize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Channel {
+    /// The proximity (pre-touch) sensor.
+    Proximity,
+    /// Normal-force cell 0.
+    Force0,
+    /// Normal-force cell 1.
+    Force1,
+    /// Normal-force cell 2.
+    Force2,
+}
+
+/// A change of tactile level (Table 3) on one channel of the sender.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TactileEvent {
+    /// Which sensor changed level.
+    pub channel: Channel,
+    /// The new level, 0 (nothing) to 4 (pain force / close contact).
+    pub level: u8,
+    /// The filtered raw value that caused the change.
+    pub value: u16,
+}
+
+/// How a cell sends its samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TrafficMode {
+    /// Every sample at the sampling rate.
+    Clock,
+    /// Only samples that moved by more than the send-on-delta thresholds,
+    /// plus tactile level events.
+    Event,
+}
+
+/// BMA250 measurement range.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum AccelRange {
+    /// +-2 g.
+    G2,
+    /// +-8 g.
+    G8,
+    /// +-16 g.
+    G16,
+}
+
+impl AccelRange {
+    /// Full scale in g.
+    pub fn full_scale_g(self) -> f32 {
+        match self {
+            AccelRange::G2 => 2.0,
+            AccelRange::G8 => 8.0,
+            AccelRange::G16 => 16.0,
+        }
+    }
+}
+
+/// One setting of a cell, written by the host.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, MaxSize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Setting {
+    /// Sensor sampling rate in Hz.
+    SampleRateHz(f32),
+    /// Clock-driven or event-driven sending.
+    Traffic(TrafficMode),
+    /// Cut-off of the local low-pass filter in Hz.
+    FilterCutoffHz(f32),
+    /// Lower bound of force level `level` (1..=4), normalized to `[0, 1]`.
+    ForceLevel {
+        /// The level whose threshold is set.
+        level: u8,
+        /// Normalized threshold.
+        value: f32,
+    },
+    /// Lower bound of proximity level `level` (1..=4), normalized.
+    ProximityLevel {
+        /// The level whose threshold is set.
+        level: u8,
+        /// Normalized threshold.
+        value: f32,
+    },
+    /// Hysteresis of the level quantizers, normalized.
+    Hysteresis(f32),
+    /// Send-on-delta threshold of sample channel `channel` (0..8, the order
+    /// of [`Sample::channels`]) in raw counts.
+    Delta {
+        /// Sample channel.
+        channel: u8,
+        /// Threshold in counts.
+        counts: u16,
+    },
+    /// Calibration gain of force cell `cell` (0..3).
+    ForceGain {
+        /// Force cell.
+        cell: u8,
+        /// Gain, positive.
+        gain: f32,
+    },
+    /// Accelerometer range.
+    AccelRange(AccelRange),
+}
+
+impl Setting {
+    /// True when the value is one a cell can apply: finite, positive rates,
+    /// thresholds in `[0, 1]`, indices in range.
+    pub fn is_valid(&self) -> bool {
+        let unit = |v: f32| (0.0..=1.0).contains(&v);
+        match *self {
+            Setting::SampleRateHz(hz) => hz.is_finite() && hz > 0.0 && hz <= 10_000.0,
+            Setting::FilterCutoffHz(hz) => hz.is_finite() && hz > 0.0,
+            Setting::ForceLevel { level, value } | Setting::ProximityLevel { level, value } => {
+                (1..=4).contains(&level) && unit(value)
+            }
+            Setting::Hysteresis(h) => unit(h),
+            Setting::Delta { channel, .. } => channel < 8,
+            Setting::ForceGain { cell, gain } => cell < 3 && gain.is_finite() && gain > 0.0,
+            Setting::Traffic(_) | Setting::AccelRange(_) => true,
+        }
+    }
+}
+
+/// A configuration write, addressed to one cell or broadcast.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, MaxSize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ConfigWrite {
+    /// Chosen by the host; echoed in the acknowledgement.
+    pub tag: u8,
+    /// What to set.
+    pub setting: Setting,
+}
+
+/// A cell's answer to a [`ConfigWrite`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ConfigAck {
+    /// The tag of the write.
+    pub tag: u8,
+    /// False when the setting was invalid and ignored.
+    pub accepted: bool,
+}
+
+/// Every message of the skin network; the variant is the frame's [`Kind`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Message {
+    /// Link probe / keep-alive (phase 1).
+    Probe(Probe),
+    /// Answer to a probe (phase 1).
+    ProbeAck(Probe),
+    /// Tree beacon (phase 2).
+    Beacon(Beacon),
+    /// ID request (phase 3).
+    IdRequest(IdRequest),
+    /// ID assignment (phase 3).
+    IdAssign(IdAssign),
+    /// Neighbour report (phase 4).
+    NeighbourReport(NeighbourReport),
+    /// Sensor sample.
+    Sample(Sample),
+    /// Tactile level event.
+    Event(TactileEvent),
+    /// Configuration write.
+    ConfigWrite(ConfigWrite),
+    /// Configuration acknowledgement.
+    ConfigAck(ConfigAck),
+}
+
+impl Message {
+    /// The frame kind this message travels as.
+    pub fn kind(&self) -> Kind {
+        match self {
+            Message::Probe(_) => Kind::Probe,
+            Message::ProbeAck(_) => Kind::ProbeAck,
+            Message::Beacon(_) => Kind::Beacon,
+            Message::IdRequest(_) => Kind::IdRequest,
+            Message::IdAssign(_) => Kind::IdAssign,
+            Message::NeighbourReport(_) => Kind::NeighbourReport,
+            Message::Sample(_) => Kind::Sample,
+            Message::Event(_) => Kind::Event,
+            Message::ConfigWrite(_) => Kind::ConfigWrite,
+            Message::ConfigAck(_) => Kind::ConfigAck,
+        }
+    }
+
+    /// Postcard-encodes the payload into `buf`, returning the bytes used.
+    pub(crate) fn encode_payload(&self, buf: &mut [u8]) -> postcard::Result<usize> {
+        let used = match self {
+            Message::Probe(m) | Message::ProbeAck(m) => postcard::to_slice(m, buf)?,
+            Message::Beacon(m) => postcard::to_slice(m, buf)?,
+            Message::IdRequest(m) => postcard::to_slice(m, buf)?,
+            Message::IdAssign(m) => postcard::to_slice(m, buf)?,
+            Message::NeighbourReport(m) => postcard::to_slice(m, buf)?,
+            Message::Sample(m) => postcard::to_slice(m, buf)?,
+            Message::Event(m) => postcard::to_slice(m, buf)?,
+            Message::ConfigWrite(m) => postcard::to_slice(m, buf)?,
+            Message::ConfigAck(m) => postcard::to_slice(m, buf)?,
+        };
+        Ok(used.len())
+    }
+
+    /// Decodes a payload of the given kind; the bytes after the encoded value
+    /// must be zero padding, so every message has exactly one wire form.
+    pub(crate) fn decode_payload(kind: Kind, bytes: &[u8]) -> Option<Message> {
+        fn take<'a, T: Deserialize<'a>>(bytes: &'a [u8]) -> Option<T> {
+            let (value, rest) = postcard::take_from_bytes(bytes).ok()?;
+            rest.iter().all(|b| *b == 0).then_some(value)
+        }
+        Some(match kind {
+            Kind::Probe => Message::Probe(take(bytes)?),
+            Kind::ProbeAck => Message::ProbeAck(take(bytes)?),
+            Kind::Beacon => Message::Beacon(take(bytes)?),
+            Kind::IdRequest => Message::IdRequest(take(bytes)?),
+            Kind::IdAssign => Message::IdAssign(take(bytes)?),
+            Kind::NeighbourReport => Message::NeighbourReport(take(bytes)?),
+            Kind::Sample => Message::Sample(take(bytes)?),
+            Kind::Event => Message::Event(take(bytes)?),
+            Kind::ConfigWrite => Message::ConfigWrite(take(bytes)?),
+            Kind::ConfigAck => Message::ConfigAck(take(bytes)?),
+        })
+    }
+}
+
+/// The largest encoded payload of any kind; `frame` checks it at compile time.
+pub(crate) const MAX_PAYLOAD: usize = {
+    let sizes = [
+        Probe::POSTCARD_MAX_SIZE,
+        Beacon::POSTCARD_MAX_SIZE,
+        IdRequest::POSTCARD_MAX_SIZE,
+        IdAssign::POSTCARD_MAX_SIZE,
+        NeighbourReport::POSTCARD_MAX_SIZE,
+        Sample::POSTCARD_MAX_SIZE,
+        TactileEvent::POSTCARD_MAX_SIZE,
+        ConfigWrite::POSTCARD_MAX_SIZE,
+        ConfigAck::POSTCARD_MAX_SIZE,
+    ];
+    let mut max = 0;
+    let mut i = 0;
+    while i < sizes.len() {
+        if sizes[i] > max {
+            max = sizes[i];
+        }
+        i += 1;
+    }
+    max
+};

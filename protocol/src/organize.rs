@@ -1,0 +1,553 @@
+//! Network self-organization (section 2.2.2, Figure 7), one cell at a time.
+//!
+//! The four phases run side by side as a pure state machine: a received
+//! frame (or the passing of time) goes in, frames to send come out.
+//!
+//! 1. **Active ports.** Every cell probes each port periodically; a probe is
+//!    answered at once. A port is active while frames arrive on it.
+//! 2. **Master-port trees.** Every interface port ([`Sink`]) starts a beacon
+//!    wave each period. A cell takes as master port the port with the fewest
+//!    hops to an interface, and relays only the waves that reach it through
+//!    its master port, away from it. A cell cut off from its interface thus
+//!    falls silent, and no stale route outlives it; newer waves replace older
+//!    ones, so routes are loop free (as in DSDV). Every interface port is the
+//!    sink of its own tree.
+//! 3. **Unique IDs.** A cell without an ID names itself by its parent and the
+//!    parent's port and asks the host ([`Allocator`]); the answer comes down
+//!    the tree to the parent, which hands it through that port. An ID held in
+//!    persistent storage ([`IdStore`]) is kept and never asked for again.
+//! 4. **Neighbours.** Probes carry the sender's ID and port, so each cell
+//!    knows who is on each port; it reports every row of that table upstream
+//!    when it changes and as a slow heartbeat.
+//!
+//! When a link or a cell disappears, the ports time out, cells behind it
+//! take the next wave through another path, and keep their IDs.
+
+use heapless::Vec;
+
+use crate::address::Address;
+use crate::frame::{Frame, Header};
+use crate::message::{Beacon, IdAssign, IdRequest, Message, Neighbour, NeighbourReport, Port, Probe};
+
+/// Timing of self-organization, in microseconds of the cell's clock.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Config {
+    /// Period of the probes on every port (the link keep-alive).
+    pub probe_period_us: u64,
+    /// A port with nothing received for this long is down.
+    pub link_timeout_us: u64,
+    /// Period of the beacon waves started by interface ports.
+    pub beacon_period_us: u64,
+    /// A master port that relayed no wave for this long is lost.
+    pub route_timeout_us: u64,
+    /// Time between repeated ID requests.
+    pub id_retry_us: u64,
+    /// Period of the neighbour-table heartbeat.
+    pub report_period_us: u64,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            probe_period_us: 10_000,
+            link_timeout_us: 35_000,
+            beacon_period_us: 10_000,
+            route_timeout_us: 35_000,
+            id_retry_us: 50_000,
+            report_period_us: 4_000_000,
+        }
+    }
+}
+
+/// Where a cell keeps its ID across power cycles (flash on a real cell).
+pub trait IdStore {
+    /// The stored ID, if any.
+    fn load(&self) -> Option<Address>;
+    /// Stores a newly assigned ID.
+    fn store(&mut self, id: Address);
+}
+
+/// A store in RAM, for tests and the simulator (it survives a simulated
+/// reboot when kept outside the cell).
+impl IdStore for Option<Address> {
+    fn load(&self) -> Option<Address> {
+        *self
+    }
+    fn store(&mut self, id: Address) {
+        *self = Some(id);
+    }
+}
+
+/// A frame the organizer wants sent.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Out {
+    /// Across one link only.
+    Link(Port, Frame),
+    /// Upstream to the host, through the master port.
+    Up(Frame),
+}
+
+/// Frames to send after one step; enough for the busiest step (a probe and
+/// a report for every port, an ID request, relayed beacons).
+pub type Outs = Vec<Out, 16>;
+
+#[derive(Clone, Copy, Debug)]
+struct Link {
+    last_rx_us: u64,
+    neighbour: Option<Neighbour>,
+    child: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Route {
+    port: Port,
+    interface: u8,
+    seq: u16,
+    hops: u16,
+    heard_us: u64,
+}
+
+/// Serial-number order of wrapping wave numbers: how far `a` is ahead of `b`.
+fn seq_ahead(a: u16, b: u16) -> i16 {
+    a.wrapping_sub(b) as i16
+}
+
+/// The self-organization state of one cell.
+#[derive(Clone, Debug)]
+pub struct Organizer {
+    config: Config,
+    id: Address,
+    links: [Option<Link>; 4],
+    route: Option<Route>,
+    /// What each port's last report said; `None` before the first report.
+    reported: [Option<Option<Neighbour>>; 4],
+    next_probe_us: u64,
+    next_id_request_us: u64,
+    next_report_us: u64,
+}
+
+impl Organizer {
+    /// A cell booting at `now_us`, with the ID its store holds, if any.
+    pub fn new(config: Config, store: &impl IdStore, now_us: u64) -> Organizer {
+        let id = store.load().filter(|a| a.is_cell()).unwrap_or(Address::UNASSIGNED);
+        Organizer {
+            config,
+            id,
+            links: [None; 4],
+            route: None,
+            reported: [None; 4],
+            next_probe_us: now_us,
+            next_id_request_us: now_us,
+            next_report_us: now_us + config.report_period_us,
+        }
+    }
+
+    /// The cell's address ([`Address::UNASSIGNED`] until phase 3).
+    pub fn id(&self) -> Address {
+        self.id
+    }
+
+    /// The port toward the nearest interface, once known.
+    pub fn master(&self) -> Option<Port> {
+        self.route.map(|r| r.port)
+    }
+
+    /// Hops to the interface port, once known.
+    pub fn hops(&self) -> Option<u16> {
+        self.route.map(|r| r.hops)
+    }
+
+    /// The interface port whose tree this cell is in.
+    pub fn interface(&self) -> Option<u8> {
+        self.route.map(|r| r.interface)
+    }
+
+    /// True while frames arrive on `port`.
+    pub fn is_active(&self, port: Port) -> bool {
+        self.links[port.index()].is_some()
+    }
+
+    /// True when the neighbour on `port` has us as its master.
+    pub fn is_child(&self, port: Port) -> bool {
+        self.links[port.index()].is_some_and(|l| l.child)
+    }
+
+    /// Who is on `port`, once it has said so.
+    pub fn neighbour(&self, port: Port) -> Option<Neighbour> {
+        self.links[port.index()].and_then(|l| l.neighbour)
+    }
+
+    /// The next time [`Organizer::poll`] has work to do.
+    pub fn poll_at(&self) -> u64 {
+        let mut t = self.next_probe_us.min(self.next_report_us);
+        for l in self.links.iter().flatten() {
+            t = t.min(l.last_rx_us + self.config.link_timeout_us + 1);
+        }
+        if let Some(r) = self.route {
+            t = t.min(r.heard_us + self.config.route_timeout_us + 1);
+            if self.id == Address::UNASSIGNED {
+                t = t.min(self.next_id_request_us);
+            }
+        }
+        t
+    }
+
+    fn probe(&self, port: Port) -> Probe {
+        Probe { port, id: self.id, master: self.master() == Some(port) }
+    }
+
+    fn link_frame(&self, message: Message) -> Frame {
+        Frame::new(self.id, Address::BROADCAST, &message)
+    }
+
+    fn push(outs: &mut Outs, out: Out) {
+        // `Outs` is sized for the busiest step; a push past it is a bug, not
+        // a network condition, and losing a control frame is recoverable.
+        debug_assert!(outs.len() < outs.capacity());
+        let _ = outs.push(out);
+    }
+
+    /// Notes that a valid frame arrived on `port`: the link is up.
+    pub fn heard(&mut self, port: Port, now_us: u64) {
+        match &mut self.links[port.index()] {
+            Some(l) => l.last_rx_us = now_us,
+            slot @ None => *slot = Some(Link { last_rx_us: now_us, neighbour: None, child: false }),
+        }
+    }
+
+    /// Handles a control message addressed to this cell's organizer: probes,
+    /// acks and beacons from a neighbour, and ID assignments coming down.
+    /// The caller has already called [`Organizer::heard`].
+    pub fn handle(
+        &mut self,
+        port: Port,
+        header: Header,
+        message: &Message,
+        now_us: u64,
+        store: &mut impl IdStore,
+    ) -> Outs {
+        let mut outs = Outs::new();
+        match *message {
+            Message::Probe(p) | Message::ProbeAck(p) => {
+                if matches!(message, Message::Probe(_)) {
+                    let ack = self.link_frame(Message::ProbeAck(self.probe(port)));
+                    Self::push(&mut outs, Out::Link(port, ack));
+                }
+                if let Some(link) = &mut self.links[port.index()] {
+                    link.neighbour = Some(Neighbour { id: p.id, port: p.port });
+                    link.child = p.master;
+                }
+                self.report_changes(&mut outs);
+                self.request_id(&mut outs, now_us);
+            }
+            Message::Beacon(b) => self.beacon(port, b, now_us, &mut outs),
+            Message::IdAssign(a) => self.assign(port, header, a, store, &mut outs),
+            _ => {}
+        }
+        outs
+    }
+
+    fn beacon(&mut self, port: Port, b: Beacon, now_us: u64, outs: &mut Outs) {
+        if self.is_child(port) {
+            return; // a child never leads toward the interface
+        }
+        let hops = b.hops.saturating_add(1);
+        let candidate = Route { port, interface: b.interface, seq: b.seq, hops, heard_us: now_us };
+        let take = match self.route {
+            None => true,
+            Some(r) if r.interface != b.interface => hops < r.hops || (hops == r.hops && b.interface < r.interface),
+            Some(r) => {
+                let ahead = seq_ahead(b.seq, r.seq);
+                if port == r.port {
+                    ahead > 0 || (ahead == 0 && hops < r.hops)
+                } else {
+                    // Another port: better in the same or a newer wave, or
+                    // the master has missed a whole wave.
+                    (ahead >= 0 && hops < r.hops) || ahead >= 2
+                }
+            }
+        };
+        if !take {
+            return;
+        }
+        let old = self.master();
+        self.route = Some(candidate);
+        if old != Some(port) {
+            // Tell the old and the new parent at once, so downstream traffic
+            // follows the tree without waiting for the next probe.
+            for p in [old, Some(port)].into_iter().flatten() {
+                if self.is_active(p) {
+                    Self::push(outs, Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
+                }
+            }
+        }
+        let relay = Message::Beacon(Beacon { hops, ..b });
+        for p in Port::ALL {
+            if p != port && self.is_active(p) {
+                Self::push(outs, Out::Link(p, self.link_frame(relay)));
+            }
+        }
+        self.request_id(outs, now_us);
+    }
+
+    fn assign(&mut self, port: Port, header: Header, a: IdAssign, store: &mut impl IdStore, outs: &mut Outs) {
+        if header.dst == Address::UNASSIGNED {
+            // For us, handed on by our parent.
+            if self.id == Address::UNASSIGNED && self.master() == Some(port) && a.id.is_cell() {
+                self.id = a.id;
+                store.store(a.id);
+                for p in Port::ALL {
+                    if self.is_active(p) {
+                        Self::push(outs, Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
+                    }
+                }
+                self.report_changes(outs);
+            }
+        } else if header.dst == self.id && self.id != Address::UNASSIGNED {
+            // For our child on `a.port`.
+            let frame = Frame::new(header.src, Address::UNASSIGNED, &Message::IdAssign(a));
+            Self::push(outs, Out::Link(a.port, frame));
+        }
+    }
+
+    /// Phase 3: ask for an ID once the parent has one.
+    fn request_id(&mut self, outs: &mut Outs, now_us: u64) {
+        if self.id != Address::UNASSIGNED || now_us < self.next_id_request_us {
+            return;
+        }
+        let Some(master) = self.master() else { return };
+        let Some(parent) = self.neighbour(master) else { return };
+        if parent.id == Address::UNASSIGNED {
+            return;
+        }
+        self.next_id_request_us = now_us + self.config.id_retry_us;
+        let request = Message::IdRequest(IdRequest { parent: parent.id, port: parent.port });
+        Self::push(outs, Out::Up(Frame::new(Address::UNASSIGNED, Address::HOST, &request)));
+    }
+
+    /// Phase 4: report every row of the neighbour table that changed.
+    fn report_changes(&mut self, outs: &mut Outs) {
+        if self.id == Address::UNASSIGNED {
+            return;
+        }
+        for p in Port::ALL {
+            let now = self.neighbour(p).filter(|n| n.id != Address::UNASSIGNED);
+            if self.reported[p.index()] != Some(now) {
+                self.reported[p.index()] = Some(now);
+                let report = Message::NeighbourReport(NeighbourReport { port: p, neighbour: now });
+                Self::push(outs, Out::Up(Frame::new(self.id, Address::HOST, &report)));
+            }
+        }
+    }
+
+    /// Does what time demands: probes, link and route timeouts, ID retries,
+    /// the report heartbeat.
+    pub fn poll(&mut self, now_us: u64) -> Outs {
+        let mut outs = Outs::new();
+        for p in Port::ALL {
+            let Some(l) = self.links[p.index()] else { continue };
+            if now_us > l.last_rx_us + self.config.link_timeout_us {
+                self.links[p.index()] = None;
+            }
+        }
+        if let Some(r) = self.route {
+            if !self.is_active(r.port) || now_us > r.heard_us + self.config.route_timeout_us {
+                self.route = None;
+            }
+        }
+        if now_us >= self.next_probe_us {
+            self.next_probe_us = now_us + self.config.probe_period_us;
+            for p in Port::ALL {
+                Self::push(&mut outs, Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
+            }
+        }
+        if now_us >= self.next_report_us {
+            self.next_report_us = now_us + self.config.report_period_us;
+            self.reported = [None; 4];
+        }
+        self.report_changes(&mut outs);
+        self.request_id(&mut outs, now_us);
+        outs
+    }
+}
+
+/// The interface port's side of a link: the sink of one tree.
+///
+/// It answers probes, starts a beacon wave every period, hands frames from
+/// the cell to the host and frames from the host to the cell; an
+/// [`IdAssign`] for a child of the interface is readdressed for that child.
+#[derive(Clone, Debug)]
+pub struct Sink {
+    config: Config,
+    address: Address,
+    seq: u16,
+    next_beacon_us: u64,
+    last_rx_us: Option<u64>,
+    link: heapless::Deque<Frame, 4>,
+    down: heapless::Deque<Frame, 64>,
+}
+
+/// What a [`Sink`] makes of the bytes its cell sent.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FromCell {
+    /// Link traffic, handled here.
+    Link,
+    /// A frame for the host.
+    Host(Frame),
+}
+
+impl Sink {
+    /// Interface port `number` (below [`Address::MAX_INTERFACES`]), starting at `now_us`.
+    pub fn new(number: u8, config: Config, now_us: u64) -> Option<Sink> {
+        Some(Sink {
+            config,
+            address: Address::interface(number)?,
+            seq: 0,
+            next_beacon_us: now_us,
+            last_rx_us: None,
+            link: heapless::Deque::new(),
+            down: heapless::Deque::new(),
+        })
+    }
+
+    /// This interface port's address.
+    pub fn address(&self) -> Address {
+        self.address
+    }
+
+    /// True while the cell on the other end is talking.
+    pub fn is_active(&self, now_us: u64) -> bool {
+        self.last_rx_us.is_some_and(|t| now_us <= t + self.config.link_timeout_us)
+    }
+
+    /// Takes the bytes the cell sent.
+    pub fn receive(&mut self, bytes: &[u8], now_us: u64) -> Result<FromCell, crate::frame::FrameError> {
+        let frame = Frame::parse(bytes)?;
+        self.last_rx_us = Some(now_us);
+        if !frame.kind().is_link_local() {
+            return Ok(FromCell::Host(frame));
+        }
+        if let Message::Probe(_) = frame.message()? {
+            let ack = Probe { port: Port::P0, id: self.address, master: false };
+            let _ = self.link.push_back(Frame::new(self.address, Address::BROADCAST, &Message::ProbeAck(ack)));
+        }
+        Ok(FromCell::Link)
+    }
+
+    /// Queues a frame from the host for the cell; `Err` gives it back when
+    /// the queue is full.
+    pub fn send(&mut self, frame: Frame) -> Result<(), Frame> {
+        let frame = match frame.message() {
+            Ok(Message::IdAssign(_)) if frame.dst() == self.address => frame.readdressed(Address::UNASSIGNED),
+            _ => frame,
+        };
+        self.down.push_back(frame)
+    }
+
+    /// Starts the beacon wave when it is due.
+    pub fn poll(&mut self, now_us: u64) {
+        if now_us >= self.next_beacon_us {
+            self.next_beacon_us = now_us + self.config.beacon_period_us;
+            self.seq = self.seq.wrapping_add(1);
+            let beacon = Beacon { interface: self.address.interface_number().unwrap_or(0), seq: self.seq, hops: 0 };
+            let _ = self.link.push_back(Frame::new(self.address, Address::BROADCAST, &Message::Beacon(beacon)));
+        }
+    }
+
+    /// The next time [`Sink::poll`] has work to do.
+    pub fn poll_at(&self) -> u64 {
+        self.next_beacon_us
+    }
+
+    /// The next frame for the cell, when the link is free.
+    pub fn transmit(&mut self) -> Option<Frame> {
+        self.link.pop_front().or_else(|| self.down.pop_front())
+    }
+
+    /// Frames waiting for the cell.
+    pub fn queued(&self) -> usize {
+        self.link.len() + self.down.len()
+    }
+}
+
+#[cfg(feature = "std")]
+pub use allocator::Allocator;
+
+#[cfg(feature = "std")]
+mod allocator {
+    use std::collections::{BTreeSet, HashMap};
+
+    use super::*;
+
+    /// The host's side of phase 3: hands out unique cell IDs.
+    ///
+    /// IDs seen on the network (stored IDs) are never handed out, and a
+    /// repeated request from the same place gets the same answer until the
+    /// new ID shows up as a frame source.
+    #[derive(Clone, Debug)]
+    pub struct Allocator {
+        /// Seen on the network or handed out.
+        used: BTreeSet<u16>,
+        pending: HashMap<IdRequest, Address>,
+        pending_by_id: HashMap<Address, IdRequest>,
+        next: u16,
+    }
+
+    impl Default for Allocator {
+        fn default() -> Self {
+            Allocator::new()
+        }
+    }
+
+    impl Allocator {
+        /// An allocator that knows of no IDs yet.
+        pub fn new() -> Allocator {
+            Allocator { used: BTreeSet::new(), pending: HashMap::new(), pending_by_id: HashMap::new(), next: 1 }
+        }
+
+        /// Notes an address seen as a frame source.
+        pub fn observe(&mut self, src: Address) {
+            if !src.is_cell() {
+                return;
+            }
+            self.used.insert(src.0);
+            if let Some(request) = self.pending_by_id.remove(&src) {
+                self.pending.remove(&request);
+            }
+        }
+
+        /// The answer to an ID request: a frame to send down the interface
+        /// the request came from. `None` when all cell IDs are taken.
+        pub fn request(&mut self, request: IdRequest) -> Option<Frame> {
+            let id = match self.pending.get(&request) {
+                Some(id) => *id,
+                None => {
+                    let id = self.fresh()?;
+                    self.pending.insert(request, id);
+                    self.pending_by_id.insert(id, request);
+                    id
+                }
+            };
+            let assign = Message::IdAssign(IdAssign { port: request.port, id });
+            Some(Frame::new(Address::HOST, request.parent, &assign))
+        }
+
+        fn fresh(&mut self) -> Option<Address> {
+            for _ in 0..Address::MAX_CELL {
+                let candidate = self.next;
+                self.next = if self.next >= Address::MAX_CELL { 1 } else { self.next + 1 };
+                if self.used.insert(candidate) {
+                    return Address::cell(candidate);
+                }
+            }
+            None
+        }
+
+        /// Cell IDs in use.
+        pub fn used(&self) -> usize {
+            self.used.len()
+        }
+    }
+}

@@ -1,0 +1,334 @@
+//! One cell's forwarding: bounded queues and a round-robin scheduler.
+//!
+//! Upstream traffic (toward the host) waits in one queue per input port plus
+//! one for the cell's own frames; whenever the master port's transmitter is
+//! free, the scheduler serves the next non-empty queue after the one it
+//! served last, so no queue waits more than one round. Downstream traffic
+//! (from the host, arriving on the master port) is copied to every child
+//! port. Link-local frames (probes, beacons) go first on their port.
+//!
+//! Every frame handed to the router is, at any time, either transmitted,
+//! dropped with a reason, or still queued: [`Counters`] and
+//! [`Router::queued`] account for all of them.
+
+use heapless::Deque;
+
+use crate::frame::Frame;
+use crate::message::Port;
+
+/// Capacity of each upstream input queue (4 ports + own), in frames.
+pub const UP_QUEUE: usize = 16;
+/// Capacity of each port's downstream queue, in frames.
+pub const DOWN_QUEUE: usize = 8;
+/// Capacity of each port's link-local queue, in frames.
+pub const LINK_QUEUE: usize = 4;
+
+const OWN: usize = 4;
+
+/// Where an upstream frame entered the cell.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Source {
+    /// Received on a port from a neighbour.
+    Port(Port),
+    /// Made by this cell.
+    Own,
+}
+
+/// Why the router gave up a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Drop {
+    /// Its queue was full.
+    QueueFull,
+    /// The tree changed under it: it would have gone back where it came from,
+    /// or its port stopped being a child or went down.
+    Reroute,
+}
+
+/// Frame counts since start.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Counters {
+    /// Upstream frames of neighbours sent on the master port.
+    pub forwarded_up: u32,
+    /// Downstream copies sent on child ports.
+    pub forwarded_down: u32,
+    /// Own upstream frames sent on the master port.
+    pub sent_own: u32,
+    /// Link-local frames sent.
+    pub sent_link: u32,
+    /// Frames dropped because a queue was full.
+    pub dropped_full: u32,
+    /// Frames dropped because the tree changed under them.
+    pub dropped_reroute: u32,
+    /// Received bytes that were not a valid frame.
+    pub corrupt: u32,
+}
+
+/// The forwarding state of one cell.
+#[derive(Debug)]
+pub struct Router {
+    up: [Deque<Frame, UP_QUEUE>; 5],
+    down: [Deque<Frame, DOWN_QUEUE>; 4],
+    link: [Deque<Frame, LINK_QUEUE>; 4],
+    next: usize,
+    master: Option<Port>,
+    children: [bool; 4],
+    counters: Counters,
+}
+
+impl Default for Router {
+    fn default() -> Self {
+        Router::new()
+    }
+}
+
+impl Router {
+    /// An empty router with no master port and no children.
+    pub fn new() -> Router {
+        Router {
+            up: Default::default(),
+            down: Default::default(),
+            link: Default::default(),
+            next: 0,
+            master: None,
+            children: [false; 4],
+            counters: Counters::default(),
+        }
+    }
+
+    /// The port upstream traffic leaves on.
+    pub fn master(&self) -> Option<Port> {
+        self.master
+    }
+
+    /// Sets the master port. Frames that came in on the new master port
+    /// would go straight back, so they are dropped as reroutes.
+    pub fn set_master(&mut self, master: Option<Port>) {
+        if self.master == master {
+            return;
+        }
+        self.master = master;
+        if let Some(m) = master {
+            let q = &mut self.up[m.index()];
+            self.counters.dropped_reroute += q.len() as u32;
+            q.clear();
+        }
+    }
+
+    /// Marks `port` as leading to a child (a neighbour whose master port
+    /// faces us). A port that stops being a child loses its queued
+    /// downstream frames.
+    pub fn set_child(&mut self, port: Port, child: bool) {
+        self.children[port.index()] = child;
+        if !child {
+            let q = &mut self.down[port.index()];
+            self.counters.dropped_reroute += q.len() as u32;
+            q.clear();
+        }
+    }
+
+    /// Queues an upstream frame from a neighbour or from this cell.
+    pub fn upstream(&mut self, from: Source, frame: Frame) -> Result<(), Drop> {
+        let i = match from {
+            Source::Port(p) if Some(p) == self.master => {
+                self.counters.dropped_reroute += 1;
+                return Err(Drop::Reroute);
+            }
+            Source::Port(p) => p.index(),
+            Source::Own => OWN,
+        };
+        self.up[i].push_back(frame).map_err(|_| {
+            self.counters.dropped_full += 1;
+            Drop::QueueFull
+        })
+    }
+
+    /// Copies a downstream frame to every child port. Returns how many copies
+    /// were queued; a full child queue drops its copy.
+    pub fn downstream(&mut self, frame: Frame) -> usize {
+        let mut queued = 0;
+        for (child, q) in self.children.iter().zip(self.down.iter_mut()) {
+            if !*child {
+                continue;
+            }
+            match q.push_back(frame) {
+                Ok(()) => queued += 1,
+                Err(_) => self.counters.dropped_full += 1,
+            }
+        }
+        queued
+    }
+
+    /// Queues a link-local frame (probe, beacon, ...) for one port.
+    pub fn link(&mut self, port: Port, frame: Frame) -> Result<(), Drop> {
+        self.link[port.index()].push_back(frame).map_err(|_| {
+            self.counters.dropped_full += 1;
+            Drop::QueueFull
+        })
+    }
+
+    /// The next frame to put on `port`'s wire, when its transmitter is free:
+    /// link-local first, then on the master port the round robin over the
+    /// upstream queues, then downstream copies on a child port.
+    pub fn transmit(&mut self, port: Port) -> Option<Frame> {
+        let p = port.index();
+        if let Some(f) = self.link[p].pop_front() {
+            self.counters.sent_link += 1;
+            return Some(f);
+        }
+        if self.master == Some(port) {
+            for k in 0..self.up.len() {
+                let i = (self.next + k) % self.up.len();
+                if let Some(f) = self.up[i].pop_front() {
+                    self.next = (i + 1) % self.up.len();
+                    if i == OWN {
+                        self.counters.sent_own += 1;
+                    } else {
+                        self.counters.forwarded_up += 1;
+                    }
+                    return Some(f);
+                }
+            }
+        }
+        let f = self.down[p].pop_front()?;
+        self.counters.forwarded_down += 1;
+        Some(f)
+    }
+
+    /// True when `port` has something to send.
+    pub fn has_pending(&self, port: Port) -> bool {
+        let p = port.index();
+        !self.link[p].is_empty()
+            || !self.down[p].is_empty()
+            || (self.master == Some(port) && self.up.iter().any(|q| !q.is_empty()))
+    }
+
+    /// Frames waiting in all queues.
+    pub fn queued(&self) -> usize {
+        let lens = self.up.iter().map(Deque::len);
+        lens.chain(self.down.iter().map(Deque::len)).chain(self.link.iter().map(Deque::len)).sum()
+    }
+
+    /// Frames waiting upstream, per input (ports 0..4, then own).
+    pub fn upstream_lens(&self) -> [usize; 5] {
+        core::array::from_fn(|i| self.up[i].len())
+    }
+
+    /// Counts a received frame that failed to parse.
+    pub fn count_corrupt(&mut self) {
+        self.counters.corrupt += 1;
+    }
+
+    /// Frame counts since start.
+    pub fn counters(&self) -> &Counters {
+        &self.counters
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::address::Address;
+    use crate::message::{ConfigAck, Message};
+    use proptest::prelude::*;
+
+    fn frame(tag: u8) -> Frame {
+        Frame::new(Address(1), Address::HOST, &Message::ConfigAck(ConfigAck { tag, accepted: true }))
+    }
+
+    #[derive(Clone, Debug)]
+    enum Op {
+        Push(usize),
+        Serve,
+        Master(usize),
+    }
+
+    fn op() -> impl Strategy<Value = Op> {
+        prop_oneof![
+            4 => (0..5usize).prop_map(Op::Push),
+            4 => Just(Op::Serve),
+            1 => (0..4usize).prop_map(Op::Master),
+        ]
+    }
+
+    proptest! {
+        /// Fairness: while an upstream queue is non-empty, the master port
+        /// serves at most one frame of each other queue before it. Bounds:
+        /// no queue ever holds more than its capacity, and every frame is
+        /// sent, dropped or still queued.
+        #[test]
+        fn round_robin_is_fair_and_bounded(ops in proptest::collection::vec(op(), 1..600)) {
+            let mut r = Router::new();
+            r.set_master(Some(Port::P0));
+            let mut waited = [0usize; 5];
+            let mut pushed = 0u32;
+            for op in ops {
+                match op {
+                    Op::Push(i) => {
+                        let from = if i == OWN { Source::Own } else { Source::Port(Port::ALL[i]) };
+                        pushed += 1;
+                        let _ = r.upstream(from, frame(i as u8));
+                    }
+                    Op::Serve => {
+                        let before = r.upstream_lens();
+                        let master = r.master().unwrap();
+                        if let Some(f) = r.transmit(master) {
+                            let served = f.message().map(|m| match m {
+                                Message::ConfigAck(a) => a.tag as usize,
+                                _ => unreachable!(),
+                            }).unwrap();
+                            for i in 0..5 {
+                                if i == served || before[i] == 0 {
+                                    waited[i] = 0;
+                                } else {
+                                    waited[i] += 1;
+                                    prop_assert!(waited[i] <= 4, "queue {} waited {} services", i, waited[i]);
+                                }
+                            }
+                        }
+                    }
+                    Op::Master(p) => {
+                        r.set_master(Some(Port::ALL[p]));
+                        waited = [0; 5];
+                    }
+                }
+                prop_assert!(r.upstream_lens().iter().all(|n| *n <= UP_QUEUE));
+                let c = r.counters();
+                prop_assert_eq!(pushed, c.forwarded_up + c.sent_own + c.dropped_full + c.dropped_reroute + r.queued() as u32);
+            }
+        }
+    }
+
+    #[test]
+    fn downstream_goes_to_children_only_and_link_frames_go_first() {
+        let mut r = Router::new();
+        r.set_master(Some(Port::P0));
+        r.set_child(Port::P1, true);
+        r.set_child(Port::P3, true);
+        assert_eq!(r.downstream(frame(7)), 2);
+        r.link(Port::P1, frame(9)).unwrap();
+        assert_eq!(r.transmit(Port::P2), None);
+        assert_eq!(r.transmit(Port::P1), Some(frame(9)));
+        assert_eq!(r.transmit(Port::P1), Some(frame(7)));
+        r.set_child(Port::P3, false);
+        assert_eq!(r.transmit(Port::P3), None);
+        assert_eq!(r.counters().dropped_reroute, 1);
+        assert_eq!(r.queued(), 0);
+    }
+
+    #[test]
+    fn full_queues_drop_and_count() {
+        let mut r = Router::new();
+        for _ in 0..UP_QUEUE {
+            r.upstream(Source::Own, frame(0)).unwrap();
+        }
+        assert_eq!(r.upstream(Source::Own, frame(0)), Err(Drop::QueueFull));
+        assert_eq!(r.counters().dropped_full, 1);
+        // Without a master, upstream frames wait.
+        assert_eq!(r.transmit(Port::P0), None);
+        r.set_master(Some(Port::P0));
+        assert!(r.transmit(Port::P0).is_some());
+    }
+}
