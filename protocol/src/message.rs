@@ -105,15 +105,77 @@ pub struct Neighbour {
     pub port: Port,
 }
 
-/// Phase 4: one row of the sender's neighbour table (the sender is the
-/// frame's source), sent upstream on every change and as a heartbeat.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
+/// Phase 4: the sender's whole neighbour table (the sender is the frame's
+/// source), indexed by the sender's own port; `None` where a port is free or
+/// its link is down. Sent upstream on every change and as a heartbeat; each
+/// report is complete, so the latest one received is the truth.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[serde(into = "PackedReport", try_from = "PackedReport")]
 pub struct NeighbourReport {
-    /// The sender's own port.
-    pub port: Port,
-    /// Who is on the other end, or `None` when the link is down.
-    pub neighbour: Option<Neighbour>,
+    /// Who is on each of the sender's ports.
+    pub neighbours: [Option<Neighbour>; 4],
+}
+
+/// Wire form of a [`NeighbourReport`]: four little-endian IDs, the four
+/// neighbour ports in 2 bits each, and a presence bit per row.
+#[derive(Clone, Copy, Serialize, Deserialize, MaxSize)]
+struct PackedReport {
+    ids: [u8; 8],
+    ports: u8,
+    present: u8,
+}
+
+impl From<NeighbourReport> for PackedReport {
+    fn from(r: NeighbourReport) -> PackedReport {
+        let mut p = PackedReport { ids: [0; 8], ports: 0, present: 0 };
+        for (i, n) in r.neighbours.iter().enumerate() {
+            if let Some(n) = n {
+                p.ids[2 * i..2 * i + 2].copy_from_slice(&n.id.0.to_le_bytes());
+                p.ports |= (n.port as u8) << (2 * i);
+                p.present |= 1 << i;
+            }
+        }
+        p
+    }
+}
+
+/// A packed report with bits set outside its rows, or a present row without
+/// an ID, has no meaning.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NotCanonical;
+
+impl core::fmt::Display for NotCanonical {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("neighbour report is not in canonical form")
+    }
+}
+
+impl TryFrom<PackedReport> for NeighbourReport {
+    type Error = NotCanonical;
+    fn try_from(p: PackedReport) -> Result<NeighbourReport, NotCanonical> {
+        if p.present > 0xF {
+            return Err(NotCanonical);
+        }
+        let mut r = NeighbourReport::default();
+        for i in 0..4 {
+            let id = Address(u16::from_le_bytes([p.ids[2 * i], p.ids[2 * i + 1]]));
+            let port = (p.ports >> (2 * i)) & 3;
+            if p.present & (1 << i) != 0 {
+                if id == Address::UNASSIGNED {
+                    return Err(NotCanonical);
+                }
+                r.neighbours[i] = Some(Neighbour { id, port: Port::ALL[usize::from(port)] });
+            } else if id != Address::UNASSIGNED || port != 0 {
+                return Err(NotCanonical);
+            }
+        }
+        Ok(r)
+    }
+}
+
+impl MaxSize for NeighbourReport {
+    const POSTCARD_MAX_SIZE: usize = PackedReport::POSTCARD_MAX_SIZE;
 }
 
 /// A tactile channel that events are quantized on.

@@ -17,8 +17,9 @@
 //!    the tree to the parent, which hands it through that port. An ID held in
 //!    persistent storage ([`IdStore`]) is kept and never asked for again.
 //! 4. **Neighbours.** Probes carry the sender's ID and port, so each cell
-//!    knows who is on each port; it reports every row of that table upstream
-//!    when it changes and as a slow heartbeat.
+//!    knows who is on each port; it reports the whole table upstream in one
+//!    frame when it changes (repeated twice, as upstream bursts may overflow
+//!    a queue on the way) and as a slow heartbeat.
 //!
 //! When a link or a cell disappears, the ports time out, cells behind it
 //! take the next wave through another path, and keep their IDs.
@@ -121,12 +122,17 @@ pub struct Organizer {
     id: Address,
     links: [Option<Link>; 4],
     route: Option<Route>,
-    /// What each port's last report said; `None` before the first report.
-    reported: [Option<Option<Neighbour>>; 4],
+    /// The table as last reported; `None` before the first report.
+    reported: Option<NeighbourReport>,
+    /// Repeats of the last report still to send, and when the next one is due.
+    repeats: u8,
+    next_report_us: u64,
     next_probe_us: u64,
     next_id_request_us: u64,
-    next_report_us: u64,
 }
+
+/// Delays of the repeats of a changed neighbour report, in report order.
+const REPEAT_DELAYS_US: [u64; 2] = [200_000, 50_000];
 
 impl Organizer {
     /// A cell booting at `now_us`, with the ID its store holds, if any.
@@ -137,10 +143,11 @@ impl Organizer {
             id,
             links: [None; 4],
             route: None,
-            reported: [None; 4],
+            reported: None,
+            repeats: 0,
+            next_report_us: now_us + config.report_period_us,
             next_probe_us: now_us,
             next_id_request_us: now_us,
-            next_report_us: now_us + config.report_period_us,
         }
     }
 
@@ -179,19 +186,27 @@ impl Organizer {
         self.links[port.index()].and_then(|l| l.neighbour)
     }
 
-    /// The next time [`Organizer::poll`] has work to do.
+    /// The next time [`Organizer::poll`] has work to do; always later than
+    /// the time of the last `poll`.
     pub fn poll_at(&self) -> u64 {
-        let mut t = self.next_probe_us.min(self.next_report_us);
+        let mut t = self.next_probe_us;
         for l in self.links.iter().flatten() {
             t = t.min(l.last_rx_us + self.config.link_timeout_us + 1);
         }
         if let Some(r) = self.route {
             t = t.min(r.heard_us + self.config.route_timeout_us + 1);
-            if self.id == Address::UNASSIGNED {
-                t = t.min(self.next_id_request_us);
-            }
+        }
+        if self.id != Address::UNASSIGNED {
+            t = t.min(self.next_report_us);
+        } else if self.parent().is_some() {
+            t = t.min(self.next_id_request_us);
         }
         t
+    }
+
+    /// The parent in the tree, once it has an address.
+    fn parent(&self) -> Option<Neighbour> {
+        self.master().and_then(|m| self.neighbour(m)).filter(|n| n.id != Address::UNASSIGNED)
     }
 
     fn probe(&self, port: Port) -> Probe {
@@ -239,11 +254,11 @@ impl Organizer {
                     link.neighbour = Some(Neighbour { id: p.id, port: p.port });
                     link.child = p.master;
                 }
-                self.report_changes(&mut outs);
+                self.report(&mut outs, now_us);
                 self.request_id(&mut outs, now_us);
             }
             Message::Beacon(b) => self.beacon(port, b, now_us, &mut outs),
-            Message::IdAssign(a) => self.assign(port, header, a, store, &mut outs),
+            Message::IdAssign(a) => self.assign(port, header, a, now_us, store, &mut outs),
             _ => {}
         }
         outs
@@ -292,7 +307,15 @@ impl Organizer {
         self.request_id(outs, now_us);
     }
 
-    fn assign(&mut self, port: Port, header: Header, a: IdAssign, store: &mut impl IdStore, outs: &mut Outs) {
+    fn assign(
+        &mut self,
+        port: Port,
+        header: Header,
+        a: IdAssign,
+        now_us: u64,
+        store: &mut impl IdStore,
+        outs: &mut Outs,
+    ) {
         if header.dst == Address::UNASSIGNED {
             // For us, handed on by our parent.
             if self.id == Address::UNASSIGNED && self.master() == Some(port) && a.id.is_cell() {
@@ -303,7 +326,7 @@ impl Organizer {
                         Self::push(outs, Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
                     }
                 }
-                self.report_changes(outs);
+                self.report(outs, now_us);
             }
         } else if header.dst == self.id && self.id != Address::UNASSIGNED {
             // For our child on `a.port`.
@@ -317,29 +340,41 @@ impl Organizer {
         if self.id != Address::UNASSIGNED || now_us < self.next_id_request_us {
             return;
         }
-        let Some(master) = self.master() else { return };
-        let Some(parent) = self.neighbour(master) else { return };
-        if parent.id == Address::UNASSIGNED {
-            return;
-        }
+        let Some(parent) = self.parent() else { return };
         self.next_id_request_us = now_us + self.config.id_retry_us;
         let request = Message::IdRequest(IdRequest { parent: parent.id, port: parent.port });
         Self::push(outs, Out::Up(Frame::new(Address::UNASSIGNED, Address::HOST, &request)));
     }
 
-    /// Phase 4: report every row of the neighbour table that changed.
-    fn report_changes(&mut self, outs: &mut Outs) {
+    /// The neighbour table as it is now; neighbours without an ID yet are
+    /// left out until they have one.
+    pub fn table(&self) -> NeighbourReport {
+        NeighbourReport { neighbours: Port::ALL.map(|p| self.neighbour(p).filter(|n| n.id != Address::UNASSIGNED)) }
+    }
+
+    /// Phase 4: reports the table when it changed, when a repeat of the last
+    /// change is due, and as a heartbeat.
+    fn report(&mut self, outs: &mut Outs, now_us: u64) {
         if self.id == Address::UNASSIGNED {
             return;
         }
-        for p in Port::ALL {
-            let now = self.neighbour(p).filter(|n| n.id != Address::UNASSIGNED);
-            if self.reported[p.index()] != Some(now) {
-                self.reported[p.index()] = Some(now);
-                let report = Message::NeighbourReport(NeighbourReport { port: p, neighbour: now });
-                Self::push(outs, Out::Up(Frame::new(self.id, Address::HOST, &report)));
-            }
+        let table = self.table();
+        if self.reported != Some(table) {
+            self.reported = Some(table);
+            self.repeats = REPEAT_DELAYS_US.len() as u8;
+            self.next_report_us = now_us;
         }
+        if now_us < self.next_report_us {
+            return;
+        }
+        self.next_report_us = match self.repeats.checked_sub(1) {
+            Some(left) => {
+                self.repeats = left;
+                now_us + REPEAT_DELAYS_US[usize::from(left)]
+            }
+            None => now_us + self.config.report_period_us,
+        };
+        Self::push(outs, Out::Up(Frame::new(self.id, Address::HOST, &Message::NeighbourReport(table))));
     }
 
     /// Does what time demands: probes, link and route timeouts, ID retries,
@@ -363,11 +398,7 @@ impl Organizer {
                 Self::push(&mut outs, Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
             }
         }
-        if now_us >= self.next_report_us {
-            self.next_report_us = now_us + self.config.report_period_us;
-            self.reported = [None; 4];
-        }
-        self.report_changes(&mut outs);
+        self.report(&mut outs, now_us);
         self.request_id(&mut outs, now_us);
         outs
     }
