@@ -14,6 +14,7 @@
 //!   the interface-port side of it, and the ID allocator of the host.
 //! - [`cell`]: one cell's network stack, `organize` and `router` joined.
 //! - [`event`]: Table 3 tactile levels with hysteresis, and send-on-delta.
+//! - [`processing`]: a cell's local filtering, offsets, events and send decision.
 //! - [`interface`]: the UDP datagram between an interface port and the host.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![forbid(unsafe_code)]
@@ -26,6 +27,7 @@ pub mod frame;
 pub mod interface;
 pub mod message;
 pub mod organize;
+pub mod processing;
 pub mod router;
 pub mod sample;
 

@@ -1,0 +1,265 @@
+//! A cell's local signal processing (section 2.1.4), between its sensor
+//! drivers and its network stack.
+//!
+//! Raw samples go in at the sampling rate; out come the messages the cell
+//! sends: the filtered, offset-compensated sample (every time when traffic
+//! is clock-driven, only when it moved by more than the send-on-delta
+//! thresholds when event-driven) and a tactile event for every change of
+//! level. The host configures all of it with [`Setting`]s. The firmware and
+//! the simulated cells run this same code.
+
+use heapless::Vec;
+
+use crate::event::{Quantizer, SendOnDelta};
+use crate::message::{AccelRange, Channel, Message, Setting, TactileEvent, TrafficMode};
+use crate::sample::{Sample, FORCE_MAX, PROXIMITY_MAX};
+
+/// Default sampling rate (section 2.2.3).
+pub const DEFAULT_RATE_HZ: f32 = 250.0;
+/// Default cut-off of the local low-pass filter: well above the 20 Hz that
+/// the sensory-motor exploration needs (4.3.2), well below Nyquist.
+pub const DEFAULT_CUTOFF_HZ: f32 = 60.0;
+
+/// What one sample produces: at most the sample and four events.
+pub type Outputs = Vec<Message, 5>;
+
+/// The local processing state of one cell.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Processor {
+    rate_hz: f32,
+    cutoff_hz: f32,
+    alpha: f32,
+    traffic: TrafficMode,
+    accel_range: AccelRange,
+    force_gain: [f32; 3],
+    offsets: [i32; 8],
+    filtered: Option<[f32; 8]>,
+    force: [Quantizer; 3],
+    proximity: Quantizer,
+    delta: SendOnDelta,
+    seq: u8,
+}
+
+impl Default for Processor {
+    fn default() -> Self {
+        Processor::new()
+    }
+}
+
+/// Smoothing factor of a first-order low-pass at `cutoff` sampled at `rate`.
+fn alpha(cutoff_hz: f32, rate_hz: f32) -> f32 {
+    let x = 2.0 * core::f32::consts::PI * cutoff_hz / rate_hz;
+    // 1 - exp(-x), without libm: exact enough for x in (0, ~10].
+    let e = if x > 10.0 { 0.0 } else { exp_neg(x) };
+    1.0 - e
+}
+
+/// `exp(-x)` for `x >= 0` by squaring a short Taylor series.
+fn exp_neg(x: f32) -> f32 {
+    let y = x / 16.0;
+    let mut e = 1.0 - y + y * y / 2.0 - y * y * y / 6.0 + y * y * y * y / 24.0;
+    for _ in 0..4 {
+        e *= e;
+    }
+    e
+}
+
+impl Processor {
+    /// Clock-driven at 250 Hz, Table 3 levels, no offsets, unit gains.
+    pub fn new() -> Processor {
+        Processor {
+            rate_hz: DEFAULT_RATE_HZ,
+            cutoff_hz: DEFAULT_CUTOFF_HZ,
+            alpha: alpha(DEFAULT_CUTOFF_HZ, DEFAULT_RATE_HZ),
+            traffic: TrafficMode::Clock,
+            accel_range: AccelRange::G2,
+            force_gain: [1.0; 3],
+            offsets: [0; 8],
+            filtered: None,
+            force: [Quantizer::force(); 3],
+            proximity: Quantizer::proximity(),
+            delta: SendOnDelta::default(),
+            seq: 0,
+        }
+    }
+
+    /// The sampling period in microseconds.
+    pub fn period_us(&self) -> u64 {
+        (1e6 / self.rate_hz) as u64
+    }
+
+    /// How samples are sent.
+    pub fn traffic(&self) -> TrafficMode {
+        self.traffic
+    }
+
+    /// The accelerometer range the host asked for (the driver applies it).
+    pub fn accel_range(&self) -> AccelRange {
+        self.accel_range
+    }
+
+    /// Per-channel offsets (in [`Sample::channels`] order) subtracted from
+    /// every raw sample; measured at calibration and kept in persistent
+    /// storage.
+    pub fn set_offsets(&mut self, offsets: [i32; 8]) {
+        self.offsets = offsets;
+    }
+
+    /// The offsets in use.
+    pub fn offsets(&self) -> [i32; 8] {
+        self.offsets
+    }
+
+    /// Applies a setting from the host; false (and no change) when invalid.
+    pub fn apply(&mut self, setting: &Setting) -> bool {
+        if !setting.is_valid() {
+            return false;
+        }
+        match *setting {
+            Setting::SampleRateHz(hz) => {
+                self.rate_hz = hz;
+                self.alpha = alpha(self.cutoff_hz, hz);
+            }
+            Setting::FilterCutoffHz(hz) => {
+                self.cutoff_hz = hz;
+                self.alpha = alpha(hz, self.rate_hz);
+            }
+            Setting::Traffic(t) => {
+                self.traffic = t;
+                self.delta.reset();
+            }
+            Setting::ForceLevel { level, value } => {
+                for q in &mut self.force {
+                    q.set_bound(level, value);
+                }
+            }
+            Setting::ProximityLevel { level, value } => {
+                self.proximity.set_bound(level, value);
+            }
+            Setting::Hysteresis(h) => {
+                for q in self.force.iter_mut().chain(core::iter::once(&mut self.proximity)) {
+                    q.set_hysteresis(h);
+                }
+            }
+            Setting::Delta { channel, counts } => {
+                self.delta.set_delta(channel, counts);
+            }
+            Setting::ForceGain { cell, gain } => self.force_gain[usize::from(cell)] = gain,
+            Setting::AccelRange(r) => self.accel_range = r,
+        }
+        true
+    }
+
+    /// Processes one raw sample: offsets, gains, low-pass, events, and the
+    /// send decision.
+    pub fn process(&mut self, raw: &Sample) -> Outputs {
+        let mut x = [0f32; 8];
+        for (i, (v, o)) in raw.channels().into_iter().zip(self.offsets).enumerate() {
+            let gain = if (1..4).contains(&i) { self.force_gain[i - 1] } else { 1.0 };
+            x[i] = (v - o) as f32 * gain;
+        }
+        let y = match &mut self.filtered {
+            Some(y) => {
+                for (y, x) in y.iter_mut().zip(x) {
+                    *y += self.alpha * (x - *y);
+                }
+                *y
+            }
+            slot @ None => *slot.insert(x),
+        };
+        self.seq = self.seq.wrapping_add(1);
+        let round = |v: f32| if v < 0.0 { (v - 0.5) as i32 } else { (v + 0.5) as i32 };
+        let clamp_u16 = |v: f32, max: u16| round(v).clamp(0, i32::from(max)) as u16;
+        let clamp_i16 = |v: f32| round(v).clamp(i32::from(i16::MIN), i32::from(i16::MAX)) as i16;
+        let sample = Sample::saturating(
+            clamp_u16(y[0], PROXIMITY_MAX),
+            [clamp_u16(y[1], FORCE_MAX), clamp_u16(y[2], FORCE_MAX), clamp_u16(y[3], FORCE_MAX)],
+            [clamp_i16(y[4]), clamp_i16(y[5]), clamp_i16(y[6])],
+            clamp_i16(y[7]),
+            self.seq,
+        );
+
+        let mut out = Outputs::new();
+        let send = match self.traffic {
+            TrafficMode::Clock => true,
+            TrafficMode::Event => self.delta.update(&sample),
+        };
+        if send {
+            let _ = out.push(Message::Sample(sample));
+        }
+        let [f0, f1, f2] = &mut self.force;
+        let (force, norm) = (sample.force(), sample.force_norm());
+        let levels = [
+            (Channel::Proximity, &mut self.proximity, sample.proximity(), sample.proximity_norm()),
+            (Channel::Force0, f0, force[0], norm[0]),
+            (Channel::Force1, f1, force[1], norm[1]),
+            (Channel::Force2, f2, force[2], norm[2]),
+        ];
+        for (channel, q, value, norm) in levels {
+            if let Some(level) = q.update(norm) {
+                let _ = out.push(Message::Event(TactileEvent { channel, level, value }));
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn force(f: u16) -> Sample {
+        Sample::new(0, [f, 0, 0], [0, 0, 256], 800, 0).unwrap()
+    }
+
+    #[test]
+    fn the_filter_has_its_cutoff() {
+        // exp_neg against known values, and a smoothing factor that passes
+        // most of a step at once at the default cut-off and rate.
+        assert!((exp_neg(1.0) - 0.367_879_4).abs() < 1e-4);
+        assert!((exp_neg(6.0) - 0.002_478_75).abs() < 1e-4);
+        let a = alpha(DEFAULT_CUTOFF_HZ, DEFAULT_RATE_HZ);
+        assert!(a > 0.7 && a < 0.9, "alpha {a}");
+    }
+
+    #[test]
+    fn clock_traffic_sends_every_sample_and_events_on_changes() {
+        let mut p = Processor::new();
+        assert!(p.apply(&Setting::FilterCutoffHz(1000.0)));
+        let out = p.process(&force(0));
+        assert_eq!(out.len(), 1);
+        // A press to about 0.2 of full scale: medium force.
+        let mut levels = std::vec::Vec::new();
+        for _ in 0..20 {
+            for m in p.process(&force(820)) {
+                if let Message::Event(e) = m {
+                    levels.push(e.level);
+                }
+            }
+        }
+        assert_eq!(levels.last(), Some(&2));
+        assert!(levels.windows(2).all(|w| w[0] < w[1]), "levels rise monotonically: {levels:?}");
+    }
+
+    #[test]
+    fn event_traffic_is_silent_when_nothing_moves() {
+        let mut p = Processor::new();
+        assert!(p.apply(&Setting::Traffic(TrafficMode::Event)));
+        let sent: usize = (0..100).map(|_| p.process(&force(10)).len()).sum();
+        assert_eq!(sent, 1, "only the first sample goes out");
+        assert!(!p.process(&force(400)).is_empty());
+    }
+
+    #[test]
+    fn offsets_gains_and_bad_settings() {
+        let mut p = Processor::new();
+        p.set_offsets([0, 100, 0, 0, 0, 0, 0, 0]);
+        assert!(p.apply(&Setting::ForceGain { cell: 0, gain: 2.0 }));
+        assert!(!p.apply(&Setting::ForceGain { cell: 3, gain: 2.0 }));
+        assert!(!p.apply(&Setting::SampleRateHz(f32::NAN)));
+        let out = p.process(&force(300));
+        let Message::Sample(s) = out[0] else { panic!("{out:?}") };
+        assert_eq!(s.force()[0], 400);
+        assert_eq!(p.period_us(), 4000);
+    }
+}
