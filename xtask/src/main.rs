@@ -35,7 +35,19 @@ fn ci_steps() -> Vec<Step> {
         cargo("clippy (host crates)", &["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]),
         cargo(
             "clippy (no_std crates, thumb)",
-            &["clippy", "-p", "skin-protocol", "--target", THUMB, "--no-default-features", "--", "-D", "warnings"],
+            &[
+                "clippy",
+                "-p",
+                "skin-protocol",
+                "--target",
+                THUMB,
+                "--no-default-features",
+                "--features",
+                "defmt",
+                "--",
+                "-D",
+                "warnings",
+            ],
         ),
         cargo("tests (host)", &["test", "--workspace"]),
         cargo(
