@@ -1,0 +1,131 @@
+//! What a cell needs from its hardware, and the main loop that glues the
+//! board to the [`Node`].
+
+use embedded_storage::nor_flash::NorFlash;
+use skin_protocol::message::{Port, Setting};
+use skin_protocol::organize::Config;
+
+use crate::node::Node;
+use crate::sensors::Sensors;
+
+/// Timings of self-organization for cells on QEMU: 5 to 10 times the
+/// defaults of [`Config::default`].
+///
+/// QEMU cells exchange frames through host sockets in wall time, and on a
+/// two-core machine running several QEMU processes, the test harness and
+/// maybe a build, a process can be descheduled for tens of milliseconds.
+/// The default 35 ms link timeout would then see links flap; 300 ms outlasts
+/// such stalls while a killed neighbour is still noticed within a second.
+/// The harness's interface port uses the same timings.
+pub const QEMU_CONFIG: Config = Config {
+    probe_period_us: 50_000,
+    link_timeout_us: 300_000,
+    beacon_period_us: 50_000,
+    route_timeout_us: 300_000,
+    id_retry_us: 250_000,
+    report_period_us: 4_000_000,
+};
+
+/// One cell-2-cell port: a UART seen a byte at a time.
+pub trait SerialPort {
+    /// A received byte, if one is waiting.
+    fn read(&mut self) -> Option<u8>;
+    /// True when the transmitter takes a byte now.
+    fn can_write(&mut self) -> bool;
+    /// Queues a byte; call only after [`SerialPort::can_write`].
+    fn write(&mut self, byte: u8);
+}
+
+/// A cell's hardware: four ports, the sensors, a clock, and a way to sleep.
+/// The persistent store's flash is handed to the [`Node`] at boot.
+pub trait Board {
+    /// The UART type of the ports.
+    type Port: SerialPort;
+    /// The sensor set.
+    type Sensors: Sensors;
+    /// Microseconds since boot.
+    fn now_us(&mut self) -> u64;
+    /// A port.
+    fn port(&mut self, port: Port) -> &mut Self::Port;
+    /// The sensors.
+    fn sensors(&mut self) -> &mut Self::Sensors;
+    /// Sleeps until the next interrupt (a received byte or the tick timer),
+    /// unless a byte is already waiting. Board background work (the QEMU
+    /// board reads its stimulus channel) is done here.
+    fn sleep(&mut self);
+}
+
+/// A board and a node, run together.
+#[derive(Debug)]
+pub struct Firmware<B, F> {
+    board: B,
+    node: Node<F>,
+    next_sample_us: u64,
+}
+
+impl<B: Board, F: NorFlash> Firmware<B, F> {
+    /// Joins a board and a node booted on it.
+    pub fn new(mut board: B, node: Node<F>) -> Self {
+        let next_sample_us = board.now_us();
+        Firmware { board, node, next_sample_us }
+    }
+
+    /// The node.
+    pub fn node(&self) -> &Node<F> {
+        &self.node
+    }
+
+    /// Does everything that is due; false when there was nothing to do.
+    pub fn step(&mut self) -> bool {
+        let now = self.board.now_us();
+        let mut busy = false;
+        for p in Port::ALL {
+            while let Some(byte) = self.board.port(p).read() {
+                busy = true;
+                if let Some(Setting::AccelRange(r)) = self.node.receive(p, byte, now) {
+                    if let Err(_e) = self.board.sensors().set_accel_range(r) {
+                        #[cfg(feature = "defmt")]
+                        defmt::warn!("accelerometer range not set: {}", _e);
+                    }
+                }
+            }
+        }
+        if self.node.poll_at() <= now {
+            self.node.poll(now);
+            busy = true;
+        }
+        if now >= self.next_sample_us {
+            match self.board.sensors().read(now) {
+                Ok(raw) => self.node.sample(&raw),
+                Err(_e) => {
+                    #[cfg(feature = "defmt")]
+                    defmt::warn!("sample skipped: {}", _e);
+                }
+            }
+            let period = self.node.period_us();
+            // After a stall, start afresh instead of sampling in a burst.
+            self.next_sample_us = (self.next_sample_us + period).max(now + period / 2);
+            busy = true;
+        }
+        for p in Port::ALL {
+            let port = self.board.port(p);
+            while port.can_write() {
+                match self.node.next_byte(p) {
+                    Some(byte) => port.write(byte),
+                    None => break,
+                }
+                busy = true;
+            }
+        }
+        busy
+    }
+
+    /// The main loop: work while there is work, sleep otherwise.
+    pub fn run(&mut self) -> ! {
+        loop {
+            if !self.step() {
+                self.board.sleep();
+            }
+        }
+    }
+}

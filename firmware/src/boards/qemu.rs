@@ -1,0 +1,398 @@
+//! QEMU's `mps2-an386` (Cortex-M4F, 25 MHz): a cell without sensors.
+//!
+//! - CMSDK APB UART1..UART4 are ports 0..3; UART0 carries the stimulus
+//!   frames of the test harness ([`crate::stimulus`]).
+//! - [`crate::board::QEMU_CONFIG`] are its self-organization timings.
+//! - SysTick at 1 kHz is the clock; with the UART receive interrupts it
+//!   wakes the core from WFI, so an idle QEMU cell costs no host CPU.
+//! - Logs go out with defmt over semihosting (QEMU's stdout).
+//! - Persistent storage is a file on the host named by `store=PATH` in
+//!   QEMU's `-append`, accessed through semihosting: flash that survives
+//!   the QEMU process as real flash survives a power cycle. Without it the
+//!   store is in RAM and lost at exit.
+//! - A panic, a hard fault or any unexpected exception ends QEMU with a
+//!   failure exit code.
+
+use core::ffi::CStr;
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use cortex_m::interrupt::InterruptNumber;
+use cortex_m::peripheral::{syst::SystClkSource, NVIC, SCB, SYST};
+use cortex_m_rt::{exception, ExceptionFrame};
+use embedded_storage::nor_flash::{ErrorType, NorFlash, NorFlashErrorKind, ReadNorFlash};
+use semihosting::fs::File;
+use semihosting::io::{Read, Seek, SeekFrom, Write};
+use skin_protocol::message::Port;
+
+use crate::board::{Board, SerialPort};
+use crate::sensors::{SensorError, Sensors};
+use crate::stimulus::Stimulated;
+
+use defmt_semihosting as _;
+
+/// Core and peripheral clock of the board.
+const SYSCLK_HZ: u32 = 25_000_000;
+/// Tick of the clock and of the wake-ups.
+const TICK_HZ: u32 = 1_000;
+/// Bytes of the persistent store (one erase sector, four record slots).
+pub const STORE_LEN: usize = 1024;
+
+static MILLIS: AtomicU32 = AtomicU32::new(0);
+
+/// A CMSDK APB UART.
+#[derive(Debug)]
+pub struct Uart {
+    base: usize,
+}
+
+impl Uart {
+    const DATA: usize = 0x00;
+    const STATE: usize = 0x04;
+    const CTRL: usize = 0x08;
+    const INTCLEAR: usize = 0x0C;
+    const BAUDDIV: usize = 0x10;
+    const TX_FULL: u32 = 1 << 0;
+    const RX_FULL: u32 = 1 << 1;
+    const TX_EN: u32 = 1 << 0;
+    const RX_EN: u32 = 1 << 1;
+    const RX_INT_EN: u32 = 1 << 3;
+
+    /// # Safety
+    /// `base` is a CMSDK UART that nothing else uses.
+    unsafe fn new(base: usize) -> Uart {
+        let uart = Uart { base };
+        // The smallest divider the CMSDK UART accepts; QEMU ignores the rate.
+        uart.set(Self::BAUDDIV, 16);
+        uart.set(Self::CTRL, Self::TX_EN | Self::RX_EN | Self::RX_INT_EN);
+        uart
+    }
+
+    fn get(&self, reg: usize) -> u32 {
+        // SAFETY: a register of the UART this value owns.
+        unsafe { core::ptr::read_volatile((self.base + reg) as *const u32) }
+    }
+
+    fn set(&self, reg: usize, value: u32) {
+        // SAFETY: a register of the UART this value owns.
+        unsafe { core::ptr::write_volatile((self.base + reg) as *mut u32, value) }
+    }
+
+    fn rx_ready(&self) -> bool {
+        self.get(Self::STATE) & Self::RX_FULL != 0
+    }
+}
+
+impl SerialPort for Uart {
+    fn read(&mut self) -> Option<u8> {
+        self.rx_ready().then(|| self.get(Self::DATA) as u8)
+    }
+
+    fn can_write(&mut self) -> bool {
+        self.get(Self::STATE) & Self::TX_FULL == 0
+    }
+
+    fn write(&mut self, byte: u8) {
+        self.set(Self::DATA, u32::from(byte));
+    }
+}
+
+/// Base addresses of UART0..UART4.
+const UART_BASE: [usize; 5] = [0x4000_4000, 0x4000_5000, 0x4000_6000, 0x4000_7000, 0x4000_9000];
+
+/// Receive interrupt of a port's UART (UART1..UART4).
+#[derive(Clone, Copy, Debug)]
+struct RxInterrupt(u16);
+
+// SAFETY: the numbers are the board's UART1..UART4 receive interrupts.
+unsafe impl InterruptNumber for RxInterrupt {
+    fn number(self) -> u16 {
+        self.0
+    }
+}
+
+/// Receive interrupts of UART0..UART4.
+const RX_IRQ: [u16; 5] = [0, 2, 4, 18, 20];
+
+/// The sensors of a QEMU cell: the latest stimulus from UART0.
+#[derive(Debug)]
+pub struct QemuSensors {
+    uart: Uart,
+    stimulus: Stimulated,
+}
+
+impl QemuSensors {
+    fn drain(&mut self) {
+        while let Some(byte) = self.uart.read() {
+            self.stimulus.feed(byte);
+        }
+    }
+}
+
+impl Sensors for QemuSensors {
+    fn read(&mut self, now_us: u64) -> Result<skin_protocol::Sample, SensorError> {
+        self.drain();
+        self.stimulus.read(now_us)
+    }
+
+    fn set_accel_range(&mut self, range: skin_protocol::message::AccelRange) -> Result<(), SensorError> {
+        self.stimulus.set_accel_range(range)
+    }
+}
+
+/// The mps2-an386 board.
+#[derive(Debug)]
+pub struct Qemu {
+    ports: [Uart; 4],
+    sensors: QemuSensors,
+    wraps: u64,
+    last_ms: u32,
+}
+
+impl Qemu {
+    /// Takes the core peripherals and sets up the UARTs, the tick and the
+    /// interrupts; returns the board and its persistent store's flash.
+    pub fn take() -> (Qemu, StoreFlash) {
+        let Some(mut core) = cortex_m::Peripherals::take() else {
+            defmt::panic!("board taken twice");
+        };
+        // SAFETY: the UARTs of the board, each owned by one value from here on.
+        let [stimulus_uart, ports @ ..] = UART_BASE.map(|base| unsafe { Uart::new(base) });
+        start_tick(&mut core.SYST);
+        for irq in RX_IRQ {
+            // SAFETY: the handler (DefaultHandler) clears these interrupts.
+            unsafe { NVIC::unmask(RxInterrupt(irq)) };
+        }
+        let board = Qemu { ports, sensors: QemuSensors { uart: stimulus_uart, stimulus: Stimulated::new() }, wraps: 0, last_ms: 0 };
+        (board, StoreFlash::open())
+    }
+}
+
+fn start_tick(syst: &mut SYST) {
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(SYSCLK_HZ / TICK_HZ - 1);
+    syst.clear_current();
+    syst.enable_interrupt();
+    syst.enable_counter();
+}
+
+/// Microseconds since boot, with the millisecond counter and SysTick;
+/// wraps of the 32-bit millisecond counter (49 days) are counted by the caller.
+fn now_parts() -> (u32, u32) {
+    loop {
+        let ms = MILLIS.load(Ordering::Acquire);
+        let elapsed = SYST::get_reload() - SYST::get_current();
+        if MILLIS.load(Ordering::Acquire) == ms {
+            return (ms, elapsed / (SYSCLK_HZ / 1_000_000));
+        }
+    }
+}
+
+impl Board for Qemu {
+    type Port = Uart;
+    type Sensors = QemuSensors;
+
+    fn now_us(&mut self) -> u64 {
+        let (ms, us) = now_parts();
+        if ms < self.last_ms {
+            self.wraps += 1;
+        }
+        self.last_ms = ms;
+        ((self.wraps << 32) + u64::from(ms)) * 1_000 + u64::from(us)
+    }
+
+    fn port(&mut self, port: Port) -> &mut Uart {
+        &mut self.ports[port.index()]
+    }
+
+    fn sensors(&mut self) -> &mut QemuSensors {
+        &mut self.sensors
+    }
+
+    fn sleep(&mut self) {
+        // With interrupts masked, a byte arriving after the check still
+        // wakes the WFI (it is pending), so none waits for the next tick.
+        cortex_m::interrupt::free(|_| {
+            self.sensors.drain();
+            if !self.ports.iter().any(Uart::rx_ready) {
+                cortex_m::asm::wfi();
+            }
+        });
+    }
+}
+
+/// Microseconds since boot for the log timestamps.
+fn log_time_us() -> u64 {
+    let (ms, us) = now_parts();
+    u64::from(ms) * 1_000 + u64::from(us)
+}
+
+defmt::timestamp!("{=u64:us}", log_time_us());
+
+/// The persistent store: a semihosting file, or RAM when none was named.
+#[derive(Debug)]
+pub enum StoreFlash {
+    /// `store=PATH` from QEMU's `-append`.
+    File(File),
+    /// No file: lost at exit.
+    Ram(crate::store::RamFlash<STORE_LEN>),
+}
+
+impl StoreFlash {
+    fn open() -> StoreFlash {
+        let mut path = [0u8; 192];
+        match store_path(&mut path).and_then(open_file) {
+            Some(file) => StoreFlash::File(file),
+            None => {
+                defmt::warn!("no store=PATH in the command line: ID and settings are kept in RAM only");
+                StoreFlash::Ram(Default::default())
+            }
+        }
+    }
+}
+
+/// The NUL-terminated path of `store=PATH` among the semihosting arguments.
+fn store_path(buf: &mut [u8; 192]) -> Option<&CStr> {
+    let args = semihosting::experimental::env::args::<256>().ok()?;
+    let path = (&args).flatten().find_map(|a| a.strip_prefix("store="))?;
+    let bytes = path.as_bytes();
+    if bytes.len() >= buf.len() {
+        defmt::error!("store path longer than {} bytes", buf.len() - 1);
+        return None;
+    }
+    buf[..bytes.len()].copy_from_slice(bytes);
+    buf[bytes.len()] = 0;
+    CStr::from_bytes_until_nul(buf).ok()
+}
+
+/// Opens the store file, or creates it erased.
+fn open_file(path: &CStr) -> Option<File> {
+    if let Ok(file) = File::options().read(true).write(true).open(path) {
+        return Some(file);
+    }
+    let mut file = File::options().read(true).write(true).create(true).truncate(true).open(path).ok()?;
+    let erased = [0xFF; 256];
+    for _ in 0..STORE_LEN / erased.len() {
+        file.write_all(&erased).ok()?;
+    }
+    Some(file)
+}
+
+impl ErrorType for StoreFlash {
+    type Error = NorFlashErrorKind;
+}
+
+fn check(offset: u32, len: usize) -> Result<(), NorFlashErrorKind> {
+    match (offset as usize).checked_add(len) {
+        Some(end) if end <= STORE_LEN => Ok(()),
+        _ => Err(NorFlashErrorKind::OutOfBounds),
+    }
+}
+
+impl ReadNorFlash for StoreFlash {
+    const READ_SIZE: usize = 1;
+
+    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
+        check(offset, bytes.len())?;
+        match self {
+            StoreFlash::Ram(ram) => ram.read(offset, bytes),
+            StoreFlash::File(file) => {
+                bytes.fill(0xFF);
+                file.seek(SeekFrom::Start(offset.into())).map_err(|_| NorFlashErrorKind::Other)?;
+                // A short file reads as erased past its end.
+                let mut got = 0;
+                while got < bytes.len() {
+                    match file.read(&mut bytes[got..]) {
+                        Ok(0) => break,
+                        Ok(n) => got += n,
+                        Err(_) => return Err(NorFlashErrorKind::Other),
+                    }
+                }
+                Ok(())
+            }
+        }
+    }
+
+    fn capacity(&self) -> usize {
+        STORE_LEN
+    }
+}
+
+impl NorFlash for StoreFlash {
+    const WRITE_SIZE: usize = 1;
+    const ERASE_SIZE: usize = STORE_LEN;
+
+    fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
+        match self {
+            StoreFlash::Ram(ram) => ram.erase(from, to),
+            StoreFlash::File(file) => {
+                check(from, (to.saturating_sub(from)) as usize)?;
+                file.seek(SeekFrom::Start(from.into())).map_err(|_| NorFlashErrorKind::Other)?;
+                let erased = [0xFF; 256];
+                let mut left = (to - from) as usize;
+                while left > 0 {
+                    let n = left.min(erased.len());
+                    file.write_all(&erased[..n]).map_err(|_| NorFlashErrorKind::Other)?;
+                    left -= n;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Writes as NOR flash does: bits can only be cleared.
+    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
+        check(offset, bytes.len())?;
+        if let StoreFlash::Ram(ram) = self {
+            return ram.write(offset, bytes);
+        }
+        let mut at = offset;
+        for chunk in bytes.chunks(64) {
+            let mut merged = [0u8; 64];
+            let merged = &mut merged[..chunk.len()];
+            self.read(at, merged)?;
+            for (m, b) in merged.iter_mut().zip(chunk) {
+                *m &= *b;
+            }
+            let StoreFlash::File(file) = self else { unreachable!() };
+            file.seek(SeekFrom::Start(at.into())).map_err(|_| NorFlashErrorKind::Other)?;
+            file.write_all(merged).map_err(|_| NorFlashErrorKind::Other)?;
+            at += chunk.len() as u32;
+        }
+        Ok(())
+    }
+}
+
+/// Ends QEMU with `code` (0 is success).
+pub fn exit(code: i32) -> ! {
+    semihosting::process::exit(code)
+}
+
+#[exception]
+fn SysTick() {
+    MILLIS.fetch_add(1, Ordering::Release);
+}
+
+#[exception]
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    defmt::error!("hard fault at pc {=u32:#x}, cfsr {=u32:#x}", frame.pc(), (*SCB::PTR).cfsr.read());
+    exit(3)
+}
+
+/// Interrupts: the UARTs' receive interrupts, only there to wake the main
+/// loop; anything else is a fault.
+#[exception]
+unsafe fn DefaultHandler(irqn: i16) {
+    match RX_IRQ.iter().position(|i| *i as i16 == irqn) {
+        Some(i) => core::ptr::write_volatile((UART_BASE[i] + Uart::INTCLEAR) as *mut u32, 0xF),
+        None => {
+            defmt::error!("unexpected exception or interrupt {}", irqn);
+            exit(4)
+        }
+    }
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    defmt::error!("panic: {}", defmt::Display2Format(info));
+    exit(101)
+}

@@ -1,0 +1,280 @@
+//! One skin cell's logic, the same on every board: the network stack
+//! ([`Cell`]), the local processing ([`Processor`]), the persistent store,
+//! and the byte-level framing of the four ports.
+//!
+//! The board hands it received bytes, raw samples and the time; it hands
+//! back bytes to transmit and the accelerometer range to apply.
+
+use embedded_storage::nor_flash::NorFlash;
+use skin_protocol::cell::Cell;
+use skin_protocol::frame::FRAME_LEN;
+use skin_protocol::message::{ConfigAck, Message, Port, Setting};
+use skin_protocol::organize::Config;
+use skin_protocol::processing::Processor;
+use skin_protocol::{Address, Sample};
+
+use crate::deframer::Deframer;
+use crate::store::Store;
+
+/// Samples averaged for the offsets at a cell's first boot (0.128 s at 250 Hz).
+pub const CALIBRATION_SAMPLES: u32 = 32;
+/// Channels (in [`Sample::channels`] order) that read zero at rest and so
+/// get an offset: proximity (light reflected by the cover) and the three
+/// force pads (the unloaded spring). Acceleration and temperature are
+/// absolute.
+const CALIBRATED: core::ops::Range<usize> = 0..4;
+
+/// Counts of what the node had to give up, for the logs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Losses {
+    /// Own messages the cell could not queue (no ID yet, or queue full).
+    pub unsent: u32,
+    /// Writes to the persistent store that failed.
+    pub store_failed: u32,
+}
+
+/// The frame a port is transmitting and how far it got.
+#[derive(Clone, Copy, Debug)]
+struct Transmitter {
+    frame: [u8; FRAME_LEN],
+    at: usize,
+}
+
+/// Running sums of the first-boot calibration.
+#[derive(Clone, Copy, Debug, Default)]
+struct Calibration {
+    sums: [i64; 8],
+    n: u32,
+}
+
+/// A skin cell's logic.
+#[derive(Debug)]
+pub struct Node<F> {
+    cell: Cell,
+    processor: Processor,
+    store: Store<F>,
+    calibration: Option<Calibration>,
+    rx: [Deframer; 4],
+    tx: [Transmitter; 4],
+    losses: Losses,
+}
+
+impl<F: NorFlash> Node<F> {
+    /// Boots with what the store holds: ID, offsets and settings. Without
+    /// offsets the first [`CALIBRATION_SAMPLES`] samples calibrate them.
+    pub fn new(config: Config, store: Store<F>, now_us: u64) -> Node<F> {
+        let mut processor = Processor::new();
+        for setting in store.state().settings.iter().flatten() {
+            processor.apply(setting);
+        }
+        let calibration = match store.state().offsets {
+            Some(offsets) => {
+                processor.set_offsets(offsets);
+                None
+            }
+            None => Some(Calibration::default()),
+        };
+        let cell = Cell::new(config, &store, now_us);
+        let idle = Transmitter { frame: [0; FRAME_LEN], at: FRAME_LEN };
+        Node { cell, processor, store, calibration, rx: Default::default(), tx: [idle; 4], losses: Losses::default() }
+    }
+
+    /// This cell's address.
+    pub fn id(&self) -> Address {
+        self.cell.id()
+    }
+
+    /// The network stack.
+    pub fn cell(&self) -> &Cell {
+        &self.cell
+    }
+
+    /// The local processing.
+    pub fn processor(&self) -> &Processor {
+        &self.processor
+    }
+
+    /// The persistent store.
+    pub fn store(&self) -> &Store<F> {
+        &self.store
+    }
+
+    /// What was given up so far.
+    pub fn losses(&self) -> Losses {
+        self.losses
+    }
+
+    /// True while the first-boot calibration runs (nothing is sent).
+    pub fn calibrating(&self) -> bool {
+        self.calibration.is_some()
+    }
+
+    /// Takes a byte received on `port`. Returns a setting the host wrote and
+    /// the cell accepted, for the board to apply to its hardware.
+    pub fn receive(&mut self, port: Port, byte: u8, now_us: u64) -> Option<Setting> {
+        let frame = self.rx[port.index()].push(byte)?;
+        let (_, message) = self.cell.receive(port, frame.as_bytes(), now_us, &mut self.store)?;
+        let Message::ConfigWrite(write) = message else { return None };
+        let accepted = self.processor.apply(&write.setting);
+        if accepted && self.store.set_setting(write.setting).is_err() {
+            self.losses.store_failed += 1;
+        }
+        self.send(&Message::ConfigAck(ConfigAck { tag: write.tag, accepted }));
+        accepted.then_some(write.setting)
+    }
+
+    fn send(&mut self, message: &Message) {
+        if self.cell.send(message).is_err() {
+            self.losses.unsent += 1;
+        }
+    }
+
+    /// The next time [`Node::poll`] has work.
+    pub fn poll_at(&self) -> u64 {
+        self.cell.poll_at()
+    }
+
+    /// Lets time pass for the network stack.
+    pub fn poll(&mut self, now_us: u64) {
+        self.cell.poll(now_us);
+    }
+
+    /// The sampling period.
+    pub fn period_us(&self) -> u64 {
+        self.processor.period_us()
+    }
+
+    /// Takes one raw sample: calibrates at first boot, then filters it and
+    /// sends what the processing decides.
+    pub fn sample(&mut self, raw: &Sample) {
+        if let Some(c) = &mut self.calibration {
+            for (sum, v) in c.sums.iter_mut().zip(raw.channels()) {
+                *sum += i64::from(v);
+            }
+            c.n += 1;
+            if c.n < CALIBRATION_SAMPLES {
+                return;
+            }
+            let mut offsets = [0; 8];
+            for i in CALIBRATED {
+                offsets[i] = ((c.sums[i] + i64::from(c.n / 2)) / i64::from(c.n)) as i32;
+            }
+            self.calibration = None;
+            self.processor.set_offsets(offsets);
+            if self.store.set_offsets(offsets).is_err() {
+                self.losses.store_failed += 1;
+            }
+            #[cfg(feature = "defmt")]
+            defmt::info!("calibrated offsets {}", offsets);
+            return;
+        }
+        for message in self.processor.process(raw) {
+            self.send(&message);
+        }
+    }
+
+    /// True when `port` has bytes to transmit.
+    pub fn has_pending(&self, port: Port) -> bool {
+        self.tx[port.index()].at < FRAME_LEN || self.cell.has_pending(port)
+    }
+
+    /// The next byte for `port`'s transmitter, which has room for it.
+    pub fn next_byte(&mut self, port: Port) -> Option<u8> {
+        let tx = &mut self.tx[port.index()];
+        if tx.at == FRAME_LEN {
+            tx.frame = *self.cell.transmit(port)?.as_bytes();
+            tx.at = 0;
+        }
+        tx.at += 1;
+        Some(tx.frame[tx.at - 1])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::store::RamFlash;
+    use skin_protocol::frame::{self, Frame};
+    use skin_protocol::message::{ConfigWrite, IdAssign, TrafficMode};
+    use skin_protocol::organize::{FromCell, Sink};
+
+    type Flash = RamFlash<1024>;
+
+    fn node(flash: Flash, now_us: u64) -> Node<Flash> {
+        Node::new(Config::default(), Store::open(flash, 0, 1024).unwrap(), now_us)
+    }
+
+    /// A node on port 0 of an interface port: every byte each way, on a
+    /// virtual clock in 100 us steps; returns what reached the host.
+    fn exchange(node: &mut Node<Flash>, sink: &mut Sink, down: &mut Vec<Frame>, t: &mut u64, until: u64) -> Vec<Frame> {
+        let mut up = Vec::new();
+        while *t < until {
+            if node.poll_at() <= *t {
+                node.poll(*t);
+            }
+            sink.poll(*t);
+            for f in down.drain(..) {
+                sink.send(f).unwrap();
+            }
+            let from_cell: Vec<u8> = core::iter::from_fn(|| node.next_byte(Port::P0)).collect();
+            for chunk in from_cell.chunks(FRAME_LEN) {
+                if let Ok(FromCell::Host(f)) = sink.receive(chunk, *t) {
+                    up.push(f);
+                }
+            }
+            while let Some(f) = sink.transmit() {
+                for b in f.as_bytes() {
+                    node.receive(Port::P0, *b, *t);
+                }
+            }
+            if *t % 4_000 == 0 {
+                node.sample(&Sample::new(500, [100, 100, 100], [0, 0, 256], 800, 0).unwrap());
+            }
+            *t += 100;
+        }
+        up
+    }
+
+    #[test]
+    fn gets_an_id_calibrates_obeys_config_and_keeps_it_all_across_a_reboot() {
+        let mut t = 0;
+        let mut sink = Sink::new(0, Config::default(), 0).unwrap();
+        let mut n = node(Flash::default(), 0);
+        let mut down = Vec::new();
+        let up = exchange(&mut n, &mut sink, &mut down, &mut t, 100_000);
+        let request = up.iter().find_map(|f| match f.message() {
+            Ok(Message::IdRequest(r)) => Some(r),
+            _ => None,
+        });
+        let r = request.expect("an ID request reached the host");
+        let assign = Message::IdAssign(IdAssign { port: r.port, id: Address(17) });
+        down.push(Frame::new(Address::HOST, r.parent, &assign));
+        let write = Message::ConfigWrite(ConfigWrite { tag: 9, setting: Setting::Traffic(TrafficMode::Event) });
+        let up = exchange(&mut n, &mut sink, &mut down, &mut t, 300_000);
+        assert_eq!(n.id(), Address(17));
+        assert!(!n.calibrating());
+        assert_eq!(n.store().state().offsets, Some([500, 100, 100, 100, 0, 0, 0, 0]));
+        let sample = up.iter().rev().find_map(|f| match f.message() {
+            Ok(Message::Sample(s)) if f.src() == Address(17) => Some(s),
+            _ => None,
+        });
+        let s = sample.expect("samples flow once the cell has an ID");
+        assert_eq!((s.proximity(), s.force(), s.accel(), s.temperature()), (0, [0; 3], [0, 0, 256], 800));
+
+        down.push(Frame::new(Address::HOST, Address(17), &write));
+        let up = exchange(&mut n, &mut sink, &mut down, &mut t, 400_000);
+        let ack = Frame::new(Address(17), Address::HOST, &Message::ConfigAck(ConfigAck { tag: 9, accepted: true }));
+        assert!(up.contains(&ack));
+        let samples_after_ack = up.iter().skip_while(|f| **f != ack).filter(|f| f.kind() == frame::Kind::Sample);
+        assert!(samples_after_ack.count() <= 1, "event traffic: a still sample is sent once at most");
+
+        // Reboot: same flash, new RAM.
+        let mut n = node(n.store.release(), t);
+        assert_eq!(n.id(), Address(17));
+        assert!(!n.calibrating());
+        assert_eq!(n.processor().traffic(), TrafficMode::Event);
+        let up = exchange(&mut n, &mut sink, &mut down, &mut t, 700_000);
+        assert!(up.iter().all(|f| !matches!(f.message(), Ok(Message::IdRequest(_)))), "no new ID asked for");
+    }
+}
