@@ -8,20 +8,23 @@ use skin_protocol::organize::Config;
 use crate::node::Node;
 use crate::sensors::Sensors;
 
-/// Timings of self-organization for cells on QEMU: 5 to 10 times the
+/// Timings of self-organization for cells on QEMU: about 10 times the
 /// defaults of [`Config::default`].
 ///
 /// QEMU cells exchange frames through host sockets in wall time, and on a
 /// two-core machine running several QEMU processes, the test harness and
 /// maybe a build, a process can be descheduled for tens of milliseconds.
-/// The default 35 ms link timeout would then see links flap; 300 ms outlasts
-/// such stalls while a killed neighbour is still noticed within a second.
-/// The harness's interface port uses the same timings.
+/// The default 35 ms link timeout would then see links flap; 400 ms outlasts
+/// such stalls while a killed neighbour is still noticed within half a
+/// second. QEMU moves UART bytes one at a time, an interrupt each, so the
+/// probes and beacons of idle links are what an idle patch costs the host:
+/// they are sent every 100 ms. The harness's interface port uses the same
+/// timings.
 pub const QEMU_CONFIG: Config = Config {
-    probe_period_us: 50_000,
-    link_timeout_us: 300_000,
-    beacon_period_us: 50_000,
-    route_timeout_us: 300_000,
+    probe_period_us: 100_000,
+    link_timeout_us: 400_000,
+    beacon_period_us: 100_000,
+    route_timeout_us: 400_000,
     id_retry_us: 250_000,
     report_period_us: 4_000_000,
 };

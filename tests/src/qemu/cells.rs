@@ -1,0 +1,217 @@
+//! QEMU processes, one per cell, and the guard that ends them all.
+
+use std::ffi::OsString;
+use std::fs::{File, OpenOptions};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+use skin_protocol::message::Port;
+
+use super::hex::Wiring;
+use super::{Context, QemuError};
+
+/// The QEMU program and the board every cell runs on.
+pub const QEMU: &str = "qemu-system-arm";
+const BOARD: [&str; 10] = [
+    "-cpu",
+    "cortex-m4",
+    "-machine",
+    "mps2-an386",
+    "-display",
+    "none",
+    "-monitor",
+    "none",
+    "-semihosting-config",
+    "enable=on,target=native",
+];
+
+/// What a cell's UART is joined to.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Uart {
+    /// Nothing: bytes sent are lost.
+    Free,
+    /// Listens on this socket for the neighbour (the lower end of a link).
+    Listen(PathBuf),
+    /// Connects to this socket, retrying every second (the upper end of a
+    /// link: the neighbour may not be up yet, or may restart).
+    Dial(PathBuf),
+    /// Connects at once to a socket the harness listens on.
+    Harness(PathBuf),
+}
+
+impl Uart {
+    fn chardev(&self, id: &str) -> Option<String> {
+        let path = |p: &Path| p.display().to_string();
+        match self {
+            Uart::Free => None,
+            Uart::Listen(p) => Some(format!("socket,id={id},path={},server=on,wait=off", path(p))),
+            Uart::Dial(p) => Some(format!("socket,id={id},path={},reconnect=1", path(p))),
+            Uart::Harness(p) => Some(format!("socket,id={id},path={}", path(p))),
+        }
+    }
+}
+
+/// The QEMU command line of one cell.
+#[derive(Clone, Debug)]
+pub struct CellCommand {
+    args: Vec<OsString>,
+}
+
+impl CellCommand {
+    /// A cell running `elf`, keeping its persistent store in `store`, with
+    /// UART0..UART4 joined as given.
+    pub fn new(elf: &Path, store: &Path, uarts: [Uart; 5]) -> CellCommand {
+        let mut args: Vec<OsString> = BOARD.iter().map(OsString::from).collect();
+        args.extend(["-kernel".into(), elf.into(), "-append".into(), format!("store={}", store.display()).into()]);
+        for (i, uart) in uarts.iter().enumerate() {
+            let id = format!("uart{i}");
+            match uart.chardev(&id) {
+                Some(dev) => args.extend(["-chardev".into(), dev.into(), "-serial".into(), format!("chardev:{id}").into()]),
+                None => args.extend(["-serial".into(), "null".into()]),
+            }
+        }
+        CellCommand { args }
+    }
+
+    /// A program alone, its UARTs joined to nothing (fault tests).
+    pub fn alone(elf: &Path) -> CellCommand {
+        let mut args: Vec<OsString> = BOARD.iter().map(OsString::from).collect();
+        args.extend(["-kernel".into(), elf.into()]);
+        args.extend((0..5).flat_map(|_| ["-serial".into(), "null".into()]));
+        CellCommand { args }
+    }
+
+    fn spawn(&self, stdout: File, stderr: File) -> Result<Child, QemuError> {
+        Command::new(QEMU)
+            .args(&self.args)
+            .stdin(Stdio::null())
+            .stdout(stdout)
+            .stderr(stderr)
+            .spawn()
+            .map_err(|source| QemuError::Spawn { program: QEMU.into(), source })
+    }
+}
+
+/// The UART plan of every cell of a wired patch: links as socket pairs in
+/// `dir`, UART0 to the harness's stimulus socket, and the interface port
+/// to the gateway's socket.
+pub fn plan(wiring: &Wiring, interface: (usize, Port), dir: &Path) -> Vec<[Uart; 5]> {
+    let mut uarts: Vec<[Uart; 5]> = (0..wiring.cells())
+        .map(|i| {
+            let mut u: [Uart; 5] = Default::default();
+            u[0] = Uart::Harness(stimulus_socket(dir, i));
+            u
+        })
+        .collect();
+    for (k, (a, b)) in wiring.links().into_iter().enumerate() {
+        let path = dir.join(format!("link{k}.sock"));
+        uarts[a.0][1 + a.1.index()] = Uart::Listen(path.clone());
+        uarts[b.0][1 + b.1.index()] = Uart::Dial(path);
+    }
+    uarts[interface.0][1 + interface.1.index()] = Uart::Harness(gateway_socket(dir));
+    uarts
+}
+
+impl Default for Uart {
+    fn default() -> Self {
+        Uart::Free
+    }
+}
+
+/// The socket the harness sends cell `i`'s stimulus on.
+pub fn stimulus_socket(dir: &Path, i: usize) -> PathBuf {
+    dir.join(format!("stimulus{i}.sock"))
+}
+
+/// The socket of the interface port.
+pub fn gateway_socket(dir: &Path) -> PathBuf {
+    dir.join("gateway.sock")
+}
+
+/// Running cells. Dropping this kills every QEMU it started, so no process
+/// outlives the harness, whether it ends by success, error or panic.
+#[derive(Debug)]
+pub struct Cells {
+    dir: PathBuf,
+    commands: Vec<CellCommand>,
+    children: Vec<Option<Child>>,
+}
+
+impl Cells {
+    /// Cells not yet started; their logs go to `dir`.
+    pub fn new(dir: &Path, commands: Vec<CellCommand>) -> Cells {
+        let children = commands.iter().map(|_| None).collect();
+        Cells { dir: dir.to_owned(), commands, children }
+    }
+
+    /// The defmt log (QEMU's stdout) of cell `i`, appended across restarts.
+    pub fn defmt_log(&self, i: usize) -> PathBuf {
+        self.dir.join(format!("cell{i}.defmt"))
+    }
+
+    /// QEMU's own messages for cell `i`.
+    pub fn qemu_log(&self, i: usize) -> PathBuf {
+        self.dir.join(format!("cell{i}.log"))
+    }
+
+    /// Starts cell `i`.
+    pub fn start(&mut self, i: usize) -> Result<(), QemuError> {
+        let append = |p: PathBuf| OpenOptions::new().create(true).append(true).open(&p).context(|| format!("opening {}", p.display()));
+        let child = self.commands[i].spawn(append(self.defmt_log(i))?, append(self.qemu_log(i))?)?;
+        tracing::debug!(cell = i, pid = child.id(), "started");
+        self.children[i] = Some(child);
+        Ok(())
+    }
+
+    /// Kills cell `i` (a power cut: no goodbye on any wire).
+    pub fn kill(&mut self, i: usize) {
+        if let Some(mut child) = self.children[i].take() {
+            let _ = child.kill();
+            let _ = child.wait();
+            tracing::debug!(cell = i, "killed");
+        }
+    }
+
+    /// An error for the first running cell that exited on its own.
+    pub fn check_alive(&mut self) -> Result<(), QemuError> {
+        for (i, slot) in self.children.iter_mut().enumerate() {
+            if let Some(child) = slot {
+                if let Ok(Some(status)) = child.try_wait() {
+                    *slot = None;
+                    return Err(QemuError::CellExited { cell: i, status, log: self.dir.join(format!("cell{i}.log")) });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Cells {
+    fn drop(&mut self) {
+        for i in 0..self.children.len() {
+            self.kill(i);
+        }
+    }
+}
+
+/// Runs a program alone until it exits or `limit` passes (then it is
+/// killed); returns its exit status, or `None` when it had to be killed.
+pub fn run_alone(elf: &Path, limit: Duration) -> Result<Option<ExitStatus>, QemuError> {
+    if !elf.is_file() {
+        return Err(QemuError::MissingElf(elf.to_owned()));
+    }
+    let mut child = CellCommand::alone(elf).spawn(File::create("/dev/null").context(|| "opening /dev/null".into())?, File::create("/dev/null").context(|| "opening /dev/null".into())?)?;
+    let start = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().context(|| "waiting for QEMU".into())? {
+            return Ok(Some(status));
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Ok(None);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
