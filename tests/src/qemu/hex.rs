@@ -94,24 +94,6 @@ impl Wiring {
         }
         seen
     }
-
-    /// Hop distance of every cell from `root` (`None` when unreachable).
-    pub fn hops_from(&self, root: usize) -> Vec<Option<usize>> {
-        let mut hops = vec![None; self.cells];
-        hops[root] = Some(0);
-        let mut queue = VecDeque::from([root]);
-        while let Some(i) = queue.pop_front() {
-            for p in Port::ALL {
-                if let Some((j, _)) = self.peer((i, p)) {
-                    if hops[j].is_none() {
-                        hops[j] = Some(hops[i].unwrap_or(0) + 1);
-                        queue.push_back(j);
-                    }
-                }
-            }
-        }
-        hops
-    }
 }
 
 #[cfg(test)]
@@ -121,13 +103,16 @@ mod tests {
     #[test]
     fn the_flower_is_connected_with_ports_d_to_d_plus_2() {
         let w = Wiring::patch(7);
-        assert_eq!(w.links().len(), 9);
+        // The centre wires all four ports; of the six rim pairs, the four
+        // that lie along a port direction are wired.
+        assert_eq!(w.links().len(), 8);
+        assert!(Port::ALL.iter().all(|p| w.peer((0, *p)).is_some()));
         assert_eq!(w.reachable(0).len(), 7);
         for ((_, p), (_, q)) in w.links() {
             assert_eq!((p.index() + 2) % 4, q.index());
         }
-        assert_eq!(w.free_ports().len(), 7 * 4 - 18);
-        // Without the centre the six petals still hold together.
-        assert_eq!(w.without(0).reachable(1).len(), 6);
+        assert_eq!(w.free_ports().len(), 7 * 4 - 2 * 8);
+        // Without the centre the rim falls apart into two arcs of three.
+        assert_eq!(w.without(0).reachable(1).len(), 3);
     }
 }

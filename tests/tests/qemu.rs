@@ -1,0 +1,39 @@
+//! Firmware under QEMU. These need the thumb build of the firmware and
+//! `qemu-system-arm`, so they are ignored by a plain `cargo test`:
+//!
+//! ```text
+//! cargo build -p skin-firmware --release --target thumbv7em-none-eabihf --features qemu --bin cell-qemu --examples
+//! cargo test -p skin-tests --test qemu -- --ignored
+//! ```
+
+use std::time::Duration;
+
+use skin_tests::qemu::cells::run_alone;
+use skin_tests::qemu::default_elf_dir;
+use skin_tests::qemu::net::{run, NetOptions};
+
+fn exit_code(example: &str) -> Option<i32> {
+    let elf = default_elf_dir().join("examples").join(example);
+    let status = run_alone(&elf, Duration::from_secs(20)).unwrap_or_else(|e| panic!("{e}"));
+    status.expect("QEMU hung instead of exiting").code()
+}
+
+#[test]
+#[ignore]
+fn a_panic_ends_qemu_with_the_panic_code() {
+    assert_eq!(exit_code("panic"), Some(101));
+}
+
+#[test]
+#[ignore]
+fn a_hard_fault_ends_qemu_with_the_fault_code() {
+    assert_eq!(exit_code("hardfault"), Some(3));
+}
+
+#[test]
+#[ignore]
+fn seven_qemu_cells_organize_deliver_and_survive_a_death() {
+    let opts = NetOptions { cells: 7, elf: default_elf_dir().join("cell-qemu"), keep: false };
+    let report = run(&opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(report.ids.len(), 7);
+}
