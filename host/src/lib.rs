@@ -1,5 +1,12 @@
 //! The robot PC side of the skin.
 //!
+//! The host knows nothing of robot models: it talks to the robot only
+//! through the [`robot::Robot`] trait (DoF count, velocity commands,
+//! position feedback) and to the skin only through its samples, and learns
+//! the rest from them.
+//!
+//! - [`robot`]: the robot and sample-stream traits, and the simulated robot behind them.
+//! - [`explore`]: kinematic self-exploration: activity matrix, kinematic tree, sensory-motor map.
 //! - [`interface`]: the UDP interface to the skin: checks, counters, events, configuration writes.
 //! - [`registry`]: the cells heard: IDs, neighbours, patches, health; the ID authority.
 //! - [`config`]: the TOML configuration of the `skin` program.
@@ -9,5 +16,7 @@
 #![warn(missing_docs)]
 
 pub mod config;
+pub mod explore;
 pub mod interface;
 pub mod registry;
+pub mod robot;

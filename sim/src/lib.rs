@@ -1,1 +1,19 @@
-//! placeholder
+//! The physical world the skin lives in.
+//!
+//! Only the simulator knows the robot's body: it loads a robot from URDF,
+//! mounts skin cells on its links, moves it under velocity control on a
+//! virtual clock and produces, tick by tick, the samples the real skin would
+//! send. The host learns everything it knows from those samples and the
+//! robot's position feedback; ground truth stays here, for checking.
+//!
+//! - [`robot`]: URDF loading, the built-in HRP-2-like robot, forward kinematics.
+//! - [`skin`]: placing cells on link surfaces or from a skin file.
+//! - [`accel`]: the BMA250 accelerometer model.
+//! - [`world`]: robot, base and skin stepped together at 250 Hz.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod accel;
+pub mod robot;
+pub mod skin;
+pub mod world;

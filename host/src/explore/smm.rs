@@ -1,0 +1,274 @@
+//! The sensory-motor map (section 4.3): per pose, how much each DoF moves
+//! each cell along its surface normal.
+//!
+//! At a pose, every DoF in turn runs one period of the sine velocity
+//! pattern of equations (5)-(9). Each cell's three axes are freed of their
+//! mean (offset and gravity), low-pass filtered (bandwidth above ten times
+//! the pattern frequency) and reduced to an amplitude and a sign (equations
+//! (10)-(11)); the normal axis' share of the amplitudes is the weight of
+//! equation (12). Weights of DoFs that do not move the cell are cut with the
+//! activity matrix (equation 13); a cell whose weight vector is small cannot
+//! be grounded on the static body part and is suppressed, the others are
+//! normalized so reactions have the same strength along a kinematic chain.
+//!
+//! Sign convention (that of equation 11): a weight of +1 means a positive
+//! velocity of the DoF moves the cell into its surface, away from a touch,
+//! so `omega = w * reaction` is an evasive motion.
+
+use skin_protocol::message::AccelRange;
+use skin_protocol::Address;
+
+use super::activity::ActivityMatrix;
+use super::lowpass::Butterworth;
+use super::session::{Session, Trace};
+use super::ExploreError;
+use crate::robot::{Robot, SampleSource};
+
+/// Parameters of the sensory-motor exploration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SmmConfig {
+    /// Velocity amplitude `A` of equation (6), rad/s.
+    pub amplitude_rad_s: f64,
+    /// Pattern frequency `f`, Hz.
+    pub frequency_hz: f64,
+    /// Window length `T` of equation (9), s.
+    pub duration_s: f64,
+    /// Low-pass bandwidth `B`, Hz; must exceed ten times `f`.
+    pub lowpass_hz: f64,
+    /// Still time before each pattern, s.
+    pub settle_s: f64,
+    /// Recording time after each pattern, s.
+    pub tail_s: f64,
+    /// Weight vectors shorter than this (Euclidean norm) are suppressed.
+    pub suppression: f64,
+    /// Speed limit when moving to a tile's pose, rad/s.
+    pub move_speed_rad_s: f64,
+    /// How close every DoF must get to a tile's pose, rad.
+    pub pose_tolerance_rad: f64,
+}
+
+impl Default for SmmConfig {
+    fn default() -> Self {
+        SmmConfig {
+            amplitude_rad_s: 0.4,
+            frequency_hz: 2.0,
+            duration_s: 0.5,
+            lowpass_hz: 25.0,
+            settle_s: 0.1,
+            tail_s: 0.1,
+            suppression: 0.1,
+            move_speed_rad_s: 0.5,
+            pose_tolerance_rad: 2e-3,
+        }
+    }
+}
+
+impl SmmConfig {
+    /// Refuses values the method cannot work with.
+    pub fn check(&self, tick_s: f64) -> Result<(), ExploreError> {
+        let positive =
+            [self.amplitude_rad_s, self.frequency_hz, self.duration_s, self.move_speed_rad_s, self.pose_tolerance_rad];
+        if !positive.iter().all(|v| v.is_finite() && *v > 0.0) {
+            return Err(ExploreError::Config(
+                "the pattern amplitude, frequency, duration, speed and tolerance must be positive".into(),
+            ));
+        }
+        if self.lowpass_hz.is_nan()
+            || self.lowpass_hz <= 10.0 * self.frequency_hz
+            || Butterworth::new(self.lowpass_hz, 1.0 / tick_s).is_none()
+        {
+            return Err(ExploreError::Config(format!(
+                "the low-pass bandwidth must exceed ten times the pattern frequency ({} Hz) and stay below half the sampling rate ({} Hz)",
+                10.0 * self.frequency_hz,
+                0.5 / tick_s
+            )));
+        }
+        if !(self.settle_s >= 0.0 && self.tail_s >= 0.0 && self.suppression >= 0.0) {
+            return Err(ExploreError::Config("settle, tail and suppression must not be negative".into()));
+        }
+        Ok(())
+    }
+
+    /// Position of equation (5) cut by the rectangular window of (9), rad.
+    fn position(&self, t: f64) -> f64 {
+        let w = std::f64::consts::TAU * self.frequency_hz;
+        self.amplitude_rad_s / w * (1.0 - (w * t.min(self.duration_s)).cos())
+    }
+}
+
+/// One tile of the map: the weights explored at one pose.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tile {
+    pose: Vec<f64>,
+    dofs: usize,
+    raw: Vec<f32>,
+    weights: Vec<f32>,
+    time_s: f64,
+}
+
+impl Tile {
+    /// The pose the tile was explored in, rad.
+    pub fn pose(&self) -> &[f64] {
+        &self.pose
+    }
+
+    /// Reaction weights of cell `u` (one per DoF): decoupled, suppressed
+    /// and normalized, what tactile control maps reactions through.
+    pub fn weights(&self, u: usize) -> &[f32] {
+        &self.weights[u * self.dofs..(u + 1) * self.dofs]
+    }
+
+    /// The weights of equation (12) of cell `u`, before decoupling.
+    pub fn raw_weights(&self, u: usize) -> &[f32] {
+        &self.raw[u * self.dofs..(u + 1) * self.dofs]
+    }
+
+    /// Robot time spent exploring this tile, s.
+    pub fn exploration_time_s(&self) -> f64 {
+        self.time_s
+    }
+
+    /// Joint velocities for per-cell reactions `(cell, strength)`: the sum
+    /// over cells of weight vector times strength (equation 14).
+    pub fn joint_velocities(&self, reactions: &[(usize, f64)]) -> Vec<f64> {
+        let mut omega = vec![0.0; self.dofs];
+        for &(u, r) in reactions {
+            for (o, w) in omega.iter_mut().zip(self.weights(u)) {
+                *o += f64::from(*w) * r;
+            }
+        }
+        omega
+    }
+}
+
+/// The sensory-motor map: tiles of weights, recalled by nearest pose.
+#[derive(Clone, Debug)]
+pub struct SensoryMotorMap {
+    cells: Vec<Address>,
+    activity: ActivityMatrix,
+    range: AccelRange,
+    cfg: SmmConfig,
+    tiles: Vec<Tile>,
+}
+
+impl SensoryMotorMap {
+    /// Explores the first tile at `pose`.
+    pub(crate) fn explore<R: Robot + SampleSource>(
+        session: &mut Session<'_, R>,
+        activity: ActivityMatrix,
+        range: AccelRange,
+        cfg: SmmConfig,
+        pose: &[f64],
+        progress: &mut dyn FnMut(usize),
+    ) -> Result<SensoryMotorMap, ExploreError> {
+        cfg.check(session.tick_s())?;
+        let mut map = SensoryMotorMap { cells: session.cells().to_vec(), activity, range, cfg, tiles: Vec::new() };
+        map.explore_tile(session, pose, progress)?;
+        Ok(map)
+    }
+
+    /// Explores a new tile at `pose` (e.g. a taught key pose) and adds it.
+    pub fn add_tile<R: Robot + SampleSource>(&mut self, rig: &mut R, pose: &[f64]) -> Result<&Tile, ExploreError> {
+        let mut session = Session::with_cells(rig, self.cells.clone(), self.range);
+        self.explore_tile(&mut session, pose, &mut |_| ())
+    }
+
+    /// Cells, in row order.
+    pub fn cells(&self) -> &[Address] {
+        &self.cells
+    }
+
+    /// The row of cell `id`.
+    pub fn cell_index(&self, id: Address) -> Option<usize> {
+        self.cells.binary_search(&id).ok()
+    }
+
+    /// The activity matrix used for decoupling.
+    pub fn activity(&self) -> &ActivityMatrix {
+        &self.activity
+    }
+
+    /// All tiles, in the order explored.
+    pub fn tiles(&self) -> &[Tile] {
+        &self.tiles
+    }
+
+    /// The tile explored closest to `pose` (quadratic distance).
+    pub fn nearest_tile(&self, pose: &[f64]) -> &Tile {
+        let distance = |t: &Tile| t.pose.iter().zip(pose).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
+        self.tiles.iter().min_by(|a, b| distance(a).total_cmp(&distance(b))).expect("a map has at least one tile")
+    }
+
+    fn explore_tile<R: Robot + SampleSource>(
+        &mut self,
+        session: &mut Session<'_, R>,
+        pose: &[f64],
+        progress: &mut dyn FnMut(usize),
+    ) -> Result<&Tile, ExploreError> {
+        let start = session.elapsed_s();
+        let cfg = self.cfg;
+        let settle_timeout = 10.0
+            + 2.0 * pose.iter().zip(session.positions()).map(|(a, b)| (a - b).abs()).sum::<f64>()
+                / cfg.move_speed_rad_s;
+        session.move_to(pose, cfg.move_speed_rad_s, cfg.pose_tolerance_rad, settle_timeout)?;
+        let (u_count, dofs) = (self.cells.len(), session.dofs());
+        let lowpass = Butterworth::new(cfg.lowpass_hz, 1.0 / session.tick_s()).expect("checked with the config");
+        let mut raw = vec![0.0f32; u_count * dofs];
+        for d in 0..dofs {
+            session.hold(cfg.settle_s)?;
+            let trace = session.trace(d, cfg.duration_s + cfg.tail_s, |t| cfg.position(t))?;
+            let (_, _, alpha) = trace.motion(session.tick_s());
+            for u in 0..u_count {
+                raw[u * dofs + d] = normal_weight(&trace, u, u_count, &lowpass, &alpha);
+            }
+            // Back to the tile's pose before the next DoF.
+            session.move_to(pose, cfg.move_speed_rad_s, cfg.pose_tolerance_rad, 10.0)?;
+            progress(d);
+        }
+        let mut weights: Vec<f32> = (0..u_count * dofs)
+            .map(|i| if self.activity.is_moved(i / dofs, i % dofs) { raw[i] } else { 0.0 })
+            .collect();
+        for row in weights.chunks_mut(dofs) {
+            let norm = row.iter().map(|w| f64::from(*w).powi(2)).sum::<f64>().sqrt();
+            let scale = if norm < cfg.suppression || norm == 0.0 { 0.0 } else { 1.0 / norm };
+            row.iter_mut().for_each(|w| *w = (f64::from(*w) * scale) as f32);
+        }
+        self.tiles.push(Tile { pose: pose.to_vec(), dofs, raw, weights, time_s: session.elapsed_s() - start });
+        Ok(self.tiles.last().expect("just pushed"))
+    }
+}
+
+/// Equations (10)-(12) for cell `u`: the signed share of the normal (z)
+/// axis in the pattern's acceleration amplitudes. Zero if the cell's trace
+/// has gaps or shows no amplitude at all.
+///
+/// Equation (11) reads the phase from whether the maximum or the minimum
+/// comes first. Over one full period the acceleration `cos(2 pi f t)` has
+/// two equal maxima, at the start and at the end, so which is "first" is
+/// decided by noise. The phase is therefore taken from the sign of the
+/// correlation with the DoF's acceleration `alpha` (from position
+/// feedback), with equation (11)'s convention: in phase gives -1.
+fn normal_weight(trace: &Trace, u: usize, cells: usize, lowpass: &Butterworth, alpha: &[f64]) -> f32 {
+    let mut amplitude = [0.0; 3];
+    let mut sign = 0.0;
+    for (a, amp) in amplitude.iter_mut().enumerate() {
+        let mut x: Vec<f64> = (0..trace.len()).map(|k| f64::from(trace.accel[k * cells + u][a])).collect();
+        if x.iter().any(|v| !v.is_finite()) {
+            return 0.0;
+        }
+        let mean = x.iter().sum::<f64>() / x.len() as f64;
+        x.iter_mut().for_each(|v| *v -= mean);
+        lowpass.filtfilt(&mut x);
+        let (lo, hi) = x.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+        *amp = hi - lo;
+        if a == 2 {
+            sign = -x.iter().zip(alpha).map(|(v, al)| v * al).sum::<f64>().signum();
+        }
+    }
+    let total: f64 = amplitude.iter().sum();
+    if total > 0.0 {
+        (sign * amplitude[2] / total) as f32
+    } else {
+        0.0
+    }
+}

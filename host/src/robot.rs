@@ -1,0 +1,110 @@
+//! The robot and its skin as the host sees them (section 3.2).
+//!
+//! The control approach needs only three things from a robot: the number of
+//! revolute DoFs, velocity commands and position feedback ([`Robot`]); and
+//! from the skin only its samples, tick by tick ([`SampleSource`]). Nothing
+//! else about the body is known: no model, no cell placement. [`SimRobot`]
+//! puts the simulated world behind both traits, so a simulated and a real
+//! robot are driven by the very same code.
+
+use skin_protocol::{Address, Sample};
+use skin_sim::world::{World, WorldError};
+
+/// Why the robot or skin did not do what the host asked.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum RobotError {
+    /// A command with another number of values than the robot has DoFs.
+    #[error("a command of {got} values for a robot with {expected} DoFs")]
+    WrongLength {
+        /// DoFs of the robot.
+        expected: usize,
+        /// Values given.
+        got: usize,
+    },
+    /// A NaN or infinite command.
+    #[error("the command for DoF {0} is not finite")]
+    NotFinite(usize),
+    /// The robot or skin stopped answering.
+    #[error("lost contact: {0}")]
+    Disconnected(String),
+}
+
+impl From<WorldError> for RobotError {
+    fn from(e: WorldError) -> Self {
+        match e {
+            WorldError::WrongLength { expected, got } => RobotError::WrongLength { expected, got },
+            WorldError::NotFinite(d) => RobotError::NotFinite(d),
+            other => RobotError::Disconnected(other.to_string()),
+        }
+    }
+}
+
+/// A robot with revolute DoFs under velocity control.
+pub trait Robot {
+    /// Names of the DoFs, in the order of commands and feedback.
+    fn dof_names(&self) -> Vec<String>;
+
+    /// Number of revolute DoFs.
+    fn dof_count(&self) -> usize {
+        self.dof_names().len()
+    }
+
+    /// Commands a velocity per DoF, rad/s, held until the next command.
+    fn command_velocities(&mut self, omega_rad_s: &[f64]) -> Result<(), RobotError>;
+
+    /// Position feedback per DoF, rad.
+    fn positions(&self) -> Vec<f64>;
+}
+
+/// The skin's sample stream, one control tick at a time.
+pub trait SampleSource {
+    /// Length of one tick, s.
+    fn tick_s(&self) -> f64;
+
+    /// Waits for the next tick (a real skin: the next sampling period; the
+    /// simulator: advances its clock) and appends the samples that arrived.
+    fn next_tick(&mut self, out: &mut Vec<(Address, Sample)>) -> Result<(), RobotError>;
+}
+
+/// The simulated world as a robot and a skin.
+pub struct SimRobot {
+    world: World,
+}
+
+impl SimRobot {
+    /// Wraps a world.
+    pub fn new(world: World) -> SimRobot {
+        SimRobot { world }
+    }
+
+    /// The world, for ground truth when checking results.
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+}
+
+impl Robot for SimRobot {
+    fn dof_names(&self) -> Vec<String> {
+        self.world.robot().dofs().iter().map(|d| d.name.clone()).collect()
+    }
+
+    fn command_velocities(&mut self, omega_rad_s: &[f64]) -> Result<(), RobotError> {
+        Ok(self.world.command(omega_rad_s)?)
+    }
+
+    fn positions(&self) -> Vec<f64> {
+        self.world.positions().to_vec()
+    }
+}
+
+impl SampleSource for SimRobot {
+    fn tick_s(&self) -> f64 {
+        self.world.config().tick_s
+    }
+
+    fn next_tick(&mut self, out: &mut Vec<(Address, Sample)>) -> Result<(), RobotError> {
+        self.world.step(out);
+        Ok(())
+    }
+}

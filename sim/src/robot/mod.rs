@@ -1,0 +1,227 @@
+//! A robot as the simulator sees it: rigid bodies joined by revolute joints.
+//!
+//! A URDF robot is reduced to what the skin can feel: links joined by fixed
+//! (or locked) joints are merged into one rigid [`Body`]; revolute and
+//! continuous joints are the degrees of freedom ([`Dof`]) the host drives;
+//! a mimic joint is a [`Joint`] that follows its master DoF. Only the
+//! simulator reads this model; the host learns it back from the skin.
+
+pub mod hrp2;
+pub mod kinematics;
+mod urdf;
+
+use nalgebra::{Isometry3, Point3, Unit, Vector3};
+
+pub use urdf::UrdfError;
+
+/// One rigid body: a group of URDF links welded by fixed or locked joints.
+#[derive(Clone, Debug)]
+pub struct Body {
+    /// Name of the body's first (most proximal) link.
+    pub name: String,
+    /// The joint that carries this body, `None` for the root.
+    pub parent_joint: Option<usize>,
+}
+
+/// How a movable joint is driven.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Drive {
+    /// The joint is DoF `n` of the robot interface.
+    Dof(usize),
+    /// The joint follows DoF `dof`: `q = multiplier * q_dof + offset`.
+    Mimic {
+        /// The master DoF.
+        dof: usize,
+        /// Gear ratio to the master.
+        multiplier: f64,
+        /// Angle at a zero master position, rad.
+        offset: f64,
+    },
+}
+
+/// A revolute joint between two bodies.
+#[derive(Clone, Debug)]
+pub struct Joint {
+    /// URDF joint name.
+    pub name: String,
+    /// Body the joint is mounted on.
+    pub parent_body: usize,
+    /// Body the joint moves.
+    pub child_body: usize,
+    /// Child body frame in the parent body frame at zero angle.
+    pub origin: Isometry3<f64>,
+    /// Rotation axis in the child body frame (and so in the joint frame).
+    pub axis: Unit<Vector3<f64>>,
+    /// Interface DoF or mimic.
+    pub drive: Drive,
+}
+
+/// One degree of freedom of the robot interface (section 3.2).
+#[derive(Clone, Debug)]
+pub struct Dof {
+    /// URDF joint name.
+    pub name: String,
+    /// The joint this DoF drives directly.
+    pub joint: usize,
+    /// Lower position limit, rad (`-inf` for continuous joints).
+    pub lower: f64,
+    /// Upper position limit, rad (`+inf` for continuous joints).
+    pub upper: f64,
+    /// Largest velocity the servo accepts, rad/s (`inf` when not given).
+    pub max_velocity: f64,
+}
+
+/// A primitive shape a URDF link declares, for skin placement.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    /// A box with the given full edge lengths, m.
+    Box(Vector3<f64>),
+    /// A cylinder along its local z axis, m.
+    Cylinder {
+        /// Radius, m.
+        radius: f64,
+        /// Length, m.
+        length: f64,
+    },
+    /// A sphere, m.
+    Sphere(f64),
+}
+
+/// Where skin can go on a link.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Surface {
+    /// No geometry and no mass: a massless intermediate frame, no skin.
+    None,
+    /// Primitive shapes, each with its pose in the link frame.
+    Shapes(Vec<(Isometry3<f64>, Shape)>),
+    /// Only a mesh or only a mass: the link is approximated by capsules of
+    /// `radius` around the "bones" from the link origin to each point (child
+    /// joints, centre of mass, mesh origins), all in the link frame.
+    Bones {
+        /// Bone end points, link frame.
+        points: Vec<Point3<f64>>,
+        /// Capsule radius, m.
+        radius: f64,
+    },
+}
+
+/// One URDF link, kept for skin placement and ground truth.
+#[derive(Clone, Debug)]
+pub struct Link {
+    /// URDF link name.
+    pub name: String,
+    /// The body the link belongs to.
+    pub body: usize,
+    /// Link frame in the body frame.
+    pub in_body: Isometry3<f64>,
+    /// Where skin can be placed.
+    pub surface: Surface,
+}
+
+/// A kinematic tree of rigid bodies driven by revolute DoFs.
+#[derive(Clone, Debug)]
+pub struct Robot {
+    name: String,
+    bodies: Vec<Body>,
+    joints: Vec<Joint>,
+    dofs: Vec<Dof>,
+    links: Vec<Link>,
+    home: Vec<f64>,
+}
+
+impl Robot {
+    /// A robot from a URDF document.
+    pub fn from_urdf_str(xml: &str) -> Result<Robot, UrdfError> {
+        urdf::parse(xml)
+    }
+
+    /// A robot from a URDF file.
+    pub fn from_urdf_file(path: &std::path::Path) -> Result<Robot, UrdfError> {
+        let xml = std::fs::read_to_string(path)
+            .map_err(|e| UrdfError::Read { path: path.display().to_string(), source: e })?;
+        urdf::parse(&xml)
+    }
+
+    /// The robot's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Bodies, parents before children; body 0 is the root.
+    pub fn bodies(&self) -> &[Body] {
+        &self.bodies
+    }
+
+    /// Movable joints (DoFs and mimics), parents before children.
+    pub fn joints(&self) -> &[Joint] {
+        &self.joints
+    }
+
+    /// The interface DoFs, in interface order (URDF order).
+    pub fn dofs(&self) -> &[Dof] {
+        &self.dofs
+    }
+
+    /// Every URDF link.
+    pub fn links(&self) -> &[Link] {
+        &self.links
+    }
+
+    /// The link named `name`.
+    pub fn link(&self, name: &str) -> Option<&Link> {
+        self.links.iter().find(|l| l.name == name)
+    }
+
+    /// Start pose: zero, clamped into the limits.
+    pub fn home(&self) -> &[f64] {
+        &self.home
+    }
+
+    /// Replaces the start pose (clamped into the limits); a pose of the
+    /// wrong length is refused.
+    pub fn set_home(&mut self, pose: &[f64]) -> Result<(), UrdfError> {
+        if pose.len() != self.dofs.len() {
+            return Err(UrdfError::PoseLength { expected: self.dofs.len(), got: pose.len() });
+        }
+        self.home = self.dofs.iter().zip(pose).map(|(d, q)| q.clamp(d.lower, d.upper)).collect();
+        Ok(())
+    }
+
+    /// Angle of every joint for the DoF positions `q` (mimics follow).
+    pub fn joint_angles(&self, q: &[f64]) -> Vec<f64> {
+        self.joints.iter().map(|j| drive_value(j.drive, q)).collect()
+    }
+
+    /// Ground truth: for each body, whether DoF `dof` moves it relative to
+    /// the root (its own joint or a mimic of it lies between them).
+    pub fn moved_by(&self, dof: usize) -> Vec<bool> {
+        let mut moved = vec![false; self.bodies.len()];
+        // Parents come before children, so one pass propagates down.
+        for b in 1..self.bodies.len() {
+            let j = &self.joints[self.bodies[b].parent_joint.expect("non-root bodies have a parent joint")];
+            let driven = match j.drive {
+                Drive::Dof(d) => d == dof,
+                Drive::Mimic { dof: d, multiplier, .. } => d == dof && multiplier != 0.0,
+            };
+            moved[b] = driven || moved[j.parent_body];
+        }
+        moved
+    }
+}
+
+/// The value of a joint for DoF positions `q`: its own DoF, or `multiplier *
+/// master + offset` for a mimic. Derivatives use the same map without offset.
+pub(crate) fn drive_value(drive: Drive, q: &[f64]) -> f64 {
+    match drive {
+        Drive::Dof(d) => q[d],
+        Drive::Mimic { dof, multiplier, offset } => multiplier * q[dof] + offset,
+    }
+}
+
+/// The rate of a joint for DoF rates `qd` (velocities or accelerations).
+pub(crate) fn drive_rate(drive: Drive, qd: &[f64]) -> f64 {
+    match drive {
+        Drive::Dof(d) => qd[d],
+        Drive::Mimic { dof, multiplier, .. } => multiplier * qd[dof],
+    }
+}

@@ -1,0 +1,430 @@
+//! Skin cells on the robot's links, and their ground truth.
+//!
+//! Cells are placed either on the surface of every link that has geometry
+//! or mass, a chosen number per link and deterministic for a seed, or from a
+//! skin file (TOML or JSON) listing the cells of each link with their poses.
+//! A cell frame has z along the outward surface normal, as the force and
+//! proximity sensors face. Where a cell is (link, pose) is ground truth:
+//! the host never sees it.
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Deserialize;
+use skin_protocol::Address;
+
+use crate::robot::{Link, Robot, Shape, Surface};
+
+/// Skin is not laid over a joint: a placed cell keeps at least this far
+/// from the axes of the joints at its body, where the robot bends.
+pub const JOINT_CLEARANCE_M: f64 = 0.02;
+/// Bones are covered between these fractions of their length.
+const BONE_SPAN: (f64, f64) = (0.15, 0.85);
+
+/// One skin cell mounted on a body.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cell {
+    /// The cell's network ID.
+    pub id: Address,
+    /// URDF link the cell is mounted on.
+    pub link: String,
+    /// Body of that link.
+    pub body: usize,
+    /// Cell frame in the body frame; z is the outward surface normal.
+    pub pose: Isometry3<f64>,
+}
+
+/// Why a skin cannot be built.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SkinError {
+    /// The skin file could not be read.
+    #[error("cannot read skin file {path}: {source}")]
+    Read {
+        /// The file.
+        path: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The file name does not say TOML or JSON.
+    #[error("skin file {0}: name it *.toml or *.json")]
+    Format(String),
+    /// The file is not a valid skin description.
+    #[error("skin file is not valid: {0}")]
+    Parse(String),
+    /// A link that the robot does not have.
+    #[error("the robot has no link \"{0}\" to put skin on")]
+    UnknownLink(String),
+    /// A cell ID outside 1..=0xFEFF.
+    #[error("cell ID {0} is outside 1..=65279")]
+    BadId(u32),
+    /// Two cells with one ID.
+    #[error("cell ID {0} is used twice")]
+    DuplicateId(u16),
+    /// A NaN or infinite pose.
+    #[error("a cell on link \"{0}\" has a pose that is not finite")]
+    NotFinite(String),
+    /// No cell at all.
+    #[error("the skin has no cells: give a positive count per link or list cells in the skin file")]
+    NoCells,
+    /// More cells than the network can address.
+    #[error("{0} cells are more than the 65279 a skin network can address")]
+    TooMany(usize),
+}
+
+/// The cells of a robot's skin.
+#[derive(Clone, Debug)]
+pub struct Skin {
+    cells: Vec<Cell>,
+}
+
+impl Skin {
+    /// `per_link` cells on every link with a surface.
+    pub fn per_link(robot: &Robot, per_link: usize, seed: u64) -> Result<Skin, SkinError> {
+        Skin::on_surfaces(robot, |l| if l.surface == Surface::None { 0 } else { per_link }, seed)
+    }
+
+    /// The listed number of cells on each named link (others get none).
+    pub fn with_counts(robot: &Robot, counts: &[(&str, usize)], seed: u64) -> Result<Skin, SkinError> {
+        if let Some((name, _)) = counts.iter().find(|(name, _)| robot.link(name).is_none()) {
+            return Err(SkinError::UnknownLink((*name).to_owned()));
+        }
+        Skin::on_surfaces(robot, |l| counts.iter().filter(|(n, _)| *n == l.name).map(|(_, c)| c).sum(), seed)
+    }
+
+    /// `count(link)` cells spread over each link's surface, deterministic
+    /// for `seed`; IDs are a seeded shuffle of `1..=U`, so nothing can be
+    /// read from their order.
+    pub fn on_surfaces(robot: &Robot, count: impl Fn(&Link) -> usize, seed: u64) -> Result<Skin, SkinError> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut cells = Vec::new();
+        for link in robot.links() {
+            let n = if link.surface == Surface::None { 0 } else { count(link) };
+            for _ in 0..n {
+                let pose = place(robot, link, &mut rng);
+                cells.push(Cell { id: Address::UNASSIGNED, link: link.name.clone(), body: link.body, pose });
+            }
+        }
+        check_count(cells.len())?;
+        let mut ids: Vec<u16> = (1..=cells.len() as u16).collect();
+        ids.shuffle(&mut rng);
+        for (c, id) in cells.iter_mut().zip(ids) {
+            c.id = Address(id);
+        }
+        Ok(Skin { cells })
+    }
+
+    /// Cells from a skin file, TOML or JSON by its extension.
+    pub fn from_file(robot: &Robot, path: &Path) -> Result<Skin, SkinError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| SkinError::Read { path: path.display().to_string(), source: e })?;
+        match path.extension().and_then(|e| e.to_str()) {
+            Some("toml") => Skin::from_toml_str(robot, &text),
+            Some("json") => Skin::from_json_str(robot, &text),
+            _ => Err(SkinError::Format(path.display().to_string())),
+        }
+    }
+
+    /// Cells from a TOML skin description:
+    ///
+    /// ```toml
+    /// [[link]]
+    /// name = "forearm_link"
+    /// cell = [{ xyz = [0.0, 0.05, 0.2], rpy = [-1.5708, 0.0, 0.0] }, { xyz = [0.05, 0.0, 0.1], rpy = [0.0, 1.5708, 0.0], id = 9 }]
+    /// ```
+    ///
+    /// Poses are in the link frame, z of the cell along the outward normal;
+    /// `rpy` defaults to zero and cells without `id` get the smallest free ones.
+    pub fn from_toml_str(robot: &Robot, text: &str) -> Result<Skin, SkinError> {
+        let file: SkinFile = toml::from_str(text).map_err(|e| SkinError::Parse(e.to_string()))?;
+        file.build(robot)
+    }
+
+    /// Cells from a JSON skin description, the same fields as the TOML one:
+    /// `{"link": [{"name": "forearm_link", "cell": [{"xyz": [0, 0.05, 0.2]}]}]}`.
+    pub fn from_json_str(robot: &Robot, text: &str) -> Result<Skin, SkinError> {
+        let file: SkinFile = serde_json::from_str(text).map_err(|e| SkinError::Parse(e.to_string()))?;
+        file.build(robot)
+    }
+
+    /// All cells.
+    pub fn cells(&self) -> &[Cell] {
+        &self.cells
+    }
+}
+
+fn check_count(n: usize) -> Result<(), SkinError> {
+    match n {
+        0 => Err(SkinError::NoCells),
+        n if n > usize::from(Address::MAX_CELL) => Err(SkinError::TooMany(n)),
+        _ => Ok(()),
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SkinFile {
+    link: Vec<LinkCells>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LinkCells {
+    name: String,
+    #[serde(default)]
+    cell: Vec<CellSpec>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CellSpec {
+    xyz: [f64; 3],
+    #[serde(default)]
+    rpy: [f64; 3],
+    id: Option<u32>,
+}
+
+impl SkinFile {
+    fn build(self, robot: &Robot) -> Result<Skin, SkinError> {
+        let mut cells = Vec::new();
+        let mut taken = BTreeSet::new();
+        for l in &self.link {
+            let link = robot.link(&l.name).ok_or_else(|| SkinError::UnknownLink(l.name.clone()))?;
+            for c in &l.cell {
+                if !c.xyz.iter().chain(&c.rpy).all(|v| v.is_finite()) {
+                    return Err(SkinError::NotFinite(l.name.clone()));
+                }
+                let id = match c.id {
+                    Some(id) => {
+                        let a = u16::try_from(id).ok().and_then(Address::cell).ok_or(SkinError::BadId(id))?;
+                        if !taken.insert(a.0) {
+                            return Err(SkinError::DuplicateId(a.0));
+                        }
+                        a
+                    }
+                    None => Address::UNASSIGNED,
+                };
+                let [r, p, y] = c.rpy;
+                let in_link = Isometry3::from_parts(
+                    Translation3::from(Vector3::from(c.xyz)),
+                    UnitQuaternion::from_euler_angles(r, p, y),
+                );
+                cells.push(Cell { id, link: link.name.clone(), body: link.body, pose: link.in_body * in_link });
+            }
+        }
+        check_count(cells.len())?;
+        let mut free = (1..=Address::MAX_CELL).filter(|id| !taken.contains(id));
+        for c in cells.iter_mut().filter(|c| c.id == Address::UNASSIGNED) {
+            c.id = Address(free.next().expect("check_count leaves enough free IDs"));
+        }
+        Ok(Skin { cells })
+    }
+}
+
+/// A random cell pose on `link`, in its body frame, away from joint axes.
+fn place(robot: &Robot, link: &Link, rng: &mut ChaCha8Rng) -> Isometry3<f64> {
+    let axes = joint_axes(robot, link.body);
+    let clearance = |p: &Point3<f64>| axes.iter().map(|(o, a)| (p - o).cross(a).norm()).fold(f64::INFINITY, f64::min);
+    let mut best: Option<(f64, Point3<f64>, Vector3<f64>)> = None;
+    for _ in 0..200 {
+        let (p, n) = surface_point(&link.surface, rng);
+        let (p, n) = (link.in_body * p, link.in_body.rotation * n);
+        let c = clearance(&p);
+        if best.as_ref().is_none_or(|b| c > b.0) {
+            best = Some((c, p, n));
+        }
+        if c >= JOINT_CLEARANCE_M {
+            break;
+        }
+    }
+    let (_, p, n) = best.expect("at least one candidate");
+    Isometry3::from_parts(
+        Translation3::from(p.coords),
+        frame_with_normal(&n, rng.random_range(0.0..std::f64::consts::TAU)),
+    )
+}
+
+/// Axis lines (point, unit direction) of the joints at `body`, body frame:
+/// the one carrying it and those it carries.
+fn joint_axes(robot: &Robot, body: usize) -> Vec<(Point3<f64>, Vector3<f64>)> {
+    robot
+        .joints()
+        .iter()
+        .filter_map(|j| {
+            if j.child_body == body {
+                Some((Point3::origin(), j.axis.into_inner()))
+            } else if j.parent_body == body {
+                Some((Point3::from(j.origin.translation.vector), j.origin.rotation * j.axis.into_inner()))
+            } else {
+                None
+            }
+        })
+        .collect()
+}
+
+/// A uniformly random point on a link surface and its outward normal, link frame.
+fn surface_point(surface: &Surface, rng: &mut ChaCha8Rng) -> (Point3<f64>, Vector3<f64>) {
+    match surface {
+        Surface::None => unreachable!("no cells are placed on links without a surface"),
+        Surface::Shapes(shapes) => {
+            let areas: Vec<f64> = shapes.iter().map(|(_, s)| area(s)).collect();
+            let (pose, shape) = &shapes[pick(&areas, rng)];
+            let (p, n) = shape_point(shape, rng);
+            (pose * p, pose.rotation * n)
+        }
+        Surface::Bones { points, radius } => {
+            if points.is_empty() {
+                let n = random_unit(rng);
+                return (Point3::from(n * *radius), n);
+            }
+            let lengths: Vec<f64> = points.iter().map(|p| p.coords.norm()).collect();
+            let end = points[pick(&lengths, rng)];
+            let along = end.coords * rng.random_range(BONE_SPAN.0..BONE_SPAN.1);
+            let n = perpendicular(&end.coords, rng.random_range(0.0..std::f64::consts::TAU));
+            (Point3::from(along + n * *radius), n)
+        }
+    }
+}
+
+fn area(shape: &Shape) -> f64 {
+    match *shape {
+        Shape::Box(s) => 2.0 * (s.x * s.y + s.y * s.z + s.z * s.x),
+        Shape::Cylinder { radius, length } => std::f64::consts::TAU * radius * (radius + length),
+        Shape::Sphere(r) => 2.0 * std::f64::consts::TAU * r * r,
+    }
+}
+
+fn shape_point(shape: &Shape, rng: &mut ChaCha8Rng) -> (Point3<f64>, Vector3<f64>) {
+    match *shape {
+        Shape::Box(s) => {
+            let faces = [s.y * s.z, s.y * s.z, s.z * s.x, s.z * s.x, s.x * s.y, s.x * s.y];
+            let face = pick(&faces, rng);
+            let axis = face / 2;
+            let sign = if face % 2 == 0 { 1.0 } else { -1.0 };
+            let mut p = Vector3::from_fn(|i, _| s[i] * rng.random_range(-0.5..0.5));
+            p[axis] = sign * s[axis] / 2.0;
+            let mut n = Vector3::zeros();
+            n[axis] = sign;
+            (Point3::from(p), n)
+        }
+        Shape::Cylinder { radius, length } => {
+            let side = length / (length + radius);
+            if rng.random_bool(side) {
+                let h = length * rng.random_range(-0.5..0.5);
+                let n = perpendicular(&Vector3::z(), rng.random_range(0.0..std::f64::consts::TAU));
+                (Point3::from(n * radius + Vector3::z() * h), n)
+            } else {
+                // A cap: uniform over the disc.
+                let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+                let r = radius * rng.random_range(0.0f64..1.0).sqrt();
+                let d = perpendicular(&Vector3::z(), rng.random_range(0.0..std::f64::consts::TAU));
+                (Point3::from(d * r + Vector3::z() * sign * length / 2.0), Vector3::z() * sign)
+            }
+        }
+        Shape::Sphere(r) => {
+            let n = random_unit(rng);
+            (Point3::from(n * r), n)
+        }
+    }
+}
+
+/// Index drawn with probability proportional to `weights` (uniform if all zero).
+fn pick(weights: &[f64], rng: &mut ChaCha8Rng) -> usize {
+    let total: f64 = weights.iter().sum();
+    if total <= 0.0 {
+        return rng.random_range(0..weights.len());
+    }
+    let mut x = rng.random_range(0.0..total);
+    for (i, w) in weights.iter().enumerate() {
+        if x < *w {
+            return i;
+        }
+        x -= w;
+    }
+    weights.len() - 1
+}
+
+fn random_unit(rng: &mut ChaCha8Rng) -> Vector3<f64> {
+    let z: f64 = rng.random_range(-1.0..1.0);
+    let phi = rng.random_range(0.0..std::f64::consts::TAU);
+    let s = (1.0 - z * z).sqrt();
+    Vector3::new(s * phi.cos(), s * phi.sin(), z)
+}
+
+/// The unit vector at angle `angle` around `axis`, perpendicular to it.
+fn perpendicular(axis: &Vector3<f64>, angle: f64) -> Vector3<f64> {
+    let a = axis.normalize();
+    let helper = if a.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+    let e1 = a.cross(&helper).normalize();
+    let e2 = a.cross(&e1);
+    e1 * angle.cos() + e2 * angle.sin()
+}
+
+/// A rotation whose z axis is `normal`, turned by `angle` about it.
+fn frame_with_normal(normal: &Vector3<f64>, angle: f64) -> UnitQuaternion<f64> {
+    let z = normal.normalize();
+    let x = perpendicular(&z, angle);
+    let y = z.cross(&x);
+    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z])))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::robot::hrp2;
+
+    #[test]
+    fn placement_is_deterministic_and_ids_are_a_permutation() {
+        let robot = hrp2::robot();
+        let a = Skin::with_counts(&robot, &hrp2::SKIN, 7).unwrap();
+        let b = Skin::with_counts(&robot, &hrp2::SKIN, 7).unwrap();
+        let c = Skin::with_counts(&robot, &hrp2::SKIN, 8).unwrap();
+        assert_eq!(a.cells(), b.cells());
+        assert_ne!(a.cells(), c.cells());
+        let ids: BTreeSet<u16> = a.cells().iter().map(|c| c.id.0).collect();
+        assert_eq!(ids, (1..=74).collect());
+    }
+
+    #[test]
+    fn cells_lie_on_their_link_surface_facing_out() {
+        let robot = hrp2::robot();
+        let skin = Skin::with_counts(&robot, &[("RARM_LINK2", 50)], 1).unwrap();
+        // The upper arm is a cylinder of radius 0.05 along z, centred 0.075 m down.
+        for c in skin.cells() {
+            let p = c.pose.translation.vector;
+            let n = c.pose.rotation * Vector3::z();
+            let radial = Vector3::new(p.x, p.y, 0.0);
+            let on_side = (radial.norm() - 0.05).abs() < 1e-9 && (n - radial.normalize()).norm() < 1e-9;
+            let on_cap = ((p.z + 0.075).abs() - 0.075).abs() < 1e-9 && n.x == 0.0 && n.y == 0.0;
+            assert!(on_side || on_cap, "cell {} at {p} normal {n}", c.id);
+        }
+    }
+
+    #[test]
+    fn skin_files_name_what_is_wrong() {
+        let robot = hrp2::robot();
+        let toml = r#"
+            [[link]]
+            name = "RARM_LINK3"
+            cell = [{ xyz = [0.0, 0.045, -0.1], rpy = [-1.5708, 0.0, 0.0], id = 5 }, { xyz = [0.045, 0.0, -0.1] }]
+        "#;
+        let skin = Skin::from_toml_str(&robot, toml).unwrap();
+        assert_eq!(skin.cells().iter().map(|c| c.id.0).collect::<Vec<_>>(), [5, 1]);
+        let json = r#"{"link": [{"name": "RARM_LINK3", "cell": [{"xyz": [0, 0.045, -0.1]}]}]}"#;
+        assert_eq!(Skin::from_json_str(&robot, json).unwrap().cells().len(), 1);
+        let unknown = Skin::from_toml_str(&robot, "[[link]]\nname = \"TAIL\"\ncell = [{ xyz = [0, 0, 0] }]");
+        assert!(matches!(unknown, Err(SkinError::UnknownLink(l)) if l == "TAIL"));
+        let typo = Skin::from_toml_str(&robot, "[[link]]\nname = \"CHEST\"\ncell = [{ xzy = [0, 0, 0] }]");
+        assert!(matches!(typo, Err(SkinError::Parse(m)) if m.contains("xzy")));
+        let twice = "[[link]]\nname = \"CHEST\"\ncell = [{ xyz = [0, 0, 0], id = 3 }, { xyz = [0, 0, 0], id = 3 }]";
+        assert!(matches!(Skin::from_toml_str(&robot, twice), Err(SkinError::DuplicateId(3))));
+        let big = "[[link]]\nname = \"CHEST\"\ncell = [{ xyz = [0, 0, 0], id = 70000 }]";
+        assert!(matches!(Skin::from_toml_str(&robot, big), Err(SkinError::BadId(70000))));
+        assert!(matches!(Skin::from_toml_str(&robot, "link = []"), Err(SkinError::NoCells)));
+        assert!(matches!(Skin::per_link(&robot, 0, 1), Err(SkinError::NoCells)));
+    }
+}

@@ -1,0 +1,373 @@
+//! The world the skin lives in, on a virtual clock.
+//!
+//! A robot under velocity control with position feedback, its static base
+//! standing or lying relative to gravity (optionally swaying as a balancing
+//! humanoid does, and rocking when its joints accelerate), and one BMA250
+//! per skin cell. [`World::step`] advances one control tick (4 ms, 250 Hz)
+//! and returns one [`Sample`] per cell, exactly what the skin network would
+//! deliver to the host. Force and proximity come from a [`Tactile`] model
+//! plugged in by a scene; without one they read zero.
+
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use skin_protocol::{Address, Sample};
+
+use crate::accel::{Bma250, Bma250Config, G0};
+use crate::robot::kinematics::{self, BodyState, DofMotion};
+use crate::robot::Robot;
+use crate::skin::{Cell, Skin};
+
+/// Physics sub-steps per control tick.
+const SUBSTEPS: u32 = 4;
+/// LM71 counts of the constant 25 degC skin temperature (0.03125 degC per count).
+const TEMPERATURE_COUNTS: i16 = 800;
+
+/// How the robot's static reference body (the root) sits in the world.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BaseConfig {
+    /// Orientation of the root relative to the world (z up), roll-pitch-yaw, rad.
+    pub tilt_rpy: [f64; 3],
+    /// Amplitude of a slow balancing sway about both horizontal axes, rad.
+    pub sway_rad: f64,
+    /// Frequency of the sway, Hz (the second axis sways 1.618 times faster).
+    pub sway_hz: f64,
+    /// Rocking of the whole robot about a pivot below the root, excited by
+    /// the reaction to joint accelerations.
+    pub rocking: Rocking,
+}
+
+/// A damped rocking mode of the robot on its feet or mount.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rocking {
+    /// Natural frequency, Hz.
+    pub natural_hz: f64,
+    /// Damping ratio.
+    pub damping_ratio: f64,
+    /// Rocking acceleration per joint acceleration about a horizontal axis (inertia ratio).
+    pub coupling: f64,
+    /// Depth of the pivot (ankles, mount) below the root origin, m.
+    pub pivot_depth_m: f64,
+}
+
+impl BaseConfig {
+    /// Upright, balancing: a humanoid standing as HRP-2 did in the paper.
+    pub fn standing() -> BaseConfig {
+        BaseConfig {
+            tilt_rpy: [0.0; 3],
+            sway_rad: 1e-3,
+            sway_hz: 0.4,
+            rocking: Rocking { natural_hz: 4.0, damping_ratio: 0.1, coupling: 3e-3, pivot_depth_m: 0.8 },
+        }
+    }
+
+    /// Lying on its back: the standing posture turned 90 degrees about y.
+    pub fn lying() -> BaseConfig {
+        BaseConfig { tilt_rpy: [0.0, -std::f64::consts::FRAC_PI_2, 0.0], ..BaseConfig::standing() }
+    }
+
+    /// Bolted down and perfectly still.
+    pub fn rigid() -> BaseConfig {
+        BaseConfig {
+            tilt_rpy: [0.0; 3],
+            sway_rad: 0.0,
+            sway_hz: 0.0,
+            rocking: Rocking { coupling: 0.0, ..BaseConfig::standing().rocking },
+        }
+    }
+}
+
+/// Everything about a world except the robot and its skin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WorldConfig {
+    /// Control tick, s (4 ms: the skin's 250 Hz).
+    pub tick_s: f64,
+    /// Time constant of the joint velocity servos, s.
+    pub servo_time_constant_s: f64,
+    /// The base.
+    pub base: BaseConfig,
+    /// The accelerometers.
+    pub accel: Bma250Config,
+    /// Seed of every random thing in the world.
+    pub seed: u64,
+}
+
+impl Default for WorldConfig {
+    fn default() -> Self {
+        WorldConfig {
+            tick_s: 0.004,
+            servo_time_constant_s: 0.01,
+            base: BaseConfig::standing(),
+            accel: Bma250Config::default(),
+            seed: 0,
+        }
+    }
+}
+
+/// Why a command was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum WorldError {
+    /// A velocity command with the wrong number of values.
+    #[error("a velocity command of {got} values for a robot with {expected} DoFs")]
+    WrongLength {
+        /// DoFs of the robot.
+        expected: usize,
+        /// Values given.
+        got: usize,
+    },
+    /// A NaN or infinite velocity.
+    #[error("the velocity command for DoF {0} is not finite")]
+    NotFinite(usize),
+}
+
+/// Force and proximity of one cell, raw counts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Touch {
+    /// Proximity (VCNL4010 counts, larger is closer).
+    pub proximity: u16,
+    /// The three normal forces (12-bit counts).
+    pub force: [u16; 3],
+}
+
+/// A scene that touches the skin: given the world pose of every cell (in
+/// skin order), it fills in their force and proximity readings.
+pub trait Tactile {
+    /// Fills `out[i]` for the cell at `poses[i]` at time `time_s`.
+    fn sense(&mut self, time_s: f64, poses: &[Isometry3<f64>], out: &mut [Touch]);
+}
+
+/// A robot, its skin and its base on a virtual clock.
+pub struct World {
+    robot: Robot,
+    skin: Skin,
+    cfg: WorldConfig,
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    qdd: Vec<f64>,
+    command: Vec<f64>,
+    rock: Vector3<f64>,
+    rock_rate: Vector3<f64>,
+    rock_accel: Vector3<f64>,
+    sway_phase: [f64; 2],
+    ticks: u64,
+    sensors: Vec<Bma250>,
+    seq: u8,
+    rng: ChaCha8Rng,
+    states: Vec<BodyState>,
+    poses: Vec<Isometry3<f64>>,
+    touches: Vec<Touch>,
+    tactile: Option<Box<dyn Tactile>>,
+}
+
+impl World {
+    /// A world with the robot at rest in its home pose.
+    pub fn new(robot: Robot, skin: Skin, cfg: WorldConfig) -> World {
+        let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+        let sensors = skin.cells().iter().map(|_| Bma250::new(&cfg.accel, cfg.tick_s, &mut rng)).collect();
+        let sway_phase = [
+            rand::Rng::random_range(&mut rng, 0.0..std::f64::consts::TAU),
+            rand::Rng::random_range(&mut rng, 0.0..std::f64::consts::TAU),
+        ];
+        let n = robot.dofs().len();
+        let mut world = World {
+            q: robot.home().to_vec(),
+            qd: vec![0.0; n],
+            qdd: vec![0.0; n],
+            command: vec![0.0; n],
+            rock: Vector3::zeros(),
+            rock_rate: Vector3::zeros(),
+            rock_accel: Vector3::zeros(),
+            sway_phase,
+            ticks: 0,
+            sensors,
+            seq: 0,
+            rng,
+            states: Vec::new(),
+            poses: vec![Isometry3::identity(); skin.cells().len()],
+            touches: vec![Touch::default(); skin.cells().len()],
+            tactile: None,
+            robot,
+            skin,
+            cfg,
+        };
+        world.update_kinematics();
+        world
+    }
+
+    /// The robot.
+    pub fn robot(&self) -> &Robot {
+        &self.robot
+    }
+
+    /// The skin (ground truth: where every cell is).
+    pub fn skin(&self) -> &Skin {
+        &self.skin
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &WorldConfig {
+        &self.cfg
+    }
+
+    /// Virtual time since the start, s.
+    pub fn time_s(&self) -> f64 {
+        self.ticks as f64 * self.cfg.tick_s
+    }
+
+    /// Joint position feedback, rad, in DoF order.
+    pub fn positions(&self) -> &[f64] {
+        &self.q
+    }
+
+    /// Commands joint velocities (rad/s, DoF order) until the next command;
+    /// each is clipped to its joint's velocity limit.
+    pub fn command(&mut self, omega: &[f64]) -> Result<(), WorldError> {
+        if omega.len() != self.command.len() {
+            return Err(WorldError::WrongLength { expected: self.command.len(), got: omega.len() });
+        }
+        if let Some(d) = omega.iter().position(|w| !w.is_finite()) {
+            return Err(WorldError::NotFinite(d));
+        }
+        for ((c, w), dof) in self.command.iter_mut().zip(omega).zip(self.robot.dofs()) {
+            *c = w.clamp(-dof.max_velocity, dof.max_velocity);
+        }
+        Ok(())
+    }
+
+    /// Plugs in the scene that supplies force and proximity.
+    pub fn set_tactile(&mut self, tactile: Box<dyn Tactile>) {
+        self.tactile = Some(tactile);
+    }
+
+    /// World pose of every cell at the current tick, in skin order.
+    pub fn cell_poses(&self) -> &[Isometry3<f64>] {
+        &self.poses
+    }
+
+    /// Advances one tick and appends one sample per cell to `out`.
+    pub fn step(&mut self, out: &mut Vec<(Address, Sample)>) {
+        let h = self.cfg.tick_s / f64::from(SUBSTEPS);
+        let follow = 1.0 - (-h / self.cfg.servo_time_constant_s).exp();
+        for _ in 0..SUBSTEPS {
+            for (d, dof) in self.robot.dofs().iter().enumerate() {
+                let (q, w) = (self.q[d], self.qd[d]);
+                // The servo will not drive further into a limit.
+                let target = match self.command[d] {
+                    c if (q >= dof.upper && c > 0.0) || (q <= dof.lower && c < 0.0) => 0.0,
+                    c => c,
+                };
+                let mut next = w + (target - w) * follow;
+                let mut pos = q + 0.5 * (w + next) * h;
+                if pos > dof.upper || pos < dof.lower {
+                    pos = pos.clamp(dof.lower, dof.upper);
+                    next = 0.0;
+                }
+                self.qdd[d] = (next - w) / h;
+                self.qd[d] = next;
+                self.q[d] = pos;
+            }
+            self.rock_base(h);
+        }
+        self.ticks += 1;
+        self.update_kinematics();
+        if let Some(t) = self.tactile.as_mut() {
+            t.sense(self.ticks as f64 * self.cfg.tick_s, &self.poses, &mut self.touches);
+        }
+        self.seq = self.seq.wrapping_add(1);
+        let gravity = Vector3::new(0.0, 0.0, -G0);
+        for (i, cell) in self.skin.cells().iter().enumerate() {
+            let state = &self.states[cell.body];
+            let specific = state.point_accel(&Point3::from(cell.pose.translation.vector)) - gravity;
+            let in_cell = self.poses[i].rotation.inverse() * specific;
+            let accel = self.sensors[i].sample(&in_cell, &mut self.rng);
+            let t = self.touches[i];
+            out.push((cell.id, Sample::saturating(t.proximity, t.force, accel, TEMPERATURE_COUNTS, self.seq)));
+        }
+    }
+
+    /// The rocking mode, driven by the horizontal part of the joints'
+    /// angular accelerations (their reaction on the base).
+    fn rock_base(&mut self, h: f64) {
+        let r = self.cfg.base.rocking;
+        let mut drive = Vector3::zeros();
+        for (d, dof) in self.robot.dofs().iter().enumerate() {
+            let j = &self.robot.joints()[dof.joint];
+            drive += self.states[j.child_body].pose.rotation * j.axis.into_inner() * self.qdd[d];
+        }
+        drive.z = 0.0;
+        let w = std::f64::consts::TAU * r.natural_hz;
+        self.rock_accel = -r.coupling * drive - 2.0 * r.damping_ratio * w * self.rock_rate - w * w * self.rock;
+        self.rock_rate += self.rock_accel * h;
+        self.rock += self.rock_rate * h;
+    }
+
+    /// Base rotation about the pivot (rocking plus sway) and its first two
+    /// derivatives, world frame, at time `t`.
+    fn base_rotation(&self, t: f64) -> [Vector3<f64>; 3] {
+        let b = &self.cfg.base;
+        let mut angle = self.rock;
+        let mut rate = self.rock_rate;
+        let mut accel = self.rock_accel;
+        for (axis, (speed, phase)) in [(1.0, self.sway_phase[0]), (1.618, self.sway_phase[1])].into_iter().enumerate() {
+            let w = std::f64::consts::TAU * b.sway_hz * speed;
+            let x = w * t + phase;
+            angle[axis] += b.sway_rad * x.sin();
+            rate[axis] += b.sway_rad * w * x.cos();
+            accel[axis] -= b.sway_rad * w * w * x.sin();
+        }
+        [angle, rate, accel]
+    }
+
+    fn update_kinematics(&mut self) {
+        let [angle, omega, alpha] = self.base_rotation(self.time_s());
+        let [roll, pitch, yaw] = self.cfg.base.tilt_rpy;
+        let pivot = Vector3::new(0.0, 0.0, -self.cfg.base.rocking.pivot_depth_m);
+        let rock = UnitQuaternion::from_scaled_axis(angle);
+        let arm = rock * -pivot;
+        let base = BodyState {
+            pose: Isometry3::from_parts(
+                Translation3::from(pivot + arm),
+                rock * UnitQuaternion::from_euler_angles(roll, pitch, yaw),
+            ),
+            omega,
+            alpha,
+            accel: alpha.cross(&arm) + omega.cross(&omega.cross(&arm)),
+        };
+        let motion = DofMotion { q: &self.q, qd: &self.qd, qdd: &self.qdd };
+        kinematics::forward(&self.robot, &base, motion, &mut self.states);
+        for (p, c) in self.poses.iter_mut().zip(self.skin.cells()) {
+            *p = self.states[c.body].pose * c.pose;
+        }
+    }
+
+    /// Ground truth: `moved[u][d]` is true when DoF `d` moves cell `u`
+    /// (skin order) relative to the root.
+    pub fn true_activity(&self) -> Vec<Vec<bool>> {
+        let by_dof: Vec<Vec<bool>> = (0..self.robot.dofs().len()).map(|d| self.robot.moved_by(d)).collect();
+        self.skin.cells().iter().map(|c| by_dof.iter().map(|m| m[c.body]).collect()).collect()
+    }
+
+    /// Ground truth for the sensory-motor map: for the robot at rest in
+    /// `pose`, the acceleration of each cell per unit acceleration of each
+    /// DoF, in the cell frame (the noise-free tangential direction of
+    /// equation (1) times the lever arm, m per rad/s^2). Indexed `[u][d]`.
+    pub fn true_tangential(&self, pose: &[f64]) -> Vec<Vec<Vector3<f64>>> {
+        let n = self.robot.dofs().len();
+        let zero = vec![0.0; n];
+        let mut states = Vec::new();
+        let base = BodyState::at_rest(self.states[0].pose);
+        kinematics::forward(&self.robot, &base, DofMotion { q: pose, qd: &zero, qdd: &zero }, &mut states);
+        self.skin
+            .cells()
+            .iter()
+            .map(|c: &Cell| {
+                let pose = states[c.body].pose * c.pose;
+                let p = Point3::from(pose.translation.vector);
+                (0..n)
+                    .map(|d| pose.rotation.inverse() * kinematics::tangential(&self.robot, &states, c.body, &p, d))
+                    .collect()
+            })
+            .collect()
+    }
+}
