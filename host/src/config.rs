@@ -290,7 +290,8 @@ impl Config {
     pub fn to_toml(&self) -> String {
         // Serializing plain structs of numbers, strings and arrays cannot fail.
         let body = toml::to_string(self).unwrap_or_default();
-        let mut out = String::from("# Configuration of the `skin` program. Every key is optional; these are the defaults.\n");
+        let mut out =
+            String::from("# Configuration of the `skin` program. Every key is optional; these are the defaults.\n");
         for line in body.lines() {
             if let Some((_, note)) = SECTION_NOTES.iter().find(|(header, _)| *header == line) {
                 if !out.ends_with("\n\n") {

@@ -161,7 +161,11 @@ impl Ingest {
                 None => {
                     self.counters.ids_exhausted += 1;
                     if let Some(suppressed) = self.exhausted_log.allow(now_us) {
-                        tracing::error!(suppressed, "ID request from {} left unanswered: every cell ID is taken", request.parent);
+                        tracing::error!(
+                            suppressed,
+                            "ID request from {} left unanswered: every cell ID is taken",
+                            request.parent
+                        );
                     }
                 }
             }

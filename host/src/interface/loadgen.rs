@@ -146,10 +146,10 @@ struct Outgoing {
     datagrams: Vec<(usize, usize)>,
 }
 
-/// The simulated skin and its sockets.
-pub struct LoadGen {
+/// The simulated skin, without sockets: it turns skin time into encoded
+/// datagrams, port by port.
+pub struct SimSkin {
     spec: LoadSpec,
-    sockets: Vec<BatchSocket>,
     cells: Vec<SimCell>,
     /// Cell indices in order of sampling phase.
     order: Vec<usize>,
@@ -163,6 +163,12 @@ pub struct LoadGen {
     pending: Vec<Vec<Frame>>,
     outgoing: Vec<Outgoing>,
     seq: Vec<u32>,
+}
+
+/// The simulated skin and one socket per interface port.
+pub struct LoadGen {
+    skin: SimSkin,
+    sockets: Vec<BatchSocket>,
     report: LoadReport,
 }
 
@@ -180,10 +186,10 @@ fn grid_neighbour(j: usize, m: usize, cols: usize, port: Port) -> Option<(usize,
     }
 }
 
-impl LoadGen {
-    /// Builds the skin and opens one socket per port, each sending to `host`.
-    pub fn new(spec: LoadSpec, host: SocketAddr) -> io::Result<LoadGen> {
-        spec.validate().map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
+impl SimSkin {
+    /// Builds the skin; the error names the bad value of `spec`.
+    pub fn new(spec: LoadSpec) -> Result<SimSkin, String> {
+        spec.validate()?;
         let ports = usize::from(spec.ports);
         let n = usize::from(spec.cells);
         let period_us = 1e6 / spec.rate_hz;
@@ -227,17 +233,7 @@ impl LoadGen {
         }
         let mut order: Vec<usize> = (0..n).collect();
         order.sort_by(|a, b| cells[*a].phase_us.total_cmp(&cells[*b].phase_us));
-        // Bound to any address, connected: the OS picks the source address
-        // that reaches the host, and `local_addr` then names it.
-        let any = if host.is_ipv4() { IpAddr::from(Ipv4Addr::UNSPECIFIED) } else { IpAddr::from(Ipv6Addr::UNSPECIFIED) };
-        let sockets = (0..ports)
-            .map(|_| {
-                let s = BatchSocket::bind(SocketAddr::new(any, 0), 1 << 16, 64, true)?;
-                s.connect(host)?;
-                Ok(s)
-            })
-            .collect::<io::Result<Vec<_>>>()?;
-        Ok(LoadGen {
+        Ok(SimSkin {
             rng: ChaCha8Rng::seed_from_u64(spec.seed),
             period_us,
             report_cycles,
@@ -247,73 +243,51 @@ impl LoadGen {
             pending: (0..ports).map(|_| Vec::with_capacity(MAX_FRAMES)).collect(),
             outgoing: (0..ports).map(|_| Outgoing::default()).collect(),
             seq: vec![0; ports],
-            report: LoadReport::default(),
             spec,
-            sockets,
             cells,
             order,
         })
     }
 
-    /// The source address of each port, in port order.
-    pub fn port_addresses(&self) -> Vec<SocketAddr> {
-        self.sockets.iter().filter_map(|s| s.local_addr().ok()).collect()
-    }
-
-    /// The simulated skin.
+    /// What is simulated.
     pub fn spec(&self) -> &LoadSpec {
         &self.spec
     }
 
-    /// Sends for `duration` (of skin time when real-time, of wall time when
-    /// flat out); `progress` is called with the totals after every slice.
-    pub fn run(&mut self, duration: Duration, pace: Pace, mut progress: impl FnMut(&LoadReport)) -> LoadReport {
-        const SLICE_US: u64 = 250;
-        let start = Instant::now();
-        let start_us = self.skin_time_us();
-        let end_us = start_us + duration.as_micros() as u64;
-        let mut t_us = start_us;
-        loop {
-            let done = match pace {
-                Pace::RealTime => t_us >= end_us,
-                Pace::FlatOut => start.elapsed() >= duration,
-            };
-            if done {
-                break;
-            }
-            let slice = if pace == Pace::FlatOut { 4 * SLICE_US } else { SLICE_US };
-            t_us = if pace == Pace::RealTime { (t_us + slice).min(end_us) } else { t_us + slice };
-            self.generate(t_us);
-            if pace == Pace::RealTime {
-                let due = Duration::from_micros(t_us - start_us);
-                match due.checked_sub(start.elapsed()) {
-                    Some(wait) => std::thread::sleep(wait),
-                    None => {
-                        let behind = (start.elapsed() - due).as_micros() as u64;
-                        self.report.behind_max_us = self.report.behind_max_us.max(behind);
-                    }
-                }
-            }
-            self.send();
-            self.report.skin_time_s = t_us as f64 / 1e6;
-            self.report.wall_time_s = start.elapsed().as_secs_f64();
-            progress(&self.report);
-        }
-        for p in 0..self.pending.len() {
-            self.flush(p, t_us);
-        }
-        self.send();
-        self.report.wall_time_s = start.elapsed().as_secs_f64();
-        self.report
-    }
-
-    fn skin_time_us(&self) -> u64 {
+    /// Skin time reached, in microseconds.
+    pub fn time_us(&self) -> u64 {
         (self.cycle as f64 * self.period_us) as u64
     }
 
+    /// The encoded datagrams waiting to leave port `p` (index = number),
+    /// each with its number of frames.
+    pub fn outgoing(&self, p: usize) -> impl Iterator<Item = (&[u8], usize)> {
+        let out = &self.outgoing[p];
+        out.datagrams.iter().scan(0, |at, (len, frames)| {
+            let d = &out.bytes[*at..*at + len];
+            *at += len;
+            Some((d, *frames))
+        })
+    }
+
+    /// Forgets the waiting datagrams (they were sent).
+    pub fn clear_outgoing(&mut self) {
+        for out in &mut self.outgoing {
+            out.bytes.clear();
+            out.datagrams.clear();
+        }
+    }
+
+    /// Encodes what every port still gathers, stamped `t_us`.
+    pub fn flush_all(&mut self, t_us: u64) {
+        for p in 0..self.pending.len() {
+            self.flush(p, t_us);
+        }
+    }
+
     /// Samples every cell whose sampling time is at or before `until_us`,
-    /// and flushes the ports whose flush time has come.
-    fn generate(&mut self, until_us: u64) {
+    /// and encodes the datagrams of the ports whose flush time has come.
+    pub fn generate(&mut self, until_us: u64) {
         loop {
             let cell = &self.cells[self.order[self.next]];
             let t_sample = (self.cycle as f64 * self.period_us + cell.phase_us) as u64;
@@ -404,24 +378,88 @@ impl LoadGen {
         self.pending[p] = frames;
         self.pending[p].clear();
     }
+}
+
+impl LoadGen {
+    /// Builds the skin and opens one socket per port, each sending to `host`.
+    pub fn new(spec: LoadSpec, host: SocketAddr) -> io::Result<LoadGen> {
+        let skin = SimSkin::new(spec).map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
+        // Bound to any address, connected: the OS picks the source address
+        // that reaches the host, and `local_addr` then names it.
+        let any =
+            if host.is_ipv4() { IpAddr::from(Ipv4Addr::UNSPECIFIED) } else { IpAddr::from(Ipv6Addr::UNSPECIFIED) };
+        let sockets = (0..skin.spec().ports)
+            .map(|_| {
+                let s = BatchSocket::bind(SocketAddr::new(any, 0), 1 << 16, 64, true)?;
+                s.connect(host)?;
+                Ok(s)
+            })
+            .collect::<io::Result<Vec<_>>>()?;
+        Ok(LoadGen { skin, sockets, report: LoadReport::default() })
+    }
+
+    /// The source address of each port, in port order.
+    pub fn port_addresses(&self) -> Vec<SocketAddr> {
+        self.sockets.iter().filter_map(|s| s.local_addr().ok()).collect()
+    }
+
+    /// The simulated skin.
+    pub fn spec(&self) -> &LoadSpec {
+        self.skin.spec()
+    }
+
+    /// Sends for `duration` (of skin time when real-time, of wall time when
+    /// flat out); `progress` is called with the totals after every slice.
+    pub fn run(&mut self, duration: Duration, pace: Pace, mut progress: impl FnMut(&LoadReport)) -> LoadReport {
+        const SLICE_US: u64 = 250;
+        let start = Instant::now();
+        let start_us = self.skin.time_us();
+        let end_us = start_us + duration.as_micros() as u64;
+        let mut t_us = start_us;
+        loop {
+            let done = match pace {
+                Pace::RealTime => t_us >= end_us,
+                Pace::FlatOut => start.elapsed() >= duration,
+            };
+            if done {
+                break;
+            }
+            let slice = if pace == Pace::FlatOut { 4 * SLICE_US } else { SLICE_US };
+            t_us = if pace == Pace::RealTime { (t_us + slice).min(end_us) } else { t_us + slice };
+            self.skin.generate(t_us);
+            if pace == Pace::RealTime {
+                let due = Duration::from_micros(t_us - start_us);
+                match due.checked_sub(start.elapsed()) {
+                    Some(wait) => std::thread::sleep(wait),
+                    None => {
+                        let behind = (start.elapsed() - due).as_micros() as u64;
+                        self.report.behind_max_us = self.report.behind_max_us.max(behind);
+                    }
+                }
+            }
+            self.send();
+            self.report.skin_time_s = t_us as f64 / 1e6;
+            self.report.wall_time_s = start.elapsed().as_secs_f64();
+            progress(&self.report);
+        }
+        self.skin.flush_all(t_us);
+        self.send();
+        self.report.wall_time_s = start.elapsed().as_secs_f64();
+        self.report
+    }
 
     /// Sends every encoded datagram.
     fn send(&mut self) {
-        for (socket, out) in self.sockets.iter_mut().zip(&mut self.outgoing) {
-            let mut datagrams = Vec::with_capacity(out.datagrams.len());
-            let mut at = 0;
-            for (len, _) in &out.datagrams {
-                datagrams.push(&out.bytes[at..at + len]);
-                at += len;
-            }
-            let (mut rest, mut frames) = (&datagrams[..], &out.datagrams[..]);
+        for (p, socket) in self.sockets.iter_mut().enumerate() {
+            let datagrams: Vec<(&[u8], usize)> = self.skin.outgoing(p).collect();
+            let mut rest = &datagrams[..];
             while !rest.is_empty() {
-                match socket.send_batch(rest) {
+                let bytes: Vec<&[u8]> = rest.iter().map(|(d, _)| *d).collect();
+                match socket.send_batch(&bytes) {
                     Ok(n) => {
                         self.report.datagrams += n as u64;
-                        self.report.frames += frames[..n].iter().map(|(_, f)| *f as u64).sum::<u64>();
+                        self.report.frames += rest[..n].iter().map(|(_, f)| *f as u64).sum::<u64>();
                         rest = &rest[n..];
-                        frames = &frames[n..];
                     }
                     Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
                     Err(e) => {
@@ -432,13 +470,11 @@ impl LoadGen {
                         }
                         self.report.send_errors += 1;
                         rest = &rest[1..];
-                        frames = &frames[1..];
                     }
                 }
             }
-            out.bytes.clear();
-            out.datagrams.clear();
         }
+        self.skin.clear_outgoing();
     }
 }
 

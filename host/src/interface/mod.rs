@@ -157,9 +157,8 @@ impl Interface {
             return Err(Error::InvalidSetting(*bad));
         }
         let ports: Vec<usize> = if target == Address::BROADCAST {
-            let known: Vec<usize> = (0..self.ingest.ports().len())
-                .filter(|i| self.ingest.ports().get(*i).address().is_some())
-                .collect();
+            let known: Vec<usize> =
+                (0..self.ingest.ports().len()).filter(|i| self.ingest.ports().get(*i).address().is_some()).collect();
             if known.is_empty() {
                 return Err(Error::NoPortAddress);
             }

@@ -198,10 +198,8 @@ mod tests {
 
     #[test]
     fn bound_unbound_unknown_and_spoofed() {
-        let mut ports = Ports::new(&[
-            PortConfig { number: 0, address: Some(addr(100)) },
-            PortConfig { number: 3, address: None },
-        ]);
+        let mut ports =
+            Ports::new(&[PortConfig { number: 0, address: Some(addr(100)) }, PortConfig { number: 3, address: None }]);
         assert_eq!(ports.admit(addr(100), 0), Ok(0));
         assert_eq!(ports.admit(addr(101), 0), Err(DatagramReject::Spoofed));
         assert_eq!(ports.admit(addr(100), 7), Err(DatagramReject::UnknownPort));

@@ -113,9 +113,10 @@ mod tests {
     #[test]
     fn wraps_around_u32() {
         use Verdict::*;
-        assert_eq!(run(&[u32::MAX - 1, u32::MAX, 0, 1]), [Restart, Ahead { skipped: 0 }, Ahead { skipped: 0 }, Ahead {
-            skipped: 0
-        }]);
+        assert_eq!(
+            run(&[u32::MAX - 1, u32::MAX, 0, 1]),
+            [Restart, Ahead { skipped: 0 }, Ahead { skipped: 0 }, Ahead { skipped: 0 }]
+        );
     }
 
     #[test]

@@ -216,7 +216,8 @@ mod mmsg {
             // pointers point into `names`, `iovs` and `buf`, all alive and
             // not otherwise borrowed for the duration of the call; each
             // iovec is `slot` bytes inside `buf`.
-            let r = unsafe { libc::recvmmsg(fd, self.hdrs.as_mut_ptr(), n as libc::c_uint, flags, std::ptr::null_mut()) };
+            let r =
+                unsafe { libc::recvmmsg(fd, self.hdrs.as_mut_ptr(), n as libc::c_uint, flags, std::ptr::null_mut()) };
             if r < 0 {
                 return Err(io::Error::last_os_error());
             }
@@ -235,7 +236,8 @@ mod mmsg {
                 libc::AF_INET => {
                     // SAFETY: the kernel wrote a sockaddr_in (family AF_INET)
                     // into storage that is large and aligned enough for it.
-                    let a: libc::sockaddr_in = unsafe { std::ptr::read((name as *const libc::sockaddr_storage).cast()) };
+                    let a: libc::sockaddr_in =
+                        unsafe { std::ptr::read((name as *const libc::sockaddr_storage).cast()) };
                     let ip = Ipv4Addr::from(u32::from_be(a.sin_addr.s_addr));
                     Some(SocketAddr::V4(SocketAddrV4::new(ip, u16::from_be(a.sin_port))))
                 }

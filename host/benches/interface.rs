@@ -1,0 +1,217 @@
+//! Throughput and loss of the host's UDP interface.
+//!
+//! 1. `ingest` (criterion): decode and dispatch of a 1,260-cell skin's
+//!    datagrams in memory, on one core, at 1, ~20 and ~70 frames per datagram.
+//! 2. Over loopback, the load generator (`skin loadgen`'s engine) sends real
+//!    datagrams from 16 port sockets to an `Interface` polled on one thread:
+//!    - flat out in full datagrams: frames per second decoded, and frames per
+//!      second of the receiving thread's CPU time (the one-core capacity);
+//!    - clock-driven at 315,000 frames/s (1,260 cells at 250 Hz), each port
+//!      sending every 1 ms, and again with one datagram per frame: frames
+//!      lost, the receiving thread's CPU load, and the socket receive buffer.
+//!
+//! `cargo bench -p skin-host --bench interface` (about 2 minutes);
+//! `SKIN_BENCH_SECONDS` sets the length of each loopback run (default 10).
+
+use std::hint::black_box;
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread;
+use std::time::{Duration, Instant};
+
+use criterion::{BenchmarkId, Criterion, Throughput};
+use skin_host::config::{InterfaceConfig, PortConfig};
+use skin_host::interface::loadgen::{LoadGen, LoadSpec, Pace, SimSkin};
+use skin_host::interface::{Counters, EventKind, Ingest, Interface};
+
+/// The skin of the requirement: 1,260 cells at 250 Hz on 16 ports.
+fn heavy_skin(flush_us: u64) -> LoadSpec {
+    LoadSpec { flush_us, ..LoadSpec::default() }
+}
+
+fn source(port: usize) -> SocketAddr {
+    SocketAddr::from(([127, 0, 0, 1], 20_000 + port as u16))
+}
+
+/// `seconds` of the skin's datagrams: (port, bytes, frames).
+fn datagrams(spec: LoadSpec, seconds: f64) -> Vec<(usize, Vec<u8>, usize)> {
+    let ports = usize::from(spec.ports);
+    let mut skin = SimSkin::new(spec).expect("valid spec");
+    let end_us = (seconds * 1e6) as u64;
+    skin.generate(end_us);
+    skin.flush_all(end_us);
+    let mut out = Vec::new();
+    for p in 0..ports {
+        out.extend(skin.outgoing(p).map(|(d, frames)| (p, d.to_vec(), frames)));
+    }
+    out
+}
+
+fn ingest(c: &mut Criterion) {
+    let mut group = c.benchmark_group("ingest");
+    group.sample_size(20).measurement_time(Duration::from_secs(8));
+    for flush_us in [0, 1000, 1_000_000] {
+        let spec = heavy_skin(flush_us);
+        let ports: Vec<PortConfig> =
+            (0..spec.ports).map(|p| PortConfig { number: p, address: Some(source(usize::from(p))) }).collect();
+        let mut set = datagrams(spec, 0.2);
+        let frames: usize = set.iter().map(|(_, _, f)| f).sum();
+        let per_port = set.iter().filter(|(p, _, _)| *p == 0).count() as u32;
+        let label = format!("{:.0}", frames as f64 / set.len() as f64);
+        let mut interface = Ingest::new(&ports);
+        let mut events = Vec::with_capacity(2 * frames);
+        let mut pass = 0u32;
+        group.throughput(Throughput::Elements(frames as u64));
+        group.bench_function(BenchmarkId::new("frames_per_datagram", label), |b| {
+            b.iter(|| {
+                // Each pass continues every port's sequence, as a running skin would.
+                pass += 1;
+                let mut samples = 0usize;
+                for (port, bytes, _) in &mut set {
+                    let seq = u32::from_le_bytes([bytes[4], bytes[5], bytes[6], bytes[7]]).wrapping_add(per_port);
+                    bytes[4..8].copy_from_slice(&seq.to_le_bytes());
+                    events.clear();
+                    interface.datagram(source(*port), bytes, u64::from(pass) * 200_000, &mut events);
+                    samples += events.iter().filter(|e| matches!(e.kind, EventKind::Sample(_))).count();
+                }
+                black_box(samples)
+            })
+        });
+        assert!(interface.counters().balanced());
+        assert_eq!(interface.counters().frames.accepted, interface.counters().frames.received);
+    }
+    group.finish();
+}
+
+/// CPU time of the calling thread in seconds (Linux), for the load it carries.
+fn thread_cpu_s() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    Some(text.split_whitespace().next()?.parse::<f64>().ok()? / 1e9)
+}
+
+/// UDP receive-buffer overflows of the whole system (Linux), an independent
+/// witness of loss in the kernel.
+fn rcvbuf_errors() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/net/snmp").ok()?;
+    let mut udp = text.lines().filter(|l| l.starts_with("Udp:"));
+    let names: Vec<&str> = udp.next()?.split_whitespace().collect();
+    let values: Vec<&str> = udp.next()?.split_whitespace().collect();
+    values.get(names.iter().position(|n| *n == "RcvbufErrors")?)?.parse().ok()
+}
+
+struct Received {
+    counters: Counters,
+    samples: u64,
+    cpu_s: Option<f64>,
+    busy_s: f64,
+    recv_buffer_bytes: usize,
+}
+
+/// Runs the load generator against an interface polled on its own thread.
+fn loopback(spec: LoadSpec, pace: Pace, seconds: f64) -> (skin_host::interface::loadgen::LoadReport, Received) {
+    let config = InterfaceConfig {
+        listen: SocketAddr::from(([127, 0, 0, 1], 0)),
+        ports: (0..spec.ports).map(|number| PortConfig { number, address: None }).collect(),
+        ..InterfaceConfig::default()
+    };
+    let mut interface = Interface::bind(&config).expect("bind the interface on loopback");
+    let host = interface.local_addr();
+    let stop = Arc::new(AtomicBool::new(false));
+    let receiver = {
+        let stop = stop.clone();
+        thread::spawn(move || {
+            let cpu0 = thread_cpu_s();
+            let mut events = Vec::new();
+            let (mut first, mut last, mut samples) = (None, Instant::now(), 0u64);
+            loop {
+                events.clear();
+                let n = interface.poll(Duration::from_millis(50), &mut events).expect("poll");
+                if n > 0 {
+                    first.get_or_insert_with(Instant::now);
+                    last = Instant::now();
+                    samples += events.iter().filter(|e| matches!(e.kind, EventKind::Sample(_))).count() as u64;
+                } else if stop.load(Ordering::Relaxed) {
+                    break;
+                }
+            }
+            Received {
+                counters: *interface.counters(),
+                samples,
+                cpu_s: thread_cpu_s().zip(cpu0).map(|(b, a)| b - a),
+                busy_s: first.map_or(0.0, |f| (last - f).as_secs_f64()),
+                recv_buffer_bytes: interface.recv_buffer_bytes(),
+            }
+        })
+    };
+    let mut generator = LoadGen::new(spec, host).expect("open the load generator's sockets");
+    let sent = generator.run(Duration::from_secs_f64(seconds), pace, |_| {});
+    stop.store(true, Ordering::Relaxed);
+    (sent, receiver.join().expect("receiver thread"))
+}
+
+fn loopback_report(seconds: f64) {
+    println!("\nLoopback, {seconds} s per run (load generator and interface each on one thread):");
+    let flat = heavy_skin(1_000_000);
+    let drops0 = rcvbuf_errors();
+    let (sent, got) = loopback(flat, Pace::FlatOut, seconds);
+    let f = got.counters.frames;
+    println!(
+        "  flat out, {:.1} frames/datagram: sent {} frames, decoded {} ({} samples dispatched), lost {}\n    \
+         {:.0} frames/s decoded over {:.2} s; receiving thread: {}",
+        sent.frames as f64 / sent.datagrams.max(1) as f64,
+        sent.frames,
+        f.accepted,
+        got.samples,
+        sent.frames - f.accepted.min(sent.frames),
+        f.accepted as f64 / got.busy_s.max(1e-9),
+        got.busy_s,
+        got.cpu_s.map_or("CPU time unknown".into(), |cpu| format!(
+            "{cpu:.2} s CPU = {:.0} frames per CPU-second",
+            f.accepted as f64 / cpu
+        )),
+    );
+    println!("    kernel UDP receive-buffer overflows (system-wide): {}", delta(drops0, rcvbuf_errors()));
+
+    for (flush_us, what) in [(1000, "each port sends every 1 ms"), (0, "one datagram per frame")] {
+        let spec = heavy_skin(flush_us);
+        let rate = spec.sample_rate_hz();
+        let drops0 = rcvbuf_errors();
+        let (sent, got) = loopback(spec, Pace::RealTime, seconds);
+        let c = got.counters;
+        let lost = sent.frames - c.frames.accepted.min(sent.frames);
+        println!(
+            "  {rate:.0} frames/s clock-driven, {what} ({:.1} frames/datagram): sent {} frames in {} datagrams \
+             over {:.2} s (sender at worst {} us behind its clock)\n    \
+             lost {lost} frames ({:.4} %), datagrams missing by sequence {}, rejected {}, \
+             receiving thread {}; socket receive buffer {} bytes granted (asked {})",
+            sent.frames as f64 / sent.datagrams.max(1) as f64,
+            sent.frames,
+            sent.datagrams,
+            sent.wall_time_s,
+            sent.behind_max_us,
+            100.0 * lost as f64 / sent.frames.max(1) as f64,
+            c.datagrams.missing,
+            c.datagrams.rejected_total() + c.frames.rejected_total(),
+            got.cpu_s.map_or("CPU unknown".into(), |cpu| format!("{:.1} % of a core", 100.0 * cpu / sent.wall_time_s)),
+            got.recv_buffer_bytes,
+            InterfaceConfig::default().recv_buffer_bytes,
+        );
+        println!("    kernel UDP receive-buffer overflows (system-wide): {}", delta(drops0, rcvbuf_errors()));
+    }
+}
+
+fn delta(before: Option<u64>, after: Option<u64>) -> String {
+    match (before, after) {
+        (Some(a), Some(b)) => (b - a).to_string(),
+        _ => "unknown".into(),
+    }
+}
+
+fn main() {
+    let mut criterion = Criterion::default().configure_from_args();
+    ingest(&mut criterion);
+    criterion.final_summary();
+    let seconds = std::env::var("SKIN_BENCH_SECONDS").ok().and_then(|s| s.parse().ok()).unwrap_or(10.0);
+    loopback_report(seconds);
+}
