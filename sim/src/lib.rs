@@ -10,10 +10,12 @@
 //! - [`skin`]: placing cells on link surfaces or from a skin file.
 //! - [`accel`]: the BMA250 accelerometer model.
 //! - [`world`]: robot, base and skin stepped together at 250 Hz.
+//! - [`network`]: the cell network, every cell running the firmware's protocol code.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod accel;
+pub mod network;
 pub mod robot;
 pub mod skin;
 pub mod world;

@@ -1,0 +1,74 @@
+//! A minimal host, for runs without the real one: it hands out IDs with
+//! the protocol's [`Allocator`] and keeps the neighbour table the cells
+//! report, so a run can check self-organization against the wiring.
+
+use std::collections::BTreeMap;
+
+use skin_protocol::address::Address;
+use skin_protocol::frame::Frame;
+use skin_protocol::interface::{self, Datagram, DatagramHeader, MAX_DATAGRAM, MAX_FRAMES};
+use skin_protocol::message::{Message, Neighbour};
+use skin_protocol::organize::Allocator;
+
+/// The host side of phase 3 and 4.
+#[derive(Debug, Default)]
+pub struct Host {
+    allocator: Allocator,
+    tables: BTreeMap<Address, [Option<Neighbour>; 4]>,
+    seq: BTreeMap<u8, u32>,
+    /// Datagrams or frames from the skin that did not parse.
+    pub rejected: u64,
+}
+
+impl Host {
+    /// A host that knows no cell yet.
+    pub fn new() -> Host {
+        Host::default()
+    }
+
+    /// Takes a datagram from the skin; returns the datagrams to send back
+    /// (ID assignments, to the interface port the requests came from).
+    pub fn receive(&mut self, bytes: &[u8]) -> Vec<Vec<u8>> {
+        let Ok(d) = Datagram::parse(bytes) else {
+            self.rejected += 1;
+            return Vec::new();
+        };
+        let mut replies: Vec<Frame> = Vec::new();
+        for frame in d.frames() {
+            let Ok((frame, message)) = frame.and_then(|f| Ok((f, f.message()?))) else {
+                self.rejected += 1;
+                continue;
+            };
+            self.allocator.observe(frame.src());
+            match message {
+                Message::IdRequest(r) => replies.extend(self.allocator.request(r)),
+                Message::NeighbourReport(r) => {
+                    self.tables.insert(frame.src(), r.neighbours);
+                }
+                _ => {}
+            }
+        }
+        let k = d.header().interface;
+        replies
+            .chunks(MAX_FRAMES)
+            .map(|frames| {
+                let seq = self.seq.entry(k).or_default();
+                let header = DatagramHeader { interface: k, seq: *seq, timestamp_us: d.header().timestamp_us };
+                *seq = seq.wrapping_add(1);
+                let mut buf = [0u8; MAX_DATAGRAM];
+                let len = interface::encode(header, frames, &mut buf).expect("1..=72 frames fit");
+                buf[..len].to_vec()
+            })
+            .collect()
+    }
+
+    /// The latest neighbour table cell `id` reported.
+    pub fn table(&self, id: Address) -> Option<&[Option<Neighbour>; 4]> {
+        self.tables.get(&id)
+    }
+
+    /// Cell IDs handed out or seen.
+    pub fn ids_in_use(&self) -> usize {
+        self.allocator.used()
+    }
+}

@@ -1,0 +1,63 @@
+//! A discrete-event simulator of skin networks (section 2.2).
+//!
+//! Every simulated cell runs the firmware's own protocol code
+//! ([`skin_protocol::cell::Cell`] and [`skin_protocol::processing::Processor`]),
+//! every interface port a [`skin_protocol::organize::Sink`], on a virtual
+//! clock, over links timed as on the real skin (4 Mbit/s UART, 20-byte
+//! frames, round-robin routing; 1 Gbit/s UDP at the interface).
+//!
+//! - [`topology`]: hexagonal patches, cables, graph files, interface ports.
+//! - [`link`]: frame timing and bit errors.
+//! - [`scheduler`]: the event queue.
+//! - [`stimulus`]: raw sensor samples of a quiet, touched or grasping skin.
+//! - [`fault`]: cut links, dead and rebooting cells, dead interface ports.
+//! - [`ledger`]: where every frame went; latency histograms.
+//! - [`simulator`]: the [`Network`] itself: build, step, datagrams out and in.
+//! - [`host`]: a minimal host (ID allocation, neighbour table) for runs
+//!   without the real one.
+//! - [`transport`]: datagrams in memory or over a loopback UDP socket.
+//! - [`model`]: the paper's capacity figures from the link model.
+//! - [`scenario`]: one whole run (organize, traffic, faults) and its [`Report`].
+
+pub mod fault;
+pub mod host;
+pub mod ledger;
+pub mod link;
+pub mod model;
+pub mod scenario;
+pub mod scheduler;
+pub mod simulator;
+pub mod stimulus;
+pub mod topology;
+pub mod transport;
+
+pub use scenario::{Report, Scenario};
+pub use simulator::{HostDatagram, Network, NetworkConfig};
+pub use topology::Topology;
+
+/// What can go wrong building or running a network simulation.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum NetworkError {
+    /// The wiring is not a skin: a port wired twice, a missing cell, no
+    /// interface port.
+    #[error("topology: {0}")]
+    Topology(String),
+    /// A topology file cannot be read or parsed.
+    #[error("{path}: {why}")]
+    File {
+        /// The file.
+        path: String,
+        /// What is wrong with it.
+        why: String,
+    },
+    /// A command-line value is out of range or malformed.
+    #[error("{0}")]
+    Flag(String),
+    /// Bytes from the host are not a datagram.
+    #[error("datagram from the host: {0}")]
+    Datagram(skin_protocol::interface::DatagramError),
+    /// The UDP socket failed.
+    #[error("udp: {0}")]
+    Udp(#[from] std::io::Error),
+}

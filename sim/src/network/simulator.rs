@@ -1,0 +1,919 @@
+//! The discrete-event network: cells running the firmware's protocol code
+//! on a virtual clock, joined by timed links, with interface ports that
+//! speak UDP datagrams to a host.
+//!
+//! Every cell is a [`Cell`] (organize + router) fed by a [`Processor`]
+//! sampling its sensors; every interface port is a [`Sink`]. Nothing
+//! happens on a fixed tick: a cell is visited when a frame reaches it, when
+//! its sensors are due, or at its own [`Cell::poll_at`]; a transmitter
+//! starts when a frame is queued for an idle port and asks for the next one
+//! when its frame has left. Quiet cells thus cost their sampling and their
+//! keep-alive only.
+//!
+//! The simulator follows each upstream frame through the router queues by
+//! watching their lengths (they are FIFO), so it knows, without looking
+//! into the firmware's queues, when each frame was made, how long it waited
+//! in each cell and where it was lost.
+
+use std::collections::VecDeque;
+
+use skin_protocol::address::Address;
+use skin_protocol::cell::{Cell, SendError};
+use skin_protocol::frame::{Frame, Kind, FRAME_LEN};
+use skin_protocol::interface::{self, Datagram, DatagramHeader, MAX_DATAGRAM, MAX_FRAMES};
+use skin_protocol::message::{ConfigAck, Message, Neighbour, Port, Setting, TrafficMode};
+use skin_protocol::organize::{Config, FromCell, Sink};
+use skin_protocol::processing::Processor;
+use skin_protocol::router::Counters;
+
+use super::fault::{FaultKind, REBOOT_DOWN_NS};
+use super::ledger::{DropReason, Histogram, Ledger};
+use super::link::{BitErrors, LinkTiming};
+use super::scheduler::Scheduler;
+use super::stimulus::{Stimulus, StimulusKind};
+use super::topology::{PortRef, Topology};
+use super::NetworkError;
+
+/// Cells boot within this time of power-up, in a random order.
+const BOOT_SPREAD_NS: u64 = 5_000_000;
+/// The own queue's index in `Router::upstream_lens`.
+const OWN: usize = 4;
+
+/// What a network is made of, besides its wiring.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NetworkConfig {
+    /// Link timing.
+    pub timing: LinkTiming,
+    /// Self-organization timing of cells and interface ports.
+    pub organize: Config,
+    /// Sampling rate of every cell.
+    pub rate_hz: f32,
+    /// Clock- or event-driven sending.
+    pub traffic: TrafficMode,
+    /// What the skin feels.
+    pub stimulus: StimulusKind,
+    /// Bit-error rate of every cell-2-cell wire.
+    pub bit_error_rate: f64,
+    /// Seed of boot order, sampling phases, sensor noise and bit errors.
+    pub seed: u64,
+}
+
+impl Default for NetworkConfig {
+    fn default() -> Self {
+        NetworkConfig {
+            timing: LinkTiming::default(),
+            organize: Config::default(),
+            rate_hz: 250.0,
+            traffic: TrafficMode::Clock,
+            stimulus: StimulusKind::Quiet,
+            bit_error_rate: 0.0,
+            seed: 0,
+        }
+    }
+}
+
+/// A datagram an interface port sent to the host, and when it arrived.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct HostDatagram {
+    /// Virtual time of arrival at the host.
+    pub at_ns: u64,
+    /// The datagram in the `interface` format.
+    pub bytes: Vec<u8>,
+}
+
+/// One end of a wire.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum End {
+    Cell(u32, Port),
+    Interface(u8),
+}
+
+impl End {
+    fn cell(p: PortRef) -> End {
+        End::Cell(p.cell as u32, p.port)
+    }
+}
+
+/// An upstream frame in a router queue, as the simulator follows it.
+#[derive(Clone, Copy, Debug)]
+struct Entry {
+    created_ns: u64,
+    /// When it was received (for a forwarded frame) or made.
+    since_ns: u64,
+    /// It entered an empty queue: its wait is bounded by one round robin.
+    head: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Power {
+    Off,
+    On,
+    Dead,
+}
+
+/// A simulated cell: the firmware's network stack and processing, its
+/// transmitters and its ID store.
+#[derive(Debug)]
+struct Node {
+    cell: Option<Cell>,
+    store: Option<Address>,
+    processor: Processor,
+    power: Power,
+    epoch: u32,
+    busy_until_ns: [u64; 4],
+    waking: [bool; 4],
+    poll_ns: u64,
+    shadow: [VecDeque<Entry>; 5],
+    /// Router counters of earlier lives (before reboots).
+    retired: Counters,
+}
+
+#[derive(Debug)]
+struct Interface {
+    sink: Sink,
+    at: Option<PortRef>,
+    alive: bool,
+    busy_until_ns: u64,
+    waking: bool,
+    /// Frames for the host waiting for the Ethernet, with their creation
+    /// time when followed.
+    up: VecDeque<(Frame, Option<u64>)>,
+    seq: u32,
+    /// Frames received from the cell since measuring began, and how many
+    /// of them were sensor data.
+    from_cell: u64,
+    data_from_cell: u64,
+}
+
+#[derive(Debug)]
+enum Event {
+    PowerOn(usize),
+    Poll(usize, u32),
+    Sample(usize, u32),
+    TxFree(End),
+    Arrive { from: End, to: End, bytes: [u8; FRAME_LEN], corrupted: bool, created_ns: Option<u64> },
+    SinkPoll(u8),
+    EthernetFree,
+    ToHost { bytes: Vec<u8>, followed: u64 },
+    Fault(FaultKind),
+}
+
+/// What the network measured since [`Network::measure_from`].
+#[derive(Clone, Debug, Default)]
+pub struct Measurements {
+    /// Where every frame went (over the whole run).
+    pub ledger: Ledger,
+    /// Sensor frames (samples and tactile events): made to host.
+    pub latency: Histogram,
+    /// Tactile events: made to host.
+    pub event_latency: Histogram,
+    /// Longest stay of an upstream frame in one cell, from its last bit
+    /// received (or its making) to its last bit sent, when it found its
+    /// input queue empty: the round-robin bound.
+    pub forwarding_head_ns: u64,
+    /// Longest stay of any upstream frame in one cell.
+    pub forwarding_any_ns: u64,
+    /// Samples taken by cells that have an ID.
+    pub samples: u64,
+    /// Sensor frames sent (samples and tactile events).
+    pub data_frames: u64,
+    /// Most sensor frames made in one sampling period, over all cells.
+    pub peak_data_frames_per_period: u64,
+    /// Frames the interface ports received from their cells, and how many
+    /// of them were sensor data, per port.
+    pub interface_frames: Vec<(u64, u64)>,
+    /// Measuring time in ns.
+    pub measured_ns: u64,
+}
+
+/// A skin network on a virtual clock.
+#[derive(Debug)]
+pub struct Network {
+    config: NetworkConfig,
+    frame_ns: u64,
+    period_ns: u64,
+    nodes: Vec<Node>,
+    peers: Vec<[Option<End>; 4]>,
+    interfaces: Vec<Interface>,
+    ethernet_busy_until_ns: u64,
+    ethernet_waking: bool,
+    next_flush: usize,
+    events: Scheduler<Event>,
+    stimulus: Stimulus,
+    bit_errors: BitErrors,
+    phases: rand_chacha::ChaCha8Rng,
+    ready: VecDeque<HostDatagram>,
+    on_wires: u64,
+    followed_on_wires: u64,
+    followed_on_ethernet: u64,
+    measure_from_ns: u64,
+    window: (u64, u64),
+    m: Measurements,
+}
+
+/// Router counters, summed.
+fn add(a: &mut Counters, b: &Counters) {
+    a.forwarded_up += b.forwarded_up;
+    a.forwarded_down += b.forwarded_down;
+    a.sent_own += b.sent_own;
+    a.sent_link += b.sent_link;
+    a.dropped_full += b.dropped_full;
+    a.dropped_reroute += b.dropped_reroute;
+    a.corrupt += b.corrupt;
+}
+
+fn is_data(kind: Kind) -> bool {
+    matches!(kind, Kind::Sample | Kind::Event)
+}
+
+impl Network {
+    /// A network of `topology`'s cells, all powered up at time 0.
+    pub fn new(topology: &Topology, config: NetworkConfig) -> Result<Network, NetworkError> {
+        use rand::{Rng, SeedableRng};
+        if topology.interfaces().is_empty() {
+            return Err(NetworkError::Topology(
+                "no interface port: attach some (--interfaces N, or `interfaces` in the file)".into(),
+            ));
+        }
+        let processor = Self::processor(&config)?;
+        if !(0.0..=0.5).contains(&config.bit_error_rate) {
+            return Err(NetworkError::Flag(format!("bit-error rate {} is not in [0, 0.5]", config.bit_error_rate)));
+        }
+        let mut peers: Vec<[Option<End>; 4]> = topology.peers().iter().map(|ps| ps.map(|p| p.map(End::cell))).collect();
+        let mut interfaces = Vec::new();
+        for (k, at) in topology.interfaces().iter().enumerate() {
+            let sink = Sink::new(k as u8, config.organize, 0).ok_or_else(|| {
+                NetworkError::Topology(format!("{} interface ports; at most {}", k + 1, Address::MAX_INTERFACES))
+            })?;
+            peers[at.cell][at.port.index()] = Some(End::Interface(k as u8));
+            interfaces.push(Interface {
+                sink,
+                at: Some(*at),
+                alive: true,
+                busy_until_ns: 0,
+                waking: false,
+                up: VecDeque::new(),
+                seq: 0,
+                from_cell: 0,
+                data_from_cell: 0,
+            });
+        }
+        let mut events = Scheduler::default();
+        let mut boot = rand_chacha::ChaCha8Rng::seed_from_u64(config.seed);
+        let nodes = (0..topology.cells())
+            .map(|i| {
+                events.at(boot.random_range(0..BOOT_SPREAD_NS), Event::PowerOn(i));
+                Node {
+                    cell: None,
+                    store: None,
+                    processor: processor.clone(),
+                    power: Power::Off,
+                    epoch: 0,
+                    busy_until_ns: [0; 4],
+                    waking: [false; 4],
+                    poll_ns: u64::MAX,
+                    shadow: Default::default(),
+                    retired: Counters::default(),
+                }
+            })
+            .collect();
+        for k in 0..interfaces.len() {
+            events.at(0, Event::SinkPoll(k as u8));
+        }
+        let m = Measurements { interface_frames: vec![(0, 0); interfaces.len()], ..Measurements::default() };
+        Ok(Network {
+            frame_ns: config.timing.frame_ns(),
+            period_ns: processor.period_us() * 1000,
+            nodes,
+            peers,
+            interfaces,
+            ethernet_busy_until_ns: 0,
+            ethernet_waking: false,
+            next_flush: 0,
+            events,
+            stimulus: Stimulus::new(config.stimulus, topology.positions_m(), config.seed ^ 0x5717_0001),
+            bit_errors: BitErrors::new(config.bit_error_rate, config.seed ^ 0xB17E_0002),
+            phases: rand_chacha::ChaCha8Rng::seed_from_u64(config.seed ^ 0xF0A5_0003),
+            ready: VecDeque::new(),
+            on_wires: 0,
+            followed_on_wires: 0,
+            followed_on_ethernet: 0,
+            measure_from_ns: 0,
+            window: (0, 0),
+            m,
+            config,
+        })
+    }
+
+    /// A cell's processing as the network's settings ask (kept in the
+    /// cell's flash, so a reboot keeps them).
+    fn processor(config: &NetworkConfig) -> Result<Processor, NetworkError> {
+        let mut p = Processor::new();
+        if !p.apply(&Setting::SampleRateHz(config.rate_hz)) {
+            return Err(NetworkError::Flag(format!("rate {} Hz: use a rate in (0, 10000] Hz", config.rate_hz)));
+        }
+        p.apply(&Setting::Traffic(config.traffic));
+        Ok(p)
+    }
+
+    /// The settings the network was built with.
+    pub fn config(&self) -> &NetworkConfig {
+        &self.config
+    }
+
+    /// Virtual time in nanoseconds.
+    pub fn now_ns(&self) -> u64 {
+        self.events.now_ns()
+    }
+
+    fn now_us(&self) -> u64 {
+        self.now_ns() / 1000
+    }
+
+    /// Number of cells.
+    pub fn cells(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Number of interface ports.
+    pub fn interfaces(&self) -> usize {
+        self.interfaces.len()
+    }
+
+    /// The network stack of cell `i` while it is powered.
+    pub fn cell(&self, i: usize) -> Option<&Cell> {
+        self.nodes.get(i).and_then(|n| n.cell.as_ref())
+    }
+
+    /// Starts measuring latency and traffic now; the ledger keeps counting
+    /// from the start.
+    pub fn measure_from(&mut self) {
+        self.measure_from_ns = self.now_ns();
+        self.window = (self.now_ns() / self.period_ns, 0);
+        let ledger = std::mem::take(&mut self.m.ledger);
+        self.m =
+            Measurements { ledger, interface_frames: vec![(0, 0); self.interfaces.len()], ..Measurements::default() };
+        for i in &mut self.interfaces {
+            (i.from_cell, i.data_from_cell) = (0, 0);
+        }
+    }
+
+    /// What was measured, up to now.
+    pub fn measurements(&self) -> Measurements {
+        let mut m = self.m.clone();
+        m.peak_data_frames_per_period = m.peak_data_frames_per_period.max(self.window.1);
+        m.interface_frames = self.interfaces.iter().map(|i| (i.from_cell, i.data_from_cell)).collect();
+        m.measured_ns = self.now_ns() - self.measure_from_ns;
+        m
+    }
+
+    /// Upstream frames in queues, on wires, at interface ports or on the
+    /// Ethernet, as followed by the simulator.
+    pub fn upstream_in_network(&self) -> u64 {
+        let queued: usize = self.nodes.iter().flat_map(|n| n.shadow.iter()).map(VecDeque::len).sum();
+        let at_interfaces: usize =
+            self.interfaces.iter().map(|i| i.up.iter().filter(|(_, c)| c.is_some()).count()).sum();
+        (queued + at_interfaces) as u64 + self.followed_on_wires + self.followed_on_ethernet
+    }
+
+    /// True when both books of the ledger add up, and the simulator's view
+    /// of every router's upstream queues matches the router.
+    pub fn balanced(&self) -> bool {
+        let queues_agree = self.nodes.iter().all(|n| match &n.cell {
+            Some(c) => c.router().upstream_lens().iter().zip(&n.shadow).all(|(l, s)| *l == s.len()),
+            None => n.shadow.iter().all(VecDeque::is_empty),
+        });
+        queues_agree && self.m.ledger.balanced(self.upstream_in_network(), self.on_wires)
+    }
+
+    /// Router counters of all cells over all their lives.
+    pub fn router_counters(&self) -> Counters {
+        let mut sum = Counters::default();
+        for n in &self.nodes {
+            add(&mut sum, &n.retired);
+            if let Some(c) = &n.cell {
+                add(&mut sum, c.router().counters());
+            }
+        }
+        sum
+    }
+
+    /// Frames waiting in routers (all kinds) and interface ports.
+    pub fn queued(&self) -> u64 {
+        let cells: usize = self.nodes.iter().filter_map(|n| n.cell.as_ref()).map(|c| c.router().queued()).sum();
+        let ifs: usize = self.interfaces.iter().map(|i| i.up.len() + i.sink.queued()).sum();
+        (cells + ifs) as u64
+    }
+
+    /// Frames on wires right now.
+    pub fn on_wires(&self) -> u64 {
+        self.on_wires
+    }
+
+    /// Schedules a fault at virtual time `at_ns`.
+    pub fn schedule_fault(&mut self, at_ns: u64, fault: FaultKind) -> Result<(), NetworkError> {
+        let ok = match fault {
+            FaultKind::Cut(p) => self.peers.get(p.cell).is_some_and(|ps| ps[p.port.index()].is_some()),
+            FaultKind::Dead(c) | FaultKind::Reboot(c) => c < self.nodes.len(),
+            FaultKind::InterfaceDown(k) => usize::from(k) < self.interfaces.len(),
+        };
+        if !ok {
+            return Err(NetworkError::Flag(format!(
+                "fault {fault:?} names no link, cell or interface port of this skin"
+            )));
+        }
+        self.events.at(at_ns, Event::Fault(fault));
+        Ok(())
+    }
+
+    /// Runs until `until_ns` or until a datagram reaches the host,
+    /// whichever comes first, and returns that datagram.
+    pub fn step(&mut self, until_ns: u64) -> Option<HostDatagram> {
+        loop {
+            if let Some(d) = self.ready.pop_front() {
+                return Some(d);
+            }
+            let Some(event) = self.events.pop_until(until_ns) else {
+                self.events.advance(until_ns);
+                return None;
+            };
+            self.handle(event);
+        }
+    }
+
+    /// Hands a datagram from the host to its interface port, now. Frames
+    /// the port has no room for are dropped and counted.
+    pub fn inject(&mut self, bytes: &[u8]) -> Result<(), NetworkError> {
+        let d = Datagram::parse(bytes).map_err(NetworkError::Datagram)?;
+        let k = d.header().interface;
+        let Some(i) = self.interfaces.get_mut(usize::from(k)) else {
+            return Err(NetworkError::Flag(format!("datagram for interface port {k}, which this skin does not have")));
+        };
+        for frame in d.frames() {
+            match frame {
+                Ok(f) if i.alive => {
+                    if i.sink.send(f).is_err() {
+                        self.m.ledger.host_frames_refused += 1;
+                    }
+                }
+                _ => self.m.ledger.host_frames_refused += 1,
+            }
+        }
+        self.kick_interface(k);
+        Ok(())
+    }
+
+    /// Who is on each port of cell `i` on the live wiring, as the cell
+    /// should have learned it: `None` for a free or cut port, a dead or
+    /// ID-less neighbour.
+    pub fn true_neighbours(&self, i: usize) -> [Option<Neighbour>; 4] {
+        self.peers[i].map(|end| match end? {
+            End::Cell(j, q) => {
+                let id = self.nodes[j as usize].cell.as_ref()?.id();
+                id.is_cell().then_some(Neighbour { id, port: q })
+            }
+            End::Interface(k) => self.interfaces[usize::from(k)]
+                .alive
+                .then(|| Neighbour { id: self.interfaces[usize::from(k)].sink.address(), port: Port::P0 }),
+        })
+    }
+
+    /// Hops from each powered cell to its nearest live interface port over
+    /// live links and powered cells; `None` when cut off or unpowered.
+    pub fn true_hops(&self) -> Vec<Option<u16>> {
+        let on = |c: usize| self.nodes[c].power == Power::On;
+        let peers: Vec<[Option<PortRef>; 4]> = (0..self.nodes.len())
+            .map(|c| {
+                self.peers[c].map(|e| match e {
+                    Some(End::Cell(j, q)) if on(c) && on(j as usize) => Some(PortRef::new(j as usize, q)),
+                    _ => None,
+                })
+            })
+            .collect();
+        let roots: Vec<PortRef> =
+            self.interfaces.iter().filter(|i| i.alive).filter_map(|i| i.at).filter(|p| on(p.cell)).collect();
+        Topology::hops(&peers, &roots)
+    }
+
+    fn handle(&mut self, event: Event) {
+        match event {
+            Event::PowerOn(i) => self.power_on(i),
+            Event::Poll(i, epoch) => {
+                let now_us = self.now_us();
+                let n = &mut self.nodes[i];
+                if n.epoch != epoch || n.power != Power::On || n.poll_ns != self.events.now_ns() {
+                    return;
+                }
+                n.poll_ns = u64::MAX;
+                if n.cell.as_ref().is_some_and(|c| c.poll_at() <= now_us) {
+                    self.touch(i, None, |c, _, now| c.poll(now));
+                }
+                self.settle(i);
+            }
+            Event::Sample(i, epoch) => {
+                if self.nodes[i].epoch == epoch && self.nodes[i].power == Power::On {
+                    self.sample(i);
+                }
+            }
+            Event::TxFree(end) => match end {
+                End::Cell(i, p) => {
+                    self.nodes[i as usize].waking[p.index()] = false;
+                    self.kick_cell(i as usize, p);
+                }
+                End::Interface(k) => {
+                    self.interfaces[usize::from(k)].waking = false;
+                    self.kick_interface(k);
+                }
+            },
+            Event::Arrive { from, to, bytes, corrupted, created_ns } => {
+                self.arrive(from, to, bytes, corrupted, created_ns)
+            }
+            Event::SinkPoll(k) => {
+                let now_us = self.now_us();
+                let i = &mut self.interfaces[usize::from(k)];
+                if !i.alive {
+                    return;
+                }
+                i.sink.poll(now_us);
+                let next = i.sink.poll_at().max(now_us + 1) * 1000;
+                self.events.at(next, Event::SinkPoll(k));
+                self.kick_interface(k);
+            }
+            Event::EthernetFree => {
+                self.ethernet_waking = false;
+                self.flush();
+            }
+            Event::ToHost { bytes, followed } => {
+                self.followed_on_ethernet -= followed;
+                self.m.ledger.delivered += followed;
+                self.ready.push_back(HostDatagram { at_ns: self.now_ns(), bytes });
+            }
+            Event::Fault(f) => self.fault(f),
+        }
+    }
+
+    fn power_on(&mut self, i: usize) {
+        use rand::Rng;
+        let now_us = self.now_us();
+        let phase_ns = self.phases.random_range(0..self.period_ns);
+        let n = &mut self.nodes[i];
+        if n.power == Power::Dead {
+            return;
+        }
+        n.power = Power::On;
+        n.epoch += 1;
+        n.cell = Some(Cell::new(self.config.organize, &n.store, now_us));
+        n.processor = Self::processor(&self.config).expect("checked when the network was built");
+        self.events.at(self.events.now_ns() + phase_ns, Event::Sample(i, n.epoch));
+        self.settle(i);
+    }
+
+    /// Runs `f` on cell `i` and books what it did to the upstream queues:
+    /// frames that entered (made by the cell, or `arriving`, made at that
+    /// time) and frames the router dropped. Returns `f`'s result and
+    /// whether `dropped_full` moved.
+    fn touch<R>(
+        &mut self,
+        i: usize,
+        arriving: Option<u64>,
+        f: impl FnOnce(&mut Cell, &mut Option<Address>, u64) -> R,
+    ) -> (R, bool) {
+        let now_ns = self.events.now_ns();
+        let n = &mut self.nodes[i];
+        let cell = n.cell.as_mut().expect("only powered cells are touched");
+        let before = cell.router().upstream_lens();
+        let full_before = cell.router().counters().dropped_full;
+        let r = f(cell, &mut n.store, now_ns / 1000);
+        let after = cell.router().upstream_lens();
+        let full = cell.router().counters().dropped_full != full_before;
+        for q in 0..5 {
+            let (b, a) = (before[q], after[q]);
+            if a < b {
+                // A queue is only ever cleared (its port became the master).
+                let lost = n.shadow[q].len() as u64;
+                n.shadow[q].clear();
+                self.m.ledger.drop_upstream(DropReason::Reroute, lost);
+            }
+            let fresh = if a < b { a } else { a - b };
+            for k in 0..fresh {
+                let created_ns = match arriving {
+                    Some(t) if q != OWN => t,
+                    _ => {
+                        self.m.ledger.entered += 1;
+                        now_ns
+                    }
+                };
+                let since_ns = if q == OWN { now_ns } else { now_ns - self.config.timing.processing_ns };
+                n.shadow[q].push_back(Entry { created_ns, since_ns, head: b == 0 && k == 0 });
+            }
+        }
+        (r, full)
+    }
+
+    /// After a cell was touched: start idle transmitters that have frames,
+    /// and wake the cell at its next deadline.
+    fn settle(&mut self, i: usize) {
+        for p in Port::ALL {
+            self.kick_cell(i, p);
+        }
+        let n = &mut self.nodes[i];
+        let Some(cell) = &n.cell else { return };
+        let at = cell.poll_at().saturating_mul(1000).max(self.events.now_ns());
+        if at < n.poll_ns {
+            n.poll_ns = at;
+            self.events.at(at, Event::Poll(i, n.epoch));
+        }
+    }
+
+    fn sample(&mut self, i: usize) {
+        let now_ns = self.events.now_ns();
+        let raw = self.stimulus.raw(i, now_ns as f64 * 1e-9);
+        let n = &mut self.nodes[i];
+        let outs = n.processor.process(&raw);
+        let next = now_ns + n.processor.period_us() * 1000;
+        self.events.at(next, Event::Sample(i, n.epoch));
+        let measuring = now_ns >= self.measure_from_ns;
+        let has_id = n.cell.as_ref().is_some_and(|c| c.id().is_cell());
+        if measuring && has_id {
+            self.m.samples += 1;
+        }
+        for message in &outs {
+            self.send_own(i, message, measuring);
+        }
+        self.settle(i);
+    }
+
+    /// A cell sends one of its own messages upstream.
+    fn send_own(&mut self, i: usize, message: &Message, measuring: bool) {
+        let (sent, _) = self.touch(i, None, |c, _, _| c.send(message));
+        match sent {
+            Ok(()) if measuring && is_data(message.kind()) => {
+                self.m.data_frames += 1;
+                let w = self.events.now_ns() / self.period_ns;
+                if w != self.window.0 {
+                    self.m.peak_data_frames_per_period = self.m.peak_data_frames_per_period.max(self.window.1);
+                    self.window = (w, 0);
+                }
+                self.window.1 += 1;
+            }
+            Ok(()) | Err(SendError::NoId) => {}
+            Err(SendError::QueueFull) => {
+                self.m.ledger.entered += 1;
+                self.m.ledger.drop_upstream(DropReason::QueueFull, 1);
+            }
+        }
+    }
+
+    /// Starts cell `i`'s transmitter on port `p` if it is idle and has a
+    /// frame, or makes sure it is woken when it is free.
+    fn kick_cell(&mut self, i: usize, p: Port) {
+        let now_ns = self.events.now_ns();
+        let n = &mut self.nodes[i];
+        let Some(cell) = n.cell.as_mut() else { return };
+        if !cell.has_pending(p) {
+            return;
+        }
+        let busy = n.busy_until_ns[p.index()];
+        if busy > now_ns {
+            if !n.waking[p.index()] {
+                n.waking[p.index()] = true;
+                self.events.at(busy, Event::TxFree(End::Cell(i as u32, p)));
+            }
+            return;
+        }
+        let before = cell.router().upstream_lens();
+        let Some(frame) = cell.transmit(p) else { return };
+        let after = cell.router().upstream_lens();
+        let end_ns = now_ns + self.frame_ns;
+        let created_ns = (0..5).find(|q| after[*q] < before[*q]).and_then(|q| {
+            let e = n.shadow[q].pop_front()?;
+            let stay = end_ns - e.since_ns;
+            self.m.forwarding_any_ns = self.m.forwarding_any_ns.max(stay);
+            if e.head {
+                self.m.forwarding_head_ns = self.m.forwarding_head_ns.max(stay);
+            }
+            Some(e.created_ns)
+        });
+        n.busy_until_ns[p.index()] = end_ns;
+        if cell.has_pending(p) {
+            n.waking[p.index()] = true;
+            self.events.at(end_ns, Event::TxFree(End::Cell(i as u32, p)));
+        }
+        self.put_on_wire(End::Cell(i as u32, p), frame, created_ns);
+    }
+
+    fn kick_interface(&mut self, k: u8) {
+        let now_ns = self.events.now_ns();
+        let i = &mut self.interfaces[usize::from(k)];
+        if !i.alive {
+            return;
+        }
+        if i.busy_until_ns > now_ns {
+            if i.sink.queued() > 0 && !i.waking {
+                i.waking = true;
+                self.events.at(i.busy_until_ns, Event::TxFree(End::Interface(k)));
+            }
+            return;
+        }
+        let Some(frame) = i.sink.transmit() else { return };
+        i.busy_until_ns = now_ns + self.frame_ns;
+        if i.sink.queued() > 0 {
+            i.waking = true;
+            self.events.at(i.busy_until_ns, Event::TxFree(End::Interface(k)));
+        }
+        self.put_on_wire(End::Interface(k), frame, None);
+    }
+
+    fn peer(&self, end: End) -> Option<End> {
+        match end {
+            End::Cell(i, p) => self.peers[i as usize][p.index()],
+            End::Interface(k) => self.interfaces[usize::from(k)].at.map(End::cell),
+        }
+    }
+
+    fn put_on_wire(&mut self, from: End, frame: Frame, created_ns: Option<u64>) {
+        self.m.ledger.transmitted += 1;
+        let Some(to) = self.peer(from) else {
+            self.m.ledger.lost_no_link += 1;
+            if created_ns.is_some() {
+                self.m.ledger.drop_upstream(DropReason::NoLink, 1);
+            }
+            return;
+        };
+        let mut bytes = *frame.as_bytes();
+        let corrupted = self.bit_errors.corrupt(&mut bytes) > 0;
+        self.on_wires += 1;
+        self.followed_on_wires += u64::from(created_ns.is_some());
+        let processing = if matches!(to, End::Cell(..)) { self.config.timing.processing_ns } else { 0 };
+        let at = self.events.now_ns() + self.frame_ns + processing;
+        self.events.at(at, Event::Arrive { from, to, bytes, corrupted, created_ns });
+    }
+
+    fn arrive(&mut self, from: End, to: End, bytes: [u8; FRAME_LEN], corrupted: bool, created_ns: Option<u64>) {
+        self.on_wires -= 1;
+        self.followed_on_wires -= u64::from(created_ns.is_some());
+        let lost = |net: &mut Network, reason| {
+            if created_ns.is_some() {
+                net.m.ledger.drop_upstream(reason, 1);
+            }
+        };
+        if self.peer(from) != Some(to) {
+            self.m.ledger.lost_no_link += 1;
+            return lost(self, DropReason::NoLink);
+        }
+        let valid = !corrupted || Frame::parse(&bytes).is_ok_and(|f| f.message().is_ok());
+        match to {
+            End::Cell(i, p) => {
+                let i = i as usize;
+                if self.nodes[i].power != Power::On {
+                    self.m.ledger.lost_dead_receiver += 1;
+                    return lost(self, DropReason::DeadCell);
+                }
+                self.m.ledger.received += 1;
+                self.count_corruption(corrupted, valid);
+                let queued_before = self.nodes[i].shadow[p.index()].len();
+                let (delivered, full) = self.touch(i, created_ns, |c, store, now| c.receive(p, &bytes, now, store));
+                if !valid {
+                    lost(self, DropReason::Corrupt);
+                } else if created_ns.is_some() && self.nodes[i].shadow[p.index()].len() <= queued_before {
+                    // Refused by the router: full, or it came in on the master
+                    // port (a transient loop while the tree changes).
+                    lost(self, if full { DropReason::QueueFull } else { DropReason::Reroute });
+                }
+                if let Some((_, Message::ConfigWrite(w))) = delivered {
+                    let accepted = self.nodes[i].processor.apply(&w.setting);
+                    let ack = Message::ConfigAck(ConfigAck { tag: w.tag, accepted });
+                    self.send_own(i, &ack, false);
+                }
+                self.settle(i);
+            }
+            End::Interface(k) => {
+                let now_us = self.now_us();
+                let measuring = self.events.now_ns() >= self.measure_from_ns;
+                let i = &mut self.interfaces[usize::from(k)];
+                if !i.alive {
+                    self.m.ledger.lost_dead_receiver += 1;
+                    return lost(self, DropReason::DeadInterface);
+                }
+                self.m.ledger.received += 1;
+                match i.sink.receive(&bytes, now_us) {
+                    Err(_) => {
+                        self.m.ledger.corrupt_rejected += 1;
+                        lost(self, DropReason::Corrupt);
+                    }
+                    Ok(from_cell) => {
+                        if measuring {
+                            i.from_cell += 1;
+                        }
+                        if let FromCell::Host(frame) = from_cell {
+                            if measuring && is_data(frame.kind()) {
+                                i.data_from_cell += 1;
+                            }
+                            i.up.push_back((frame, created_ns));
+                        }
+                        if corrupted {
+                            self.m.ledger.corrupt_accepted += 1;
+                        }
+                        self.kick_interface(k);
+                        self.flush();
+                    }
+                }
+            }
+        }
+    }
+
+    fn count_corruption(&mut self, corrupted: bool, valid: bool) {
+        match (corrupted, valid) {
+            (true, true) => self.m.ledger.corrupt_accepted += 1,
+            (_, false) => self.m.ledger.corrupt_rejected += 1,
+            (false, true) => {}
+        }
+    }
+
+    /// Sends one datagram to the host when the Ethernet is free: the frames
+    /// of the next interface port (round robin) that has any.
+    fn flush(&mut self) {
+        let now_ns = self.events.now_ns();
+        if self.ethernet_busy_until_ns > now_ns {
+            if !self.ethernet_waking {
+                self.ethernet_waking = true;
+                self.events.at(self.ethernet_busy_until_ns, Event::EthernetFree);
+            }
+            return;
+        }
+        let count = self.interfaces.len();
+        let Some(k) = (0..count).map(|j| (self.next_flush + j) % count).find(|k| !self.interfaces[*k].up.is_empty())
+        else {
+            return;
+        };
+        self.next_flush = (k + 1) % count;
+        let i = &mut self.interfaces[k];
+        let take = i.up.len().min(MAX_FRAMES);
+        let batch: Vec<(Frame, Option<u64>)> = i.up.drain(..take).collect();
+        let frames: Vec<Frame> = batch.iter().map(|(f, _)| *f).collect();
+        let header = DatagramHeader { interface: k as u8, seq: i.seq, timestamp_us: now_ns / 1000 };
+        i.seq = i.seq.wrapping_add(1);
+        let mut buf = [0u8; MAX_DATAGRAM];
+        let len = interface::encode(header, &frames, &mut buf).expect("1..=72 frames fit a datagram");
+        let at_ns = now_ns + self.config.timing.datagram_ns(frames.len());
+        self.ethernet_busy_until_ns = at_ns;
+        let mut followed = 0;
+        for (frame, created) in &batch {
+            let Some(created) = created else { continue };
+            followed += 1;
+            if *created >= self.measure_from_ns && is_data(frame.kind()) {
+                let us = (at_ns - created) / 1000;
+                self.m.latency.record(us);
+                if frame.kind() == Kind::Event {
+                    self.m.event_latency.record(us);
+                }
+            }
+        }
+        self.followed_on_ethernet += followed;
+        self.events.at(at_ns, Event::ToHost { bytes: buf[..len].to_vec(), followed });
+        if self.interfaces.iter().any(|i| !i.up.is_empty()) {
+            self.ethernet_waking = true;
+            self.events.at(at_ns, Event::EthernetFree);
+        }
+    }
+
+    fn fault(&mut self, fault: FaultKind) {
+        match fault {
+            FaultKind::Cut(a) => {
+                if let Some(b) = self.peers[a.cell][a.port.index()].take() {
+                    match b {
+                        End::Cell(j, q) => self.peers[j as usize][q.index()] = None,
+                        End::Interface(k) => self.interfaces[usize::from(k)].at = None,
+                    }
+                }
+            }
+            FaultKind::Dead(c) => self.power_off(c, Power::Dead),
+            FaultKind::Reboot(c) => {
+                if self.nodes[c].power == Power::On {
+                    self.power_off(c, Power::Off);
+                    self.events.at(self.events.now_ns() + REBOOT_DOWN_NS, Event::PowerOn(c));
+                }
+            }
+            FaultKind::InterfaceDown(k) => {
+                let i = &mut self.interfaces[usize::from(k)];
+                i.alive = false;
+                let followed = i.up.iter().filter(|(_, c)| c.is_some()).count() as u64;
+                i.up.clear();
+                self.m.ledger.drop_upstream(DropReason::DeadInterface, followed);
+            }
+        }
+    }
+
+    fn power_off(&mut self, c: usize, power: Power) {
+        let n = &mut self.nodes[c];
+        n.power = power;
+        if let Some(cell) = n.cell.take() {
+            add(&mut n.retired, cell.router().counters());
+            self.m.ledger.lost_at_power_off += cell.router().queued() as u64;
+        }
+        let lost: usize = n.shadow.iter().map(VecDeque::len).sum();
+        n.shadow.iter_mut().for_each(VecDeque::clear);
+        n.poll_ns = u64::MAX;
+        self.m.ledger.drop_upstream(DropReason::DeadCell, lost as u64);
+    }
+}

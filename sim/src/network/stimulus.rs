@@ -1,0 +1,217 @@
+//! What the skin feels: raw sensor samples of every cell over time, for a
+//! quiet skin, a moving fingertip, or a whole-arm grasp.
+//!
+//! Each cell has its own baselines (proximity cross-talk, force-cell
+//! offset, gravity direction, temperature) and white sensor noise; contact
+//! adds force at the three force cells (Figure 3: 120 degrees apart, 7 mm
+//! off centre) and proximity that falls off with distance.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+use skin_protocol::sample::{Sample, FORCE_MAX, PROXIMITY_MAX};
+
+use super::NetworkError;
+
+/// Force cell full scale (Table 1: 0-10 N over 12 bits).
+pub const FORCE_FULL_SCALE_N: f64 = 10.0;
+/// Accelerometer counts per g at the +-2 g range (10 bits).
+const COUNTS_PER_G: f64 = 256.0;
+/// LM71 counts per degree Celsius.
+const COUNTS_PER_C: f64 = 32.0;
+/// White noise, one standard deviation in counts: proximity (VCNL4010),
+/// force (capacitive), acceleration (BMA250: about 4 mg rms), temperature.
+pub const NOISE_COUNTS: [f64; 4] = [3.0, 2.0, 1.0, 1.0];
+/// Distance over which proximity falls to 1/e.
+const PROXIMITY_DECAY_M: f64 = 0.015;
+/// Normalized proximity at touch (Table 3: close contact from 0.8).
+const PROXIMITY_AT_TOUCH: f64 = 0.85;
+/// Where the force cells sit: on a circle of 7 mm radius around the cell
+/// centre, 120 degrees apart.
+const FORCE_CELLS_M: [[f64; 2]; 3] = [[0.007, 0.0], [-0.0035, 0.006_062], [-0.0035, -0.006_062]];
+
+/// A stimulus the skin is exposed to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StimulusKind {
+    /// Nothing touches the skin.
+    Quiet,
+    /// A fingertip (2 N, 12 mm contact radius) slides across the skin at
+    /// 0.1 m/s, back and forth through its middle.
+    Touch,
+    /// A large object is grasped with the whole arm, every 5 s: it
+    /// approaches at 25 mm/s (2 s), is pressed in to 3 N per force cell
+    /// along a 60 mm wide band across the middle of the skin (1 s), held
+    /// while it slips slightly (1 s), let go (0.5 s) and taken away.
+    Grasp,
+}
+
+impl std::str::FromStr for StimulusKind {
+    type Err = NetworkError;
+    fn from_str(s: &str) -> Result<Self, NetworkError> {
+        match s {
+            "quiet" => Ok(StimulusKind::Quiet),
+            "touch" => Ok(StimulusKind::Touch),
+            "grasp" => Ok(StimulusKind::Grasp),
+            _ => Err(NetworkError::Flag(format!("stimulus `{s}`: use quiet, touch or grasp"))),
+        }
+    }
+}
+
+/// The resting state of one cell.
+#[derive(Clone, Copy, Debug)]
+struct Baseline {
+    proximity: f64,
+    force: [f64; 3],
+    gravity: [f64; 3],
+    temperature: f64,
+}
+
+/// Raw samples of every cell of a skin under one stimulus.
+#[derive(Clone, Debug)]
+pub struct Stimulus {
+    kind: StimulusKind,
+    positions_m: Vec<[f64; 2]>,
+    baselines: Vec<Baseline>,
+    lo: [f64; 2],
+    hi: [f64; 2],
+    rng: ChaCha8Rng,
+}
+
+impl Stimulus {
+    /// The stimulus `kind` on cells at `positions_m`, with baselines and
+    /// noise drawn from `seed`.
+    pub fn new(kind: StimulusKind, positions_m: &[[f64; 2]], seed: u64) -> Stimulus {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let baselines = positions_m
+            .iter()
+            .map(|_| {
+                // A cell glued on at some tilt: gravity within 45 degrees of -z.
+                let (tilt, turn) = (rng.random::<f64>() * std::f64::consts::FRAC_PI_4, rng.random::<f64>() * 6.3);
+                Baseline {
+                    proximity: 1_000.0 + 500.0 * rng.random::<f64>(),
+                    force: std::array::from_fn(|_| 40.0 + 30.0 * rng.random::<f64>()),
+                    gravity: [
+                        COUNTS_PER_G * tilt.sin() * turn.cos(),
+                        COUNTS_PER_G * tilt.sin() * turn.sin(),
+                        COUNTS_PER_G * tilt.cos(),
+                    ],
+                    temperature: COUNTS_PER_C * (30.0 + 4.0 * rng.random::<f64>()),
+                }
+            })
+            .collect();
+        let fold = |f: fn(f64, f64) -> f64, init: f64, k: usize| positions_m.iter().map(|p| p[k]).fold(init, f);
+        Stimulus {
+            kind,
+            positions_m: positions_m.to_vec(),
+            baselines,
+            lo: [fold(f64::min, f64::MAX, 0), fold(f64::min, f64::MAX, 1)],
+            hi: [fold(f64::max, f64::MIN, 0), fold(f64::max, f64::MIN, 1)],
+            rng,
+        }
+    }
+
+    /// The stimulus kind.
+    pub fn kind(&self) -> StimulusKind {
+        self.kind
+    }
+
+    /// Contact at a point of the skin at time `t_s`: force in newtons and
+    /// distance of the object in metres.
+    fn contact(&self, p: [f64; 2], t_s: f64) -> (f64, f64) {
+        let mid = [(self.lo[0] + self.hi[0]) / 2.0, (self.lo[1] + self.hi[1]) / 2.0];
+        match self.kind {
+            StimulusKind::Quiet => (0.0, f64::INFINITY),
+            StimulusKind::Touch => {
+                // Triangle wave over the width of the skin at 0.1 m/s.
+                let span = (self.hi[0] - self.lo[0]).max(0.01);
+                let phase = (t_s * 0.1 / span) % 2.0;
+                let x = self.lo[0] + span * if phase < 1.0 { phase } else { 2.0 - phase };
+                let d = ((p[0] - x).powi(2) + (p[1] - mid[1]).powi(2)).sqrt();
+                let force = 2.0 * (1.0 - (d / 0.012).powi(2)).max(0.0);
+                (force, d)
+            }
+            StimulusKind::Grasp => {
+                const HALF_BAND_M: f64 = 0.03;
+                let t = t_s % 5.0;
+                let across = (p[1] - mid[1]).abs();
+                let (gap_m, press) = match t {
+                    t if t < 2.0 => (0.025 * (2.0 - t), 0.0),
+                    t if t < 3.0 => (0.0, t - 2.0),
+                    t if t < 4.0 => (0.0, 1.0 - 0.1 * (std::f64::consts::PI * (t - 3.0)).sin()),
+                    t if t < 4.5 => (0.0, 1.0 - 2.0 * (t - 4.0)),
+                    _ => (f64::INFINITY, 0.0),
+                };
+                let force = 3.0 * press * (1.0 - (across / HALF_BAND_M).powi(2)).max(0.0);
+                (force, gap_m + (across - HALF_BAND_M).max(0.0))
+            }
+        }
+    }
+
+    /// The raw sample of cell `cell` at time `t_s`.
+    pub fn raw(&mut self, cell: usize, t_s: f64) -> Sample {
+        let b = self.baselines[cell];
+        let p = self.positions_m[cell];
+        let (_, distance_m) = self.contact(p, t_s);
+        let proximity = if distance_m.is_finite() {
+            PROXIMITY_AT_TOUCH * f64::from(PROXIMITY_MAX) * (-distance_m / PROXIMITY_DECAY_M).exp()
+        } else {
+            0.0
+        };
+        let force: [f64; 3] = if self.kind == StimulusKind::Quiet {
+            [0.0; 3]
+        } else {
+            FORCE_CELLS_M
+                .map(|o| self.contact([p[0] + o[0], p[1] + o[1]], t_s).0 / FORCE_FULL_SCALE_N * f64::from(FORCE_MAX))
+        };
+        let [np, nf, na, nt] = NOISE_COUNTS;
+        let mut noise = |sd: f64| sd * self.rng.sample::<f64, _>(StandardNormal);
+        let count = |v: f64| v.round();
+        Sample::saturating(
+            count(b.proximity + proximity + noise(np)).clamp(0.0, f64::from(PROXIMITY_MAX)) as u16,
+            std::array::from_fn(|k| count(b.force[k] + force[k] + noise(nf)).max(0.0) as u16),
+            std::array::from_fn(|k| count(b.gravity[k] + noise(na)) as i16),
+            count(b.temperature + noise(nt)) as i16,
+            0,
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn line(n: usize) -> Vec<[f64; 2]> {
+        (0..n).map(|i| [(i / 10) as f64 * 0.0277, (i % 10) as f64 * 0.024]).collect()
+    }
+
+    #[test]
+    fn quiet_skin_is_noise_around_its_baseline() {
+        let mut s = Stimulus::new(StimulusKind::Quiet, &line(10), 3);
+        let a: Vec<Sample> = (0..200).map(|k| s.raw(4, k as f64 * 0.004)).collect();
+        let force: Vec<f64> = a.iter().map(|x| f64::from(x.force()[0])).collect();
+        let mean = force.iter().sum::<f64>() / force.len() as f64;
+        let sd = (force.iter().map(|f| (f - mean).powi(2)).sum::<f64>() / force.len() as f64).sqrt();
+        assert!((sd - NOISE_COUNTS[1]).abs() < 0.5, "force noise {sd}");
+        let g = a[0].accel().map(f64::from);
+        let norm = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+        assert!((norm - COUNTS_PER_G).abs() < 6.0, "gravity {norm}");
+    }
+
+    #[test]
+    fn grasp_presses_the_middle_band_only_while_holding() {
+        let cells = line(30);
+        let mut s = Stimulus::new(StimulusKind::Grasp, &cells, 1);
+        let pressed = |s: &mut Stimulus, t: f64| (0..30).filter(|&c| s.raw(c, t).force_norm()[0] > 0.1).count();
+        assert_eq!(pressed(&mut s, 1.0), 0, "approaching");
+        let holding = pressed(&mut s, 3.5);
+        assert!(holding > 3 && holding < 20, "{holding} cells pressed");
+        assert_eq!(pressed(&mut s, 4.8), 0, "let go");
+        let row: Vec<[f64; 2]> = (0..30).map(|i| [i as f64 * 0.0277, 0.0]).collect();
+        let mut t = Stimulus::new(StimulusKind::Touch, &row, 1);
+        let touched = |t: &mut Stimulus, s: f64| (0..30).filter(|&c| t.raw(c, s).force_norm()[0] > 0.05).count();
+        let mut times = (0..20).map(|k| f64::from(k) * 0.1);
+        assert!(times.all(|s| touched(&mut t, s) <= 3), "a fingertip presses a few cells at most");
+        assert!((0..20).any(|k| touched(&mut t, f64::from(k) * 0.1) > 0), "the finger touches somewhere");
+        assert!("poke".parse::<StimulusKind>().is_err());
+    }
+}
