@@ -7,6 +7,7 @@
 //! robot's position feedback; ground truth stays here, for checking.
 //!
 //! - [`robot`]: URDF loading, the built-in HRP-2-like robot, forward kinematics.
+//! - [`scene`]: objects of Figure 16 and a hand: force through the foam, VCNL4010 proximity, sliding.
 //! - [`skin`]: placing cells on link surfaces or from a skin file.
 //! - [`accel`]: the BMA250 accelerometer model.
 //! - [`world`]: robot, base and skin stepped together at 250 Hz.
@@ -17,5 +18,6 @@
 pub mod accel;
 pub mod network;
 pub mod robot;
+pub mod scene;
 pub mod skin;
 pub mod world;

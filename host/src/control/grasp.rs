@@ -1,0 +1,392 @@
+//! The grasp state machine (section 6.4, Figure 15).
+//!
+//! A pat on the shoulder launches the grasp: open the arms, approach the
+//! object between them fast until a contact area senses it, close slowly
+//! into pre-contact, load it with force, pull it to the chest and hold it;
+//! another pat releases it. Transitions are driven by tactile events (as
+//! per-area levels) and trajectory events only. A state whose goal is
+//! contact fails when its key pose is reached, or its motion stalls, before
+//! the touch it waits for: then the grasp is cancelled and the robot backs
+//! off to the open pose. A pat during the grasp, or force on a non-contact
+//! area, cancels it too. Pain anywhere, in any state, cancels the
+//! trajectory at once and evades every contact slowly.
+//!
+//! Entry directives (gains per area, trajectory) are in
+//! [`States`](super::params::States); the controller applies them.
+
+use serde::Serialize;
+
+use super::areas::AreaKind;
+use super::events::{level, Events, Modality};
+use super::params::{StateParams, States, Transitions};
+use super::trajectory::TrajectoryEvent;
+
+/// A state of the grasp.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum State {
+    /// At rest before the first grasp.
+    Home,
+    /// Opening the arms to make room.
+    Open,
+    /// Closing the arms fast until the object is near a contact area.
+    Approach,
+    /// Closing slowly into pre-contact on every contact area.
+    Contact,
+    /// Pressing until every contact area feels force.
+    Load,
+    /// Pulling the object to the chest.
+    Pull,
+    /// Holding the object against the chest.
+    Hold,
+    /// Letting the object go.
+    Release,
+    /// Backing off to the open pose after a failure or cancel.
+    Cancel,
+    /// Evading pain.
+    Evade,
+    /// At rest after a cancelled grasp.
+    Cancelled,
+    /// At rest after a completed grasp and release.
+    Done,
+}
+
+impl State {
+    /// Every state.
+    pub const ALL: [State; 12] = [
+        State::Home,
+        State::Open,
+        State::Approach,
+        State::Contact,
+        State::Load,
+        State::Pull,
+        State::Hold,
+        State::Release,
+        State::Cancel,
+        State::Evade,
+        State::Cancelled,
+        State::Done,
+    ];
+
+    /// At rest: a pat launches a grasp.
+    pub fn is_rest(self) -> bool {
+        matches!(self, State::Home | State::Cancelled | State::Done)
+    }
+
+    /// Part of a running grasp, from opening to holding.
+    pub fn is_grasping(self) -> bool {
+        matches!(self, State::Open | State::Approach | State::Contact | State::Load | State::Pull | State::Hold)
+    }
+
+    /// The entry directive of the state.
+    pub fn params(self, states: &States) -> &StateParams {
+        match self {
+            State::Home | State::Cancelled | State::Done => &states.rest,
+            State::Open => &states.open,
+            State::Approach => &states.approach,
+            State::Contact => &states.contact,
+            State::Load => &states.load,
+            State::Pull => &states.pull,
+            State::Hold => &states.hold,
+            State::Release => &states.release,
+            State::Cancel => &states.cancel,
+            State::Evade => &states.evade,
+        }
+    }
+}
+
+/// Why a transition happened.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Cause {
+    /// A pat on the pat area.
+    Pat,
+    /// The trajectory reached its key pose.
+    Reached,
+    /// The trajectory stopped making progress.
+    Stalled,
+    /// A proximity level on the contact areas.
+    Proximity,
+    /// A force level on the contact areas.
+    Force,
+    /// Close contact on the chest.
+    Chest,
+    /// Pain-level force somewhere.
+    Pain,
+    /// Force on a non-contact area.
+    NonContactForce,
+    /// The contact areas lost the object.
+    ContactLost,
+    /// Every contact is gone.
+    Clear,
+}
+
+/// One change of state.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Transition {
+    /// The state left.
+    pub from: State,
+    /// The state entered.
+    pub to: State,
+    /// When, s.
+    pub time_s: f64,
+    /// Why.
+    pub cause: Cause,
+}
+
+/// The grasp state machine.
+#[derive(Clone, Debug)]
+pub struct Grasp {
+    state: State,
+    levels: Transitions,
+    pat_down: bool,
+    evaded_from: State,
+}
+
+impl Grasp {
+    /// At home.
+    pub fn new(levels: Transitions) -> Grasp {
+        Grasp { state: State::Home, levels, pat_down: false, evaded_from: State::Home }
+    }
+
+    /// The current state.
+    pub fn state(&self) -> State {
+        self.state
+    }
+
+    /// Takes this period's touch levels and trajectory event; returns the
+    /// transition, if any. Pain is checked first, in every state.
+    pub fn step(&mut self, touch: &Events, trajectory: Option<TrajectoryEvent>, time_s: f64) -> Option<Transition> {
+        let t = self.levels;
+        let pat_now = touch.any(AreaKind::Pat, Modality::Force, t.pat_force);
+        let pat = pat_now && !self.pat_down;
+        self.pat_down = pat_now;
+        let (next, cause) = self.next(touch, trajectory, pat)?;
+        if next == State::Evade {
+            self.evaded_from = self.state;
+        }
+        let tr = Transition { from: self.state, to: next, time_s, cause };
+        self.state = next;
+        Some(tr)
+    }
+
+    fn next(&self, touch: &Events, trajectory: Option<TrajectoryEvent>, pat: bool) -> Option<(State, Cause)> {
+        use AreaKind::{Chest, Contact, NonContact};
+        use Modality::{Force, Proximity};
+        use State::*;
+        use TrajectoryEvent::{Reached, Stalled};
+        let t = self.levels;
+        let any = |k, m, l| touch.any(k, m, l);
+        let every = |k, m, l| touch.every(k, m, l);
+        if self.state != Evade && touch.highest(Force) >= level::PAIN {
+            return Some((Evade, Cause::Pain));
+        }
+        let s = self.state;
+        if s.is_rest() {
+            return pat.then_some((Open, Cause::Pat));
+        }
+        if s.is_grasping() {
+            if pat {
+                return Some((if s == Hold { Release } else { Cancel }, Cause::Pat));
+            }
+            if any(NonContact, Force, t.cancel_force) {
+                return Some((Cancel, Cause::NonContactForce));
+            }
+        }
+        let fail = |e: Option<TrajectoryEvent>| match e {
+            Some(Reached) => Some((Cancel, Cause::Reached)),
+            Some(Stalled) => Some((Cancel, Cause::Stalled)),
+            None => None,
+        };
+        match s {
+            Open => match trajectory {
+                Some(Reached) => Some((Approach, Cause::Reached)),
+                e => fail(e),
+            },
+            Approach => {
+                if any(Contact, Proximity, t.approach_proximity) {
+                    Some((State::Contact, Cause::Proximity))
+                } else if trajectory == Some(Stalled) && any(Contact, Proximity, 1) {
+                    Some((State::Contact, Cause::Stalled))
+                } else {
+                    fail(trajectory)
+                }
+            }
+            State::Contact => {
+                if every(Contact, Force, 1) {
+                    Some((Load, Cause::Force))
+                } else if every(Contact, Proximity, t.contact_proximity) {
+                    Some((Load, Cause::Proximity))
+                } else if trajectory == Some(Stalled) && every(Contact, Proximity, 1) {
+                    Some((Load, Cause::Stalled))
+                } else {
+                    fail(trajectory)
+                }
+            }
+            Load => {
+                if every(Contact, Force, t.load_force) {
+                    Some((Pull, Cause::Force))
+                } else {
+                    // Pressing harder is the point here: only reaching the
+                    // pose (nothing to press on) fails.
+                    (trajectory == Some(Reached)).then_some((Cancel, Cause::Reached))
+                }
+            }
+            Pull => {
+                if any(Chest, Proximity, t.chest_proximity) {
+                    Some((Hold, Cause::Chest))
+                } else if !any(Contact, Force, 1) {
+                    Some((Cancel, Cause::ContactLost))
+                } else {
+                    fail(trajectory)
+                }
+            }
+            Hold => (!any(Contact, Force, 1)).then_some((Cancel, Cause::ContactLost)),
+            Release => (!any(Contact, Force, 1) && !any(Contact, Proximity, t.release_proximity))
+                .then_some((Done, Cause::Clear)),
+            Cancel => trajectory.map(|e| (Cancelled, if e == Reached { Cause::Reached } else { Cause::Stalled })),
+            Evade => (touch.highest(Force) == 0)
+                .then_some((if self.evaded_from.is_rest() { self.evaded_from } else { Cancelled }, Cause::Clear)),
+            Home | Cancelled | Done => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::areas::{parse_specs, Areas};
+    use crate::control::cells::CellIndex;
+    use crate::control::events::{Levels, TouchEvent};
+    use crate::control::params::Params;
+    use proptest::prelude::*;
+    use skin_protocol::{Address, Sample};
+
+    /// Cells: 1 pat, 2 left CA, 3 right CA, 4 chest, 5 non-contact.
+    fn touch() -> Events {
+        let ix = CellIndex::new(&[1, 2, 3, 4, 5].map(Address)).unwrap();
+        let specs = parse_specs(
+            "[[area]]\nname='pat'\nkind='pat'\ncells=[1]\n[[area]]\nname='left'\nkind='contact'\ncells=[2]\n\
+             [[area]]\nname='right'\nkind='contact'\ncells=[3]\n[[area]]\nname='chest'\nkind='chest'\ncells=[4]",
+        )
+        .unwrap();
+        Events::new(&Areas::resolve(&specs, &ix, |_| None).unwrap(), &Levels::default()).unwrap()
+    }
+
+    fn set(ev: &mut Events, cell: u16, proximity: f32, force: f32) {
+        let s = Sample::new((proximity * 65535.0) as u16, [(force * 4095.0) as u16, 0, 0], [0; 3], 0, 0).unwrap();
+        ev.sample(usize::from(cell - 1), Address(cell), &s, &mut Vec::<TouchEvent>::new());
+    }
+
+    struct Run {
+        g: Grasp,
+        ev: Events,
+        time: f64,
+    }
+
+    impl Run {
+        fn new() -> Run {
+            Run { g: Grasp::new(Params::default().transitions), ev: touch(), time: 0.0 }
+        }
+        fn step(&mut self, e: Option<TrajectoryEvent>) -> State {
+            self.time += 0.004;
+            self.g.step(&self.ev, e, self.time);
+            self.g.state()
+        }
+        fn pat(&mut self) -> State {
+            set(&mut self.ev, 1, 0.0, 0.2);
+            let s = self.step(None);
+            set(&mut self.ev, 1, 0.0, 0.0);
+            self.step(None);
+            s
+        }
+    }
+
+    #[test]
+    fn a_successful_grasp_and_release() {
+        let mut r = Run::new();
+        use TrajectoryEvent::*;
+        assert_eq!(r.pat(), State::Open);
+        assert_eq!(r.step(Some(Reached)), State::Approach);
+        set(&mut r.ev, 2, 0.03, 0.0);
+        assert_eq!(r.step(None), State::Contact);
+        set(&mut r.ev, 3, 0.03, 0.0);
+        assert_eq!(r.step(None), State::Contact, "pre-contact on both arms, still closing");
+        assert_eq!(r.step(Some(Stalled)), State::Load, "held off by the proximity reactions: in pre-contact");
+        set(&mut r.ev, 2, 0.9, 0.12);
+        assert_eq!(r.step(None), State::Load);
+        set(&mut r.ev, 3, 0.9, 0.15);
+        assert_eq!(r.step(None), State::Pull);
+        set(&mut r.ev, 4, 0.5, 0.0);
+        assert_eq!(r.step(None), State::Pull);
+        set(&mut r.ev, 4, 0.85, 0.0);
+        assert_eq!(r.step(None), State::Hold);
+        assert_eq!(r.pat(), State::Release);
+        for c in [2, 3, 4] {
+            set(&mut r.ev, c, 0.011, 0.0);
+        }
+        assert_eq!(r.step(None), State::Done);
+        assert_eq!(r.pat(), State::Open, "a new grasp can start");
+    }
+
+    #[test]
+    fn no_object_cancels_and_a_pat_or_the_wrist_cancels() {
+        use TrajectoryEvent::*;
+        let mut r = Run::new();
+        r.pat();
+        r.step(Some(Reached));
+        assert_eq!(r.step(Some(Reached)), State::Cancel, "closed reached with nothing in between");
+        assert_eq!(r.step(Some(Reached)), State::Cancelled);
+        r.pat();
+        assert_eq!(r.pat(), State::Cancel, "a pat during the grasp cancels it");
+        r.step(Some(Stalled));
+        assert_eq!(r.pat(), State::Open);
+        set(&mut r.ev, 5, 0.0, 0.15);
+        assert_eq!(r.step(None), State::Cancel, "force on the non-contact area cancels");
+    }
+
+    #[test]
+    fn pain_evades_from_every_state_and_rest_comes_back() {
+        let mut r = Run::new();
+        set(&mut r.ev, 5, 0.0, 0.5);
+        assert_eq!(r.step(None), State::Evade);
+        set(&mut r.ev, 5, 0.0, 0.0);
+        assert_eq!(r.step(None), State::Home, "pain at rest: back to rest");
+        r.pat();
+        set(&mut r.ev, 2, 0.0, 0.46);
+        assert_eq!(r.step(None), State::Evade);
+        assert_eq!(r.step(None), State::Evade, "until the contact is gone");
+        set(&mut r.ev, 2, 0.0, 0.0);
+        assert_eq!(r.step(None), State::Cancelled);
+    }
+
+    proptest! {
+        /// Under any inputs: pain always means Evade; holding is reached
+        /// only from pulling; releasing only from holding; and the machine
+        /// never enters a grasp state from rest except through Open.
+        #[test]
+        fn the_machine_keeps_its_invariants(
+            steps in proptest::collection::vec((1u16..=5, 0.0f32..1.0, 0.0f32..0.6, 0u8..3), 1..300)
+        ) {
+            let mut r = Run::new();
+            for (cell, p, f, e) in steps {
+                set(&mut r.ev, cell, p, f);
+                let before = r.g.state();
+                let event = [None, Some(TrajectoryEvent::Reached), Some(TrajectoryEvent::Stalled)][usize::from(e)];
+                let after = r.step(event);
+                if r.ev.highest(Modality::Force) >= level::PAIN {
+                    prop_assert_eq!(after, State::Evade);
+                }
+                if after != before {
+                    match after {
+                        State::Hold => prop_assert_eq!(before, State::Pull),
+                        State::Release => prop_assert_eq!(before, State::Hold),
+                        State::Done => prop_assert_eq!(before, State::Release),
+                        s if s.is_grasping() && before.is_rest() => prop_assert_eq!(s, State::Open),
+                        _ => {}
+                    }
+                }
+            }
+        }
+    }
+}

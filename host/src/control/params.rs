@@ -1,0 +1,300 @@
+//! The grasping parameters: Table 4 as an editable TOML file.
+//!
+//! The default set is `host/config/grasp.toml`, compiled in; a user edits a
+//! copy and passes it to `skin grasp --config`. Every key is required and
+//! unknown keys are refused, so a typo cannot silently keep a default.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::areas::AreaKind;
+use super::events::Levels;
+use super::reaction::CellGains;
+use super::trajectory::{Motion, Timing};
+use super::ControlError;
+
+/// The default parameter file.
+pub const DEFAULT_TOML: &str = include_str!("../../config/grasp.toml");
+
+/// Everything the tactile controller and the grasp are tuned with.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Params {
+    /// Control period, s.
+    pub control_period_s: f64,
+    /// Limit on each joint's commanded velocity (trajectory plus reactions), rad/s.
+    pub max_joint_velocity: f64,
+    /// Limit on each joint's velocity while evading pain, rad/s.
+    pub evade_max_velocity: f64,
+    /// Time constant of the reaction smoothing, s (0: none).
+    pub smoothing_s: f64,
+    /// Table 3.
+    pub levels: Levels,
+    /// Trajectory timing.
+    pub timing: Timing,
+    /// Levels that trigger grasp transitions.
+    pub transitions: Transitions,
+    /// Kinesthetic guidance gains.
+    pub guide: Guides,
+    /// Per-state directives.
+    pub state: States,
+}
+
+/// Table 3 levels (0..=4) that move the grasp from state to state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Transitions {
+    /// Force on the pat area that counts as a pat.
+    pub pat_force: u8,
+    /// Proximity on any contact area that ends the approach.
+    pub approach_proximity: u8,
+    /// Proximity on every contact area that ends the contact phase.
+    pub contact_proximity: u8,
+    /// Force on every contact area that ends loading.
+    pub load_force: u8,
+    /// Proximity on the chest that ends the pull.
+    pub chest_proximity: u8,
+    /// Force on a non-contact area that cancels a grasp.
+    pub cancel_force: u8,
+    /// The release ends when every contact area is below this proximity.
+    pub release_proximity: u8,
+}
+
+/// Gains for driving the robot by touch (section 5.3).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Guides {
+    /// Force guidance (Table 4, F-guide).
+    pub force: CellGains,
+    /// Proximity guidance.
+    pub proximity: CellGains,
+}
+
+/// The directives of each grasp state.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct States {
+    /// Home, done and cancelled.
+    pub rest: StateParams,
+    /// Opening the arms.
+    pub open: StateParams,
+    /// Closing the arms until the object is near.
+    pub approach: StateParams,
+    /// Closing slowly into pre-contact.
+    pub contact: StateParams,
+    /// Applying force.
+    pub load: StateParams,
+    /// Pulling the object to the chest.
+    pub pull: StateParams,
+    /// Holding it.
+    pub hold: StateParams,
+    /// Letting it go.
+    pub release: StateParams,
+    /// Backing off after a failure or cancel.
+    pub cancel: StateParams,
+    /// Evading pain.
+    pub evade: StateParams,
+}
+
+/// The entry directive of one state: trajectory and area gains.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StateParams {
+    /// Key pose to move to; none: no trajectory.
+    #[serde(default)]
+    pub pose: Option<String>,
+    /// Maximum joint velocity of the trajectory, rad/s.
+    #[serde(default)]
+    pub max_velocity: Option<f64>,
+    /// Postural accuracy of the trajectory, rad.
+    #[serde(default)]
+    pub accuracy: Option<f64>,
+    /// Gains of every area not overridden below.
+    pub all: CellGains,
+    /// Gains of the pat area.
+    #[serde(default)]
+    pub pat: Option<CellGains>,
+    /// Gains of the contact areas.
+    #[serde(default)]
+    pub contact: Option<CellGains>,
+    /// Gains of the chest.
+    #[serde(default)]
+    pub chest: Option<CellGains>,
+    /// Gains of the non-contact area.
+    #[serde(default)]
+    pub non_contact: Option<CellGains>,
+}
+
+impl StateParams {
+    /// The gains of an area kind.
+    pub fn gains(&self, kind: AreaKind) -> CellGains {
+        let own = match kind {
+            AreaKind::Pat => self.pat,
+            AreaKind::Contact => self.contact,
+            AreaKind::Chest => self.chest,
+            AreaKind::NonContact => self.non_contact,
+        };
+        own.unwrap_or(self.all)
+    }
+
+    /// The trajectory: key pose name and motion, if the state has one.
+    pub fn motion(&self) -> Option<(&str, Motion)> {
+        let pose = self.pose.as_deref()?;
+        Some((pose, Motion { max_velocity: self.max_velocity?, accuracy: self.accuracy?, stop_at_target: true }))
+    }
+
+    fn check(&self, state: &str) -> Result<(), ControlError> {
+        for kind in AreaKind::ALL {
+            self.gains(kind).check().map_err(|e| in_state(state, e))?;
+        }
+        match (&self.pose, self.max_velocity, self.accuracy) {
+            (None, None, None) => Ok(()),
+            (Some(_), Some(_), Some(_)) => self.motion().expect("all set").1.check().map_err(|e| in_state(state, e)),
+            _ => Err(ControlError::Toml(format!(
+                "state.{state}: give `pose`, `max_velocity` and `accuracy` together, or none of them"
+            ))),
+        }
+    }
+}
+
+fn in_state(state: &str, e: ControlError) -> ControlError {
+    match e {
+        ControlError::Range { what, value, expected } => {
+            ControlError::Range { what: format!("state.{state}: {what}"), value, expected }
+        }
+        other => other,
+    }
+}
+
+impl Default for Params {
+    /// Table 4 (`host/config/grasp.toml`).
+    fn default() -> Params {
+        Params::from_toml_str(DEFAULT_TOML).expect("the built-in parameter file is valid")
+    }
+}
+
+impl Params {
+    /// Parses and checks a parameter file's text.
+    pub fn from_toml_str(text: &str) -> Result<Params, ControlError> {
+        let p: Params = toml::from_str(text).map_err(|e| ControlError::Toml(e.to_string()))?;
+        p.check()?;
+        Ok(p)
+    }
+
+    /// Reads and checks a parameter file.
+    pub fn read(path: &Path) -> Result<Params, ControlError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| ControlError::Read { path: path.display().to_string(), source })?;
+        Params::from_toml_str(&text).map_err(|e| match e {
+            ControlError::Toml(m) => ControlError::Toml(format!("{}: {m}", path.display())),
+            other => other,
+        })
+    }
+
+    /// Checks every value is usable.
+    pub fn check(&self) -> Result<(), ControlError> {
+        for (what, v) in [
+            ("control_period_s", self.control_period_s),
+            ("max_joint_velocity", self.max_joint_velocity),
+            ("evade_max_velocity", self.evade_max_velocity),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ControlError::Range { what: what.into(), value: v, expected: "a positive number" });
+            }
+        }
+        if !(self.smoothing_s.is_finite() && self.smoothing_s >= 0.0) {
+            return Err(ControlError::Range { what: "smoothing_s".into(), value: self.smoothing_s, expected: ">= 0" });
+        }
+        self.levels.check()?;
+        self.timing.check()?;
+        let t = &self.transitions;
+        for (what, level) in [
+            ("pat_force", t.pat_force),
+            ("approach_proximity", t.approach_proximity),
+            ("contact_proximity", t.contact_proximity),
+            ("load_force", t.load_force),
+            ("chest_proximity", t.chest_proximity),
+            ("cancel_force", t.cancel_force),
+            ("release_proximity", t.release_proximity),
+        ] {
+            if !(1..=4).contains(&level) {
+                return Err(ControlError::Range {
+                    what: format!("transitions.{what}"),
+                    value: f64::from(level),
+                    expected: "a level from 1 to 4",
+                });
+            }
+        }
+        self.guide.force.check()?;
+        self.guide.proximity.check()?;
+        let s = &self.state;
+        for (name, state) in [
+            ("rest", &s.rest),
+            ("open", &s.open),
+            ("approach", &s.approach),
+            ("contact", &s.contact),
+            ("load", &s.load),
+            ("pull", &s.pull),
+            ("hold", &s.hold),
+            ("release", &s.release),
+            ("cancel", &s.cancel),
+            ("evade", &s.evade),
+        ] {
+            state.check(name)?;
+        }
+        Ok(())
+    }
+
+    /// The parameters as TOML text.
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).expect("parameters serialize")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::reaction::Primitive;
+
+    #[test]
+    fn the_default_is_table_4() {
+        let p = Params::default();
+        assert_eq!(p.guide.force.force, Primitive::new(0.05, 1.0));
+        let s = &p.state;
+        assert_eq!(s.open.motion().map(|(n, m)| (n.to_owned(), m.max_velocity)), Some(("open".into(), 0.4)));
+        assert_eq!(s.contact.gains(AreaKind::Contact).proximity, Primitive::new(0.01, 0.4));
+        assert_eq!(s.contact.gains(AreaKind::NonContact).proximity.gain, 0.0);
+        assert_eq!(s.load.gains(AreaKind::NonContact).proximity, Primitive::new(0.01, 0.01));
+        assert_eq!(s.pull.gains(AreaKind::Contact).force, Primitive::new(0.10, 0.8));
+        assert_eq!(s.pull.motion().map(|(n, m)| (n.to_owned(), m.max_velocity)), Some(("pulled".into(), 0.05)));
+        assert!(s.hold.motion().is_none());
+        assert_eq!(s.release.gains(AreaKind::Contact).proximity, Primitive::new(0.01, 0.2));
+    }
+
+    #[test]
+    fn the_file_round_trips() {
+        let p = Params::default();
+        assert_eq!(Params::from_toml_str(&p.to_toml()).unwrap(), p);
+    }
+
+    #[test]
+    fn mistakes_are_refused_with_the_key() {
+        let bad = DEFAULT_TOML.replace("max_joint_velocity = 0.5", "max_joint_velocity = -0.5");
+        assert!(matches!(Params::from_toml_str(&bad), Err(ControlError::Range { .. })));
+        let typo = DEFAULT_TOML.replace("stall_rad", "stall_radians");
+        let e = Params::from_toml_str(&typo).unwrap_err().to_string();
+        assert!(e.contains("stall_radians"), "{e}");
+        let half = DEFAULT_TOML.replace("pose = \"pulled\"", "");
+        assert!(Params::from_toml_str(&half).unwrap_err().to_string().contains("state.pull"));
+        let floor = DEFAULT_TOML.replace(
+            "threshold = 0.10, gain = 0.8 } }\n\n[state.hold]",
+            "threshold = 0.0, gain = 0.8 } }\n\n[state.hold]",
+        );
+        let e = Params::from_toml_str(&floor).unwrap_err().to_string();
+        assert!(e.contains("state.pull"), "{e}");
+        let level = DEFAULT_TOML.replace("load_force = 2", "load_force = 7");
+        assert!(Params::from_toml_str(&level).is_err());
+        assert!(Params::from_toml_str("not toml [").is_err());
+    }
+}

@@ -1,0 +1,136 @@
+//! Object shapes as signed distance functions.
+//!
+//! A shape answers one question, how far a point is from its surface
+//! (negative inside), in its own frame; penetration depths, contact normals
+//! and proximity distances all follow from it. The irregular blob's
+//! distance is a bound, not exact (its bumps are scaled down so the bound
+//! holds), which is all contact and ray marching need.
+
+use nalgebra::{Point3, Vector3};
+
+/// A shape in its own frame, centred on the origin, z up.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    /// A box with half edge lengths, m.
+    Box {
+        /// Half extents along x, y, z, m.
+        half: Vector3<f64>,
+    },
+    /// An upright cylinder.
+    Cylinder {
+        /// Radius, m.
+        radius: f64,
+        /// Half height, m.
+        half_height: f64,
+    },
+    /// A sphere.
+    Sphere {
+        /// Radius, m.
+        radius: f64,
+    },
+    /// An ellipsoid with bumps: an irregular, rock-like body.
+    Blob {
+        /// Semi-axes, m.
+        semi: Vector3<f64>,
+        /// Height of the bumps, m.
+        bump_m: f64,
+        /// Spatial frequency of the bumps, rad/m.
+        bump_rad_per_m: f64,
+    },
+}
+
+impl Shape {
+    /// Signed distance from `p` (shape frame) to the surface, m.
+    pub fn distance(&self, p: &Point3<f64>) -> f64 {
+        match *self {
+            Shape::Box { half } => {
+                let q = p.coords.abs() - half;
+                q.sup(&Vector3::zeros()).norm() + q.max().min(0.0)
+            }
+            Shape::Cylinder { radius, half_height } => {
+                let d = [p.coords.xy().norm() - radius, p.z.abs() - half_height];
+                d[0].max(d[1]).min(0.0) + (d[0].max(0.0).powi(2) + d[1].max(0.0).powi(2)).sqrt()
+            }
+            Shape::Sphere { radius } => p.coords.norm() - radius,
+            Shape::Blob { semi, bump_m, bump_rad_per_m } => {
+                let k0 = p.coords.component_div(&semi).norm();
+                let k1 = p.coords.component_div(&semi.component_mul(&semi)).norm();
+                let ellipsoid = if k1 > 0.0 { k0 * (k0 - 1.0) / k1 } else { -semi.min() };
+                let w = bump_rad_per_m;
+                let bumps = bump_m * (w * p.x).sin() * (1.3 * w * p.y + 0.7).sin() * (0.8 * w * p.z + 1.9).sin();
+                // The bumps' slope is up to bump * 1.3 w: scale so the bound holds.
+                (ellipsoid - bumps) / (1.0 + 1.3 * bump_m * w)
+            }
+        }
+    }
+
+    /// Outward unit normal of the surface nearest `p` (the distance's
+    /// gradient, by central differences).
+    pub fn normal(&self, p: &Point3<f64>) -> Vector3<f64> {
+        const H: f64 = 1e-5;
+        let g = Vector3::from_fn(|i, _| {
+            let mut e = Vector3::zeros();
+            e[i] = H;
+            self.distance(&(p + e)) - self.distance(&(p - e))
+        });
+        g.try_normalize(1e-12).unwrap_or_else(Vector3::z)
+    }
+
+    /// Radius of a sphere around the origin that holds the whole shape, m.
+    pub fn bounding_radius(&self) -> f64 {
+        match *self {
+            Shape::Box { half } => half.norm(),
+            Shape::Cylinder { radius, half_height } => radius.hypot(half_height),
+            Shape::Sphere { radius } => radius,
+            Shape::Blob { semi, bump_m, .. } => semi.max() + bump_m,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn distances_of_the_primitives() {
+        let b = Shape::Box { half: Vector3::new(0.1, 0.2, 0.3) };
+        assert!((b.distance(&Point3::new(0.15, 0.0, 0.0)) - 0.05).abs() < 1e-12);
+        assert!((b.distance(&Point3::origin()) + 0.1).abs() < 1e-12);
+        assert!((b.distance(&Point3::new(0.13, 0.24, 0.0)) - 0.05).abs() < 1e-12, "outside a corner");
+        let c = Shape::Cylinder { radius: 0.1, half_height: 0.2 };
+        assert!((c.distance(&Point3::new(0.0, 0.3, 0.0)) - 0.2).abs() < 1e-12);
+        assert!((c.distance(&Point3::new(0.0, 0.0, 0.25)) - 0.05).abs() < 1e-12);
+        assert!((c.normal(&Point3::new(0.0, 0.3, 0.0)) - Vector3::y()).norm() < 1e-6);
+        let s = Shape::Sphere { radius: 0.04 };
+        assert!((s.distance(&Point3::new(0.0, 0.0, 0.05)) - 0.01).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_blob_is_a_bumpy_bounded_ellipsoid() {
+        let blob = Shape::Blob { semi: Vector3::new(0.15, 0.12, 0.1), bump_m: 0.01, bump_rad_per_m: 30.0 };
+        assert!(blob.distance(&Point3::origin()) < 0.0);
+        // Along each axis the surface lies within a bump of the semi-axis.
+        for axis in 0..3 {
+            let mut p = Point3::origin();
+            let mut t = 0.0;
+            while blob.distance(&p) < 0.0 {
+                t += 1e-4;
+                p[axis] = t;
+            }
+            let semi = [0.15, 0.12, 0.1][axis];
+            assert!((t - semi).abs() <= 0.0101, "axis {axis}: surface at {t}");
+        }
+        // The distance never overestimates: marching by it never jumps in.
+        let dir = Vector3::new(-1.0, -0.4, -0.2).normalize();
+        let mut p = Point3::new(0.5, 0.2, 0.1);
+        for _ in 0..200 {
+            let d = blob.distance(&p);
+            assert!(d > -1e-9);
+            if d < 1e-6 {
+                break;
+            }
+            p += dir * d;
+        }
+        assert!(blob.bounding_radius() >= 0.16);
+    }
+}
