@@ -42,8 +42,8 @@ pub trait SerialPort {
 /// A cell's hardware: four ports, the sensors, a clock, and a way to sleep.
 /// The persistent store's flash is handed to the [`Node`] at boot.
 pub trait Board {
-    /// The UART type of the ports.
-    type Port: SerialPort;
+    /// The UART type of the ports (a trait object when they differ).
+    type Port: SerialPort + ?Sized;
     /// The sensor set.
     type Sensors: Sensors;
     /// Microseconds since boot.

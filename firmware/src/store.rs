@@ -286,7 +286,10 @@ mod tests {
         let s = open(s.release());
         assert_eq!(s.state(), &expected);
         assert_eq!(s.load(), Some(Address(42)));
-        assert_eq!(s.state().settings[setting_slot(&Setting::ForceGain { cell: 1, gain: 0.0 })], Some(Setting::ForceGain { cell: 1, gain: 9.0 }));
+        assert_eq!(
+            s.state().settings[setting_slot(&Setting::ForceGain { cell: 1, gain: 0.0 })],
+            Some(Setting::ForceGain { cell: 1, gain: 9.0 })
+        );
     }
 
     #[test]
@@ -320,18 +323,14 @@ mod tests {
 
     #[test]
     fn every_setting_kind_has_its_own_slot() {
-        let all = [
-            Setting::SampleRateHz(1.0),
-            Setting::Traffic(TrafficMode::Clock),
-            Setting::FilterCutoffHz(1.0),
-        ]
-        .into_iter()
-        .chain((1..=4).map(|level| Setting::ForceLevel { level, value: 0.0 }))
-        .chain((1..=4).map(|level| Setting::ProximityLevel { level, value: 0.0 }))
-        .chain([Setting::Hysteresis(0.0)])
-        .chain((0..8).map(|channel| Setting::Delta { channel, counts: 0 }))
-        .chain((0..3).map(|cell| Setting::ForceGain { cell, gain: 1.0 }))
-        .chain([Setting::AccelRange(AccelRange::G2)]);
+        let all = [Setting::SampleRateHz(1.0), Setting::Traffic(TrafficMode::Clock), Setting::FilterCutoffHz(1.0)]
+            .into_iter()
+            .chain((1..=4).map(|level| Setting::ForceLevel { level, value: 0.0 }))
+            .chain((1..=4).map(|level| Setting::ProximityLevel { level, value: 0.0 }))
+            .chain([Setting::Hysteresis(0.0)])
+            .chain((0..8).map(|channel| Setting::Delta { channel, counts: 0 }))
+            .chain((0..3).map(|cell| Setting::ForceGain { cell, gain: 1.0 }))
+            .chain([Setting::AccelRange(AccelRange::G2)]);
         let mut slots: Vec<usize> = all.map(|s| setting_slot(&s)).collect();
         slots.sort();
         assert_eq!(slots, (0..SETTING_SLOTS).collect::<Vec<_>>());

@@ -2,7 +2,7 @@
 //! `qemu-system-arm`, so they are ignored by a plain `cargo test`:
 //!
 //! ```text
-//! cargo build -p skin-firmware --release --target thumbv7em-none-eabihf --features qemu --bin cell-qemu --examples
+//! cargo build -p skin-firmware --profile firmware --target thumbv7em-none-eabihf --features qemu --bin cell-qemu --examples
 //! cargo test -p skin-tests --test qemu -- --ignored
 //! ```
 

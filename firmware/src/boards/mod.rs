@@ -4,3 +4,4 @@
 pub mod qemu;
 #[cfg(feature = "stm32f4")]
 pub mod stm32f4;
+pub mod systick;

@@ -14,16 +14,16 @@
 //!   failure exit code.
 
 use core::ffi::CStr;
-use core::sync::atomic::{AtomicU32, Ordering};
 
 use cortex_m::interrupt::InterruptNumber;
-use cortex_m::peripheral::{syst::SystClkSource, NVIC, SCB, SYST};
+use cortex_m::peripheral::{NVIC, SCB};
 use cortex_m_rt::{exception, ExceptionFrame};
 use embedded_storage::nor_flash::{ErrorType, NorFlash, NorFlashErrorKind, ReadNorFlash};
 use semihosting::fs::File;
 use semihosting::io::{Read, Seek, SeekFrom, Write};
 use skin_protocol::message::Port;
 
+use super::systick::Clock;
 use crate::board::{Board, SerialPort};
 use crate::sensors::{SensorError, Sensors};
 use crate::stimulus::Stimulated;
@@ -32,12 +32,8 @@ use defmt_semihosting as _;
 
 /// Core and peripheral clock of the board.
 const SYSCLK_HZ: u32 = 25_000_000;
-/// Tick of the clock and of the wake-ups.
-const TICK_HZ: u32 = 1_000;
 /// Bytes of the persistent store (one erase sector, four record slots).
 pub const STORE_LEN: usize = 1024;
-
-static MILLIS: AtomicU32 = AtomicU32::new(0);
 
 /// A CMSDK APB UART.
 #[derive(Debug)]
@@ -144,8 +140,7 @@ impl Sensors for QemuSensors {
 pub struct Qemu {
     ports: [Uart; 4],
     sensors: QemuSensors,
-    wraps: u64,
-    last_ms: u32,
+    clock: Clock,
 }
 
 impl Qemu {
@@ -157,33 +152,13 @@ impl Qemu {
         };
         // SAFETY: the UARTs of the board, each owned by one value from here on.
         let [stimulus_uart, ports @ ..] = UART_BASE.map(|base| unsafe { Uart::new(base) });
-        start_tick(&mut core.SYST);
+        let clock = Clock::start(&mut core.SYST, SYSCLK_HZ);
         for irq in RX_IRQ {
             // SAFETY: the handler (DefaultHandler) clears these interrupts.
             unsafe { NVIC::unmask(RxInterrupt(irq)) };
         }
-        let board = Qemu { ports, sensors: QemuSensors { uart: stimulus_uart, stimulus: Stimulated::new() }, wraps: 0, last_ms: 0 };
+        let board = Qemu { ports, sensors: QemuSensors { uart: stimulus_uart, stimulus: Stimulated::new() }, clock };
         (board, StoreFlash::open())
-    }
-}
-
-fn start_tick(syst: &mut SYST) {
-    syst.set_clock_source(SystClkSource::Core);
-    syst.set_reload(SYSCLK_HZ / TICK_HZ - 1);
-    syst.clear_current();
-    syst.enable_interrupt();
-    syst.enable_counter();
-}
-
-/// Microseconds since boot, with the millisecond counter and SysTick;
-/// wraps of the 32-bit millisecond counter (49 days) are counted by the caller.
-fn now_parts() -> (u32, u32) {
-    loop {
-        let ms = MILLIS.load(Ordering::Acquire);
-        let elapsed = SYST::get_reload() - SYST::get_current();
-        if MILLIS.load(Ordering::Acquire) == ms {
-            return (ms, elapsed / (SYSCLK_HZ / 1_000_000));
-        }
     }
 }
 
@@ -192,12 +167,7 @@ impl Board for Qemu {
     type Sensors = QemuSensors;
 
     fn now_us(&mut self) -> u64 {
-        let (ms, us) = now_parts();
-        if ms < self.last_ms {
-            self.wraps += 1;
-        }
-        self.last_ms = ms;
-        ((self.wraps << 32) + u64::from(ms)) * 1_000 + u64::from(us)
+        self.clock.now_us()
     }
 
     fn port(&mut self, port: Port) -> &mut Uart {
@@ -220,15 +190,11 @@ impl Board for Qemu {
     }
 }
 
-/// Microseconds since boot for the log timestamps.
-fn log_time_us() -> u64 {
-    let (ms, us) = now_parts();
-    u64::from(ms) * 1_000 + u64::from(us)
-}
-
-defmt::timestamp!("{=u64:us}", log_time_us());
+defmt::timestamp!("{=u64:us}", Clock::log_time_us(SYSCLK_HZ));
 
 /// The persistent store: a semihosting file, or RAM when none was named.
+// Only one value exists, and without an allocator the RAM variant cannot be boxed.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug)]
 pub enum StoreFlash {
     /// `store=PATH` from QEMU's `-append`.
@@ -365,11 +331,6 @@ impl NorFlash for StoreFlash {
 /// Ends QEMU with `code` (0 is success).
 pub fn exit(code: i32) -> ! {
     semihosting::process::exit(code)
-}
-
-#[exception]
-fn SysTick() {
-    MILLIS.fetch_add(1, Ordering::Release);
 }
 
 #[exception]

@@ -1,1 +1,260 @@
-//! stub
+//! A real cell on an STM32F405 (Cortex-M4F) at 64 MHz from an 8 MHz crystal.
+//!
+//! | function            | peripheral | pins                    |
+//! |---------------------|------------|-------------------------|
+//! | port 0..3           | USART1, USART2, USART3, UART4 at 4 Mbit/s | PA9/PA10, PA2/PA3, PB10/PB11, PC10/PC11 |
+//! | VCNL4010            | I2C1, 400 kHz | PB8 (SCL), PB9 (SDA) |
+//! | BMA250, LM71        | SPI1, 4 MHz, mode 0 | PA5/PA6/PA7, chip selects PA4 (BMA250), PB0 (LM71) |
+//! | force pads          | GPIO open drain, 1 MOhm pull-ups | PC0, PC1, PC2 |
+//! | persistent store    | flash sector 5 | 0x0802_0000, 128 KiB |
+//!
+//! The core sleeps with WFE; the UARTs' receive interrupts are enabled in
+//! the peripherals but not in the NVIC, and SEVONPEND makes them wake the
+//! core without a handler, so the main loop reads every byte. Logs go out
+//! with defmt over RTT; a panic or a fault resets the cell, which comes back
+//! with its ID, offsets and settings from flash.
+
+use core::cell::RefCell;
+
+use cortex_m::peripheral::{NVIC, SCB};
+use cortex_m_rt::{exception, ExceptionFrame};
+use embedded_hal_bus::spi::{NoDelay, RefCellDevice};
+use embedded_storage::nor_flash::{ErrorType, NorFlash, ReadNorFlash};
+use skin_protocol::message::{AccelRange, Port};
+use stm32f4xx_hal::flash::{self, FlashExt, LockedFlash};
+use stm32f4xx_hal::gpio::{ErasedPin, OpenDrain, Output, PushPull};
+use stm32f4xx_hal::i2c::I2c;
+use stm32f4xx_hal::pac::{self, Interrupt, I2C1, SPI1};
+use stm32f4xx_hal::prelude::*;
+use stm32f4xx_hal::rcc::Config as ClockConfig;
+use stm32f4xx_hal::serial::{self, Rx, Serial, Tx};
+use stm32f4xx_hal::spi::{Mode, Phase, Polarity, Spi};
+
+use super::systick::Clock;
+use crate::board::{Board, SerialPort};
+use crate::drivers::bma250::Bma250;
+use crate::drivers::force::RcTiming;
+use crate::drivers::lm71::Lm71;
+use crate::drivers::vcnl4010::Vcnl4010;
+use crate::sensors::Chips;
+
+use defmt_rtt as _;
+
+/// Core clock.
+const SYSCLK_HZ: u32 = 64_000_000;
+/// Cell-2-cell bit rate (Table 2).
+const PORT_BAUD: u32 = 4_000_000;
+/// The store region: flash sector 5.
+pub const STORE_BASE: u32 = 0x2_0000;
+/// Length of the store region.
+pub const STORE_LEN: u32 = 0x2_0000;
+/// VCNL4010 LED current: 100 mA.
+const LED_CURRENT: u8 = 10;
+
+/// One cell port: a U(S)ART, polled.
+pub struct Uart<U: serial::Instance> {
+    tx: Tx<U>,
+    rx: Rx<U>,
+}
+
+impl<U: serial::Instance> Uart<U> {
+    fn rx_ready(&self) -> bool {
+        self.rx.is_rx_not_empty()
+    }
+}
+
+/// The four ports, which are of four types.
+pub struct Ports {
+    p0: Uart<pac::USART1>,
+    p1: Uart<pac::USART2>,
+    p2: Uart<pac::USART3>,
+    p3: Uart<pac::UART4>,
+}
+
+/// One port behind a trait object, so the four types read as one.
+pub trait AnyPort: SerialPort {
+    /// True when a received byte waits.
+    fn has_byte(&self) -> bool;
+}
+
+impl<U: serial::Instance> SerialPort for Uart<U> {
+    fn read(&mut self) -> Option<u8> {
+        embedded_hal_nb::serial::Read::read(&mut self.rx).ok()
+    }
+
+    fn can_write(&mut self) -> bool {
+        self.tx.is_tx_empty()
+    }
+
+    fn write(&mut self, byte: u8) {
+        // Cannot block: the caller checked that the data register is empty.
+        let _ = embedded_hal_nb::serial::Write::write(&mut self.tx, byte);
+    }
+}
+
+impl<U: serial::Instance> AnyPort for Uart<U> {
+    fn has_byte(&self) -> bool {
+        self.rx_ready()
+    }
+}
+
+type Spi1 = Spi<SPI1>;
+type SpiDevice = RefCellDevice<'static, Spi1, ErasedPin<Output<PushPull>>, NoDelay>;
+/// The sensor chips of the cell.
+pub type CellChips = Chips<I2c<I2C1>, SpiDevice, SpiDevice, ErasedPin<Output<OpenDrain>>>;
+
+/// The STM32F405 cell.
+pub struct Stm32f4 {
+    ports: Ports,
+    chips: CellChips,
+    clock: Clock,
+}
+
+impl Stm32f4 {
+    /// Sets up clocks, ports, buses and sensors; returns the board and its
+    /// persistent store's flash.
+    pub fn take() -> (Stm32f4, CellFlash) {
+        let (Some(dp), Some(mut cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
+            defmt::panic!("board taken twice");
+        };
+        let mut rcc = dp.RCC.freeze(ClockConfig::hse(8.MHz()).sysclk(SYSCLK_HZ.Hz()));
+        let gpioa = dp.GPIOA.split(&mut rcc);
+        let gpiob = dp.GPIOB.split(&mut rcc);
+        let gpioc = dp.GPIOC.split(&mut rcc);
+
+        let config = serial::Config::default().baudrate(PORT_BAUD.bps());
+        macro_rules! port {
+            ($usart:expr, $tx:expr, $rx:expr, $irq:expr) => {{
+                let mut s: Serial<_> = match Serial::new($usart, ($tx, $rx), config, &mut rcc) {
+                    Ok(s) => s,
+                    Err(_) => defmt::panic!("port UART configuration"),
+                };
+                s.listen(serial::Event::RxNotEmpty);
+                NVIC::unpend($irq);
+                let (tx, rx) = s.split();
+                Uart { tx, rx }
+            }};
+        }
+        let ports = Ports {
+            p0: port!(dp.USART1, gpioa.pa9, gpioa.pa10, Interrupt::USART1),
+            p1: port!(dp.USART2, gpioa.pa2, gpioa.pa3, Interrupt::USART2),
+            p2: port!(dp.USART3, gpiob.pb10, gpiob.pb11, Interrupt::USART3),
+            p3: port!(dp.UART4, gpioc.pc10, gpioc.pc11, Interrupt::UART4),
+        };
+        // Pending receive interrupts wake WFE without running a handler.
+        cp.SCB.set_sevonpend();
+
+        let i2c = I2c::new(dp.I2C1, (gpiob.pb8, gpiob.pb9), 400.kHz(), &mut rcc);
+        let mode = Mode { polarity: Polarity::IdleLow, phase: Phase::CaptureOnFirstTransition };
+        let spi = Spi::new(dp.SPI1, (Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)), mode, 4.MHz(), &mut rcc);
+        let Some(bus) = cortex_m::singleton!(: RefCell<Spi1> = RefCell::new(spi)) else {
+            defmt::panic!("SPI bus taken twice");
+        };
+        let device = |cs: ErasedPin<Output<PushPull>>| match RefCellDevice::new(bus, cs, NoDelay) {
+            Ok(d) => d,
+            Err(_) => defmt::panic!("chip select"),
+        };
+        let bma_device = device(gpioa.pa4.into_push_pull_output().erase());
+        let lm_device = device(gpiob.pb0.into_push_pull_output().erase());
+        let mut delay = dp.TIM5.delay_us(&mut rcc);
+        let pads = [
+            gpioc.pc0.into_open_drain_output().erase(),
+            gpioc.pc1.into_open_drain_output().erase(),
+            gpioc.pc2.into_open_drain_output().erase(),
+        ];
+        let chips = match (
+            Vcnl4010::new(i2c, LED_CURRENT),
+            Bma250::new(bma_device, &mut delay, AccelRange::G2),
+            Lm71::new(lm_device),
+        ) {
+            (Ok(p), Ok(a), Ok(t)) => Chips::new(p, a, t, RcTiming::new(pads)),
+            (p, a, t) => defmt::panic!(
+                "sensor missing: proximity {}, accelerometer {}, temperature {}",
+                p.is_ok(),
+                a.is_ok(),
+                t.is_ok()
+            ),
+        };
+        let clock = Clock::start(&mut cp.SYST, SYSCLK_HZ);
+        (Stm32f4 { ports, chips, clock }, CellFlash(LockedFlash::new(dp.FLASH)))
+    }
+}
+
+impl Board for Stm32f4 {
+    type Port = dyn AnyPort;
+    type Sensors = CellChips;
+
+    fn now_us(&mut self) -> u64 {
+        self.clock.now_us()
+    }
+
+    fn port(&mut self, port: Port) -> &mut (dyn AnyPort + 'static) {
+        match port {
+            Port::P0 => &mut self.ports.p0,
+            Port::P1 => &mut self.ports.p1,
+            Port::P2 => &mut self.ports.p2,
+            Port::P3 => &mut self.ports.p3,
+        }
+    }
+
+    fn sensors(&mut self) -> &mut CellChips {
+        &mut self.chips
+    }
+
+    fn sleep(&mut self) {
+        for irq in [Interrupt::USART1, Interrupt::USART2, Interrupt::USART3, Interrupt::UART4] {
+            NVIC::unpend(irq);
+        }
+        let p = &self.ports;
+        if !(p.p0.has_byte() || p.p1.has_byte() || p.p2.has_byte() || p.p3.has_byte()) {
+            // A byte arriving after the check sets the event flag: WFE returns at once.
+            cortex_m::asm::wfe();
+        }
+    }
+}
+
+/// The MCU's flash as the store's NOR flash, unlocked for each operation.
+pub struct CellFlash(LockedFlash);
+
+impl ErrorType for CellFlash {
+    type Error = flash::Error;
+}
+
+impl ReadNorFlash for CellFlash {
+    const READ_SIZE: usize = 1;
+
+    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), flash::Error> {
+        ReadNorFlash::read(&mut self.0, offset, bytes)
+    }
+
+    fn capacity(&self) -> usize {
+        ReadNorFlash::capacity(&self.0)
+    }
+}
+
+impl NorFlash for CellFlash {
+    const WRITE_SIZE: usize = 1;
+    const ERASE_SIZE: usize = 128 * 1024;
+
+    fn erase(&mut self, from: u32, to: u32) -> Result<(), flash::Error> {
+        NorFlash::erase(&mut self.0.unlocked(), from, to)
+    }
+
+    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), flash::Error> {
+        NorFlash::write(&mut self.0.unlocked(), offset, bytes)
+    }
+}
+
+defmt::timestamp!("{=u64:us}", Clock::log_time_us(SYSCLK_HZ));
+
+#[exception]
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    defmt::error!("hard fault at pc {=u32:#x}: resetting", frame.pc());
+    SCB::sys_reset()
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    defmt::error!("panic: {}: resetting", defmt::Display2Format(info));
+    SCB::sys_reset()
+}

@@ -15,7 +15,7 @@ struct Args {
     /// Cells in the patch (2 to 40).
     #[arg(long, default_value_t = 7)]
     cells: usize,
-    /// The cell-qemu firmware image [default: <target>/thumbv7em-none-eabihf/release/cell-qemu].
+    /// The cell-qemu firmware image [default: <target>/thumbv7em-none-eabihf/firmware/cell-qemu].
     #[arg(long)]
     elf: Option<PathBuf>,
     /// Keep the run directory (sockets, stores, defmt logs of the cells).
@@ -27,12 +27,19 @@ struct Args {
 }
 
 fn main() -> ExitCode {
-    tracing_subscriber::fmt().with_env_filter(tracing_subscriber::EnvFilter::from_default_env()).with_writer(std::io::stderr).init();
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::from_default_env())
+        .with_writer(std::io::stderr)
+        .init();
     let args = Args::parse();
     let elf = args.elf.unwrap_or_else(|| skin_tests::qemu::default_elf_dir().join("cell-qemu"));
-    let bar = ProgressBar::new_spinner().with_style(ProgressStyle::with_template("{spinner} {elapsed} {msg}").unwrap_or_else(|_| ProgressStyle::default_spinner()));
+    let bar = ProgressBar::new_spinner().with_style(
+        ProgressStyle::with_template("{spinner} {elapsed} {msg}").unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
     bar.enable_steady_tick(Duration::from_millis(100));
-    let result = net::run(&NetOptions { cells: args.cells, elf, keep: args.keep }, &mut |stage| bar.set_message(stage.to_owned()));
+    let result = net::run(&NetOptions { cells: args.cells, elf, keep: args.keep }, &mut |stage| {
+        bar.set_message(stage.to_owned())
+    });
     bar.finish_and_clear();
     match result {
         Ok(report) if args.json => {

@@ -27,9 +27,10 @@ const BOARD: [&str; 10] = [
 ];
 
 /// What a cell's UART is joined to.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub enum Uart {
     /// Nothing: bytes sent are lost.
+    #[default]
     Free,
     /// Listens on this socket for the neighbour (the lower end of a link).
     Listen(PathBuf),
@@ -67,7 +68,9 @@ impl CellCommand {
         for (i, uart) in uarts.iter().enumerate() {
             let id = format!("uart{i}");
             match uart.chardev(&id) {
-                Some(dev) => args.extend(["-chardev".into(), dev.into(), "-serial".into(), format!("chardev:{id}").into()]),
+                Some(dev) => {
+                    args.extend(["-chardev".into(), dev.into(), "-serial".into(), format!("chardev:{id}").into()])
+                }
                 None => args.extend(["-serial".into(), "null".into()]),
             }
         }
@@ -113,12 +116,6 @@ pub fn plan(wiring: &Wiring, interface: (usize, Port), dir: &Path) -> Vec<[Uart;
     uarts
 }
 
-impl Default for Uart {
-    fn default() -> Self {
-        Uart::Free
-    }
-}
-
 /// The socket the harness sends cell `i`'s stimulus on.
 pub fn stimulus_socket(dir: &Path, i: usize) -> PathBuf {
     dir.join(format!("stimulus{i}.sock"))
@@ -157,7 +154,9 @@ impl Cells {
 
     /// Starts cell `i`.
     pub fn start(&mut self, i: usize) -> Result<(), QemuError> {
-        let append = |p: PathBuf| OpenOptions::new().create(true).append(true).open(&p).context(|| format!("opening {}", p.display()));
+        let append = |p: PathBuf| {
+            OpenOptions::new().create(true).append(true).open(&p).context(|| format!("opening {}", p.display()))
+        };
         let child = self.commands[i].spawn(append(self.defmt_log(i))?, append(self.qemu_log(i))?)?;
         tracing::debug!(cell = i, pid = child.id(), "started");
         self.children[i] = Some(child);
@@ -201,7 +200,10 @@ pub fn run_alone(elf: &Path, limit: Duration) -> Result<Option<ExitStatus>, Qemu
     if !elf.is_file() {
         return Err(QemuError::MissingElf(elf.to_owned()));
     }
-    let mut child = CellCommand::alone(elf).spawn(File::create("/dev/null").context(|| "opening /dev/null".into())?, File::create("/dev/null").context(|| "opening /dev/null".into())?)?;
+    let mut child = CellCommand::alone(elf).spawn(
+        File::create("/dev/null").context(|| "opening /dev/null".into())?,
+        File::create("/dev/null").context(|| "opening /dev/null".into())?,
+    )?;
     let start = Instant::now();
     loop {
         if let Some(status) = child.try_wait().context(|| "waiting for QEMU".into())? {

@@ -53,7 +53,20 @@ impl Gateway {
         let flag = stop.clone();
         let thread = std::thread::Builder::new()
             .name("gateway".into())
-            .spawn(move || Relay { sink, udp, host, listener, stream: None, deframer: Deframer::new(), seq: 0, start: Instant::now(), stats: GatewayStats::default() }.run(&flag))
+            .spawn(move || {
+                Relay {
+                    sink,
+                    udp,
+                    host,
+                    listener,
+                    stream: None,
+                    deframer: Deframer::new(),
+                    seq: 0,
+                    start: Instant::now(),
+                    stats: GatewayStats::default(),
+                }
+                .run(&flag)
+            })
             .context(|| "starting the gateway thread".into())?;
         Ok(Gateway { stop, thread: Some(thread), udp: addr })
     }
@@ -105,18 +118,18 @@ impl Relay {
                     self.deframer = Deframer::new();
                 }
             }
-            self.from_cell();
-            self.from_host();
+            self.relay_up();
+            self.relay_down();
             let now = self.now_us();
             self.sink.poll(now);
-            self.to_cell();
+            self.transmit();
             std::thread::sleep(Duration::from_micros(500));
         }
         self.stats.slipped = u64::from(self.deframer.slipped());
         self.stats
     }
 
-    fn from_cell(&mut self) {
+    fn relay_up(&mut self) {
         let now = self.now_us();
         let Some(stream) = &mut self.stream else { return };
         let mut buf = [0u8; 4096];
@@ -145,7 +158,11 @@ impl Relay {
         }
         let mut datagram = [0u8; MAX_DATAGRAM];
         for chunk in up.chunks(MAX_FRAMES) {
-            let header = DatagramHeader { interface: self.sink.address().interface_number().unwrap_or(0), seq: self.seq, timestamp_us: now };
+            let header = DatagramHeader {
+                interface: self.sink.address().interface_number().unwrap_or(0),
+                seq: self.seq,
+                timestamp_us: now,
+            };
             if let Some(len) = interface::encode(header, chunk, &mut datagram) {
                 self.seq = self.seq.wrapping_add(1);
                 if self.udp.send_to(&datagram[..len], self.host).is_ok() {
@@ -156,7 +173,7 @@ impl Relay {
         }
     }
 
-    fn from_host(&mut self) {
+    fn relay_down(&mut self) {
         let mut buf = [0u8; MAX_DATAGRAM + 1];
         while let Ok((n, _)) = self.udp.recv_from(&mut buf) {
             let Ok(datagram) = Datagram::parse(&buf[..n]) else {
@@ -172,7 +189,7 @@ impl Relay {
         }
     }
 
-    fn to_cell(&mut self) {
+    fn transmit(&mut self) {
         let mut bytes = Vec::new();
         while let Some(f) = self.sink.transmit() {
             bytes.extend_from_slice(f.as_bytes());

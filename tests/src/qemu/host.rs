@@ -90,7 +90,9 @@ impl Host {
                     self.gateway = Some(from);
                     self.datagram(&buf[..n])?;
                 }
-                Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => return Ok(()),
+                Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => {
+                    return Ok(())
+                }
                 Err(e) => return Err(QemuError::Io { context: "host receive".into(), source: e }),
             }
         }
@@ -133,7 +135,8 @@ impl Host {
     /// Sends one frame down the interface port.
     pub fn send(&mut self, frame: Frame) -> Result<(), QemuError> {
         let Some(gateway) = self.gateway else { return Ok(()) };
-        let header = DatagramHeader { interface: 0, seq: self.seq, timestamp_us: self.start.elapsed().as_micros() as u64 };
+        let header =
+            DatagramHeader { interface: 0, seq: self.seq, timestamp_us: self.start.elapsed().as_micros() as u64 };
         self.seq = self.seq.wrapping_add(1);
         let mut buf = [0u8; MAX_DATAGRAM];
         let len = interface::encode(header, &[frame], &mut buf).unwrap_or(0);

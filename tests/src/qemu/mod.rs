@@ -20,7 +20,7 @@ use std::path::PathBuf;
 #[non_exhaustive]
 pub enum QemuError {
     /// The firmware image is not where it was looked for.
-    #[error("no firmware at {0}: build it with `cargo build -p skin-firmware --release --target thumbv7em-none-eabihf --features qemu --bin cell-qemu --examples` or pass --elf")]
+    #[error("no firmware at {0}: build it with `cargo build -p skin-firmware --profile firmware --target thumbv7em-none-eabihf --features qemu --bin cell-qemu --examples` or pass --elf")]
     MissingElf(PathBuf),
     /// QEMU could not be started.
     #[error("cannot start {program}: {source} (install it with `apt-get install qemu-system-arm`)")]
@@ -74,11 +74,11 @@ impl<T> Context<T> for std::io::Result<T> {
     }
 }
 
-/// Where `cargo build --release --target thumbv7em-none-eabihf` puts the
+/// Where `cargo build --profile firmware --target thumbv7em-none-eabihf` puts the
 /// firmware: `$CARGO_TARGET_DIR` or the workspace's `target`.
 pub fn default_elf_dir() -> PathBuf {
     let target = std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..").join("target"));
-    target.join("thumbv7em-none-eabihf").join("release")
+    target.join("thumbv7em-none-eabihf").join("firmware")
 }

@@ -171,7 +171,11 @@ impl World {
 /// The cell IDs implied by the neighbour reports, walking the wiring from
 /// the interface port; an error says where reports and wiring disagree.
 /// Checks uniqueness and that every reachable cell's whole table is right.
-fn map_ids(wiring: &Wiring, interface: End, reports: &BTreeMap<Address, skin_protocol::message::NeighbourReport>) -> Result<Vec<Option<Address>>, String> {
+fn map_ids(
+    wiring: &Wiring,
+    interface: End,
+    reports: &BTreeMap<Address, skin_protocol::message::NeighbourReport>,
+) -> Result<Vec<Option<Address>>, String> {
     let iface = Neighbour { id: Address::interface(0).ok_or("no interface address")?, port: Port::P0 };
     let (g, gp) = interface;
     let mut at_interface = reports.iter().filter(|(_, r)| r.neighbours[gp.index()] == Some(iface));
@@ -268,7 +272,9 @@ pub fn run(opts: &NetOptions, progress: &mut dyn FnMut(&str)) -> Result<NetRepor
             let _ = std::fs::remove_dir_all(&dir);
         }
         Ok(_) => {}
-        Err(_) => tracing::error!(dir = %dir.display(), "run failed; sockets, stores and cell logs are kept in the run directory"),
+        Err(_) => {
+            tracing::error!(dir = %dir.display(), "run failed; sockets, stores and cell logs are kept in the run directory")
+        }
     }
     result.map(|mut r| {
         r.dir = opts.keep.then_some(dir);
@@ -404,7 +410,9 @@ fn run_in(opts: &NetOptions, dir: &Path, progress: &mut dyn FnMut(&str)) -> Resu
         return Err(QemuError::Timeout {
             stage: "settings after restart",
             seconds: 1.0,
-            detail: format!("the restarted cell sent {chatter} samples of a still stimulus: its event-traffic setting was lost"),
+            detail: format!(
+                "the restarted cell sent {chatter} samples of a still stimulus: its event-traffic setting was lost"
+            ),
         });
     }
 

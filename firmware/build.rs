@@ -1,0 +1,18 @@
+//! Puts the memory layout of the board being built where cortex-m-rt's
+//! `link.x` finds it (`INCLUDE memory.x`). Host builds need none.
+
+use std::path::PathBuf;
+
+fn main() {
+    println!("cargo:rerun-if-changed=memory");
+    let boards = [("qemu", "CARGO_FEATURE_QEMU"), ("stm32f4", "CARGO_FEATURE_STM32F4")];
+    let chosen: Vec<&str> = boards.iter().filter(|(_, var)| std::env::var_os(var).is_some()).map(|(b, _)| *b).collect();
+    let board = match chosen.as_slice() {
+        [] => return,
+        [one] => *one,
+        _ => panic!("features {chosen:?} name two boards: build one board at a time"),
+    };
+    let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+    std::fs::copy(format!("memory/{board}.x"), out.join("memory.x")).expect("the board's memory layout exists");
+    println!("cargo:rustc-link-search={}", out.display());
+}
