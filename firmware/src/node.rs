@@ -16,14 +16,6 @@ use skin_protocol::{Address, Sample};
 use crate::deframer::Deframer;
 use crate::store::Store;
 
-/// Samples averaged for the offsets at a cell's first boot (0.128 s at 250 Hz).
-pub const CALIBRATION_SAMPLES: u32 = 32;
-/// Channels (in [`Sample::channels`] order) that read zero at rest and so
-/// get an offset: proximity (light reflected by the cover) and the three
-/// force pads (the unloaded spring). Acceleration and temperature are
-/// absolute.
-const CALIBRATED: core::ops::Range<usize> = 0..4;
-
 /// Counts of what the node had to give up, for the logs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -41,20 +33,12 @@ struct Transmitter {
     at: usize,
 }
 
-/// Running sums of the first-boot calibration.
-#[derive(Clone, Copy, Debug, Default)]
-struct Calibration {
-    sums: [i64; 8],
-    n: u32,
-}
-
 /// A skin cell's logic.
 #[derive(Debug)]
 pub struct Node<F> {
     cell: Cell,
     processor: Processor,
     store: Store<F>,
-    calibration: Option<Calibration>,
     rx: [Deframer; 4],
     tx: [Transmitter; 4],
     losses: Losses,
@@ -62,22 +46,19 @@ pub struct Node<F> {
 
 impl<F: NorFlash> Node<F> {
     /// Boots with what the store holds: ID, offsets and settings. Without
-    /// offsets the first [`CALIBRATION_SAMPLES`] samples calibrate them.
+    /// offsets the first samples calibrate them (see [`Processor::calibrate`]).
     pub fn new(config: Config, store: Store<F>, now_us: u64) -> Node<F> {
         let mut processor = Processor::new();
         for setting in store.state().settings.iter().flatten() {
             processor.apply(setting);
         }
-        let calibration = match store.state().offsets {
-            Some(offsets) => {
-                processor.set_offsets(offsets);
-                None
-            }
-            None => Some(Calibration::default()),
-        };
+        match store.state().offsets {
+            Some(offsets) => processor.set_offsets(offsets),
+            None => processor.calibrate(),
+        }
         let cell = Cell::new(config, &store, now_us);
         let idle = Transmitter { frame: [0; FRAME_LEN], at: FRAME_LEN };
-        Node { cell, processor, store, calibration, rx: Default::default(), tx: [idle; 4], losses: Losses::default() }
+        Node { cell, processor, store, rx: Default::default(), tx: [idle; 4], losses: Losses::default() }
     }
 
     /// This cell's address.
@@ -105,16 +86,16 @@ impl<F: NorFlash> Node<F> {
         self.losses
     }
 
-    /// True while the first-boot calibration runs (nothing is sent).
+    /// True while a calibration runs (nothing is sent).
     pub fn calibrating(&self) -> bool {
-        self.calibration.is_some()
+        self.processor.calibrating()
     }
 
     /// Takes a byte received on `port`. Returns a setting the host wrote and
     /// the cell accepted, for the board to apply to its hardware.
     pub fn receive(&mut self, port: Port, byte: u8, now_us: u64) -> Option<Setting> {
         let frame = self.rx[port.index()].push(byte)?;
-        let (_, message) = self.cell.receive(port, frame.as_bytes(), now_us, &mut self.store)?;
+        let (_, message) = self.cell.receive_frame(port, frame, now_us, &mut self.store)?;
         let Message::ConfigWrite(write) = message else { return None };
         let accepted = self.processor.apply(&write.setting);
         if accepted && self.store.set_setting(write.setting).is_err() {
@@ -145,32 +126,18 @@ impl<F: NorFlash> Node<F> {
         self.processor.period_us()
     }
 
-    /// Takes one raw sample: calibrates at first boot, then filters it and
-    /// sends what the processing decides.
+    /// Takes one raw sample: filters it and sends what the processing
+    /// decides, or adds it to a running calibration and keeps the offsets.
     pub fn sample(&mut self, raw: &Sample) {
-        if let Some(c) = &mut self.calibration {
-            for (sum, v) in c.sums.iter_mut().zip(raw.channels()) {
-                *sum += i64::from(v);
-            }
-            c.n += 1;
-            if c.n < CALIBRATION_SAMPLES {
-                return;
-            }
-            let mut offsets = [0; 8];
-            for i in CALIBRATED {
-                offsets[i] = ((c.sums[i] + i64::from(c.n / 2)) / i64::from(c.n)) as i32;
-            }
-            self.calibration = None;
-            self.processor.set_offsets(offsets);
+        for message in self.processor.process(raw) {
+            self.send(&message);
+        }
+        if let Some(offsets) = self.processor.take_calibrated() {
             if self.store.set_offsets(offsets).is_err() {
                 self.losses.store_failed += 1;
             }
             #[cfg(feature = "defmt")]
             defmt::info!("calibrated offsets {}", offsets);
-            return;
-        }
-        for message in self.processor.process(raw) {
-            self.send(&message);
         }
     }
 

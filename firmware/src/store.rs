@@ -23,8 +23,9 @@ const CRC: crc::Crc<u16> = crc::Crc::<u16>::new(&crc::CRC_16_KERMIT);
 pub const SETTING_SLOTS: usize = 24;
 
 /// Where a setting is kept: a later write of the same kind replaces it.
-fn setting_slot(s: &Setting) -> usize {
-    match *s {
+/// `None` for a command (calibrate), which is not state to restore.
+fn setting_slot(s: &Setting) -> Option<usize> {
+    Some(match *s {
         Setting::SampleRateHz(_) => 0,
         Setting::Traffic(_) => 1,
         Setting::FilterCutoffHz(_) => 2,
@@ -34,7 +35,8 @@ fn setting_slot(s: &Setting) -> usize {
         Setting::Delta { channel, .. } => 12 + usize::from(channel.min(7)),
         Setting::ForceGain { cell, .. } => 20 + usize::from(cell.min(2)),
         Setting::AccelRange(_) => 23,
-    }
+        Setting::Calibrate => return None,
+    })
 }
 
 /// Everything a cell keeps across power cycles.
@@ -124,9 +126,13 @@ impl<F: NorFlash> Store<F> {
         self.update(|p| p.offsets = Some(offsets))
     }
 
-    /// Keeps an accepted setting, replacing the last one of its kind.
+    /// Keeps an accepted setting, replacing the last one of its kind;
+    /// commands are not kept.
     pub fn set_setting(&mut self, setting: Setting) -> Result<(), StoreError> {
-        self.update(|p| p.settings[setting_slot(&setting)] = Some(setting))
+        match setting_slot(&setting) {
+            Some(slot) => self.update(|p| p.settings[slot] = Some(setting)),
+            None => Ok(()),
+        }
     }
 
     /// Writes the state changed by `change`; an unchanged state costs no write.
@@ -287,7 +293,7 @@ mod tests {
         assert_eq!(s.state(), &expected);
         assert_eq!(s.load(), Some(Address(42)));
         assert_eq!(
-            s.state().settings[setting_slot(&Setting::ForceGain { cell: 1, gain: 0.0 })],
+            s.state().settings[setting_slot(&Setting::ForceGain { cell: 1, gain: 0.0 }).unwrap()],
             Some(Setting::ForceGain { cell: 1, gain: 9.0 })
         );
     }
@@ -331,7 +337,7 @@ mod tests {
             .chain((0..8).map(|channel| Setting::Delta { channel, counts: 0 }))
             .chain((0..3).map(|cell| Setting::ForceGain { cell, gain: 1.0 }))
             .chain([Setting::AccelRange(AccelRange::G2)]);
-        let mut slots: Vec<usize> = all.map(|s| setting_slot(&s)).collect();
+        let mut slots: Vec<usize> = all.map(|s| setting_slot(&s).unwrap()).collect();
         slots.sort();
         assert_eq!(slots, (0..SETTING_SLOTS).collect::<Vec<_>>());
     }

@@ -59,10 +59,24 @@ impl Cell {
         now_us: u64,
         store: &mut impl IdStore,
     ) -> Option<(Header, Message)> {
-        let Ok(frame) = Frame::parse(bytes) else {
-            self.router.count_corrupt();
-            return None;
-        };
+        match Frame::parse(bytes) {
+            Ok(frame) => self.receive_frame(port, frame, now_us, store),
+            Err(_) => {
+                self.router.count_corrupt();
+                None
+            }
+        }
+    }
+
+    /// [`Cell::receive`] for a frame the caller has already checked (a
+    /// deframer that found it by its CRC), so the CRC is not computed twice.
+    pub fn receive_frame(
+        &mut self,
+        port: Port,
+        frame: Frame,
+        now_us: u64,
+        store: &mut impl IdStore,
+    ) -> Option<(Header, Message)> {
         self.organizer.heard(port, now_us);
         let header = frame.header();
         let mine = header.dst == self.id() && self.id() != Address::UNASSIGNED;

@@ -281,6 +281,9 @@ pub enum Setting {
     },
     /// Accelerometer range.
     AccelRange(AccelRange),
+    /// Re-measure the offsets of proximity and forces now, with nothing
+    /// touching the skin.
+    Calibrate,
 }
 
 impl Setting {
@@ -297,7 +300,7 @@ impl Setting {
             Setting::Hysteresis(h) => unit(h),
             Setting::Delta { channel, .. } => channel < 8,
             Setting::ForceGain { cell, gain } => cell < 3 && gain.is_finite() && gain > 0.0,
-            Setting::Traffic(_) | Setting::AccelRange(_) => true,
+            Setting::Traffic(_) | Setting::AccelRange(_) | Setting::Calibrate => true,
         }
     }
 }

@@ -23,6 +23,21 @@ pub const DEFAULT_CUTOFF_HZ: f32 = 60.0;
 /// What one sample produces: at most the sample and four events.
 pub type Outputs = Vec<Message, 5>;
 
+/// Samples averaged for the offsets (0.128 s at 250 Hz).
+pub const CALIBRATION_SAMPLES: u32 = 32;
+/// Channels (in [`Sample::channels`] order) that read zero at rest and so
+/// get an offset: proximity (light reflected by the cover) and the three
+/// force cells (the unloaded spring). Acceleration and temperature are
+/// absolute.
+const CALIBRATED: core::ops::Range<usize> = 0..4;
+
+/// Running sums of a calibration.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Calibration {
+    sums: [i64; 8],
+    n: u32,
+}
+
 /// The local processing state of one cell.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Processor {
@@ -33,6 +48,8 @@ pub struct Processor {
     accel_range: AccelRange,
     force_gain: [f32; 3],
     offsets: [i32; 8],
+    calibration: Option<Calibration>,
+    calibrated: bool,
     filtered: Option<[f32; 8]>,
     force: [Quantizer; 3],
     proximity: Quantizer,
@@ -75,6 +92,8 @@ impl Processor {
             accel_range: AccelRange::G2,
             force_gain: [1.0; 3],
             offsets: [0; 8],
+            calibration: None,
+            calibrated: false,
             filtered: None,
             force: [Quantizer::force(); 3],
             proximity: Quantizer::proximity(),
@@ -108,6 +127,41 @@ impl Processor {
     /// The offsets in use.
     pub fn offsets(&self) -> [i32; 8] {
         self.offsets
+    }
+
+    /// Starts measuring the offsets: the next [`CALIBRATION_SAMPLES`]
+    /// samples are averaged, and nothing is sent meanwhile.
+    pub fn calibrate(&mut self) {
+        self.calibration = Some(Calibration::default());
+    }
+
+    /// True while a calibration runs.
+    pub fn calibrating(&self) -> bool {
+        self.calibration.is_some()
+    }
+
+    /// The offsets a calibration just measured, once, for the persistent store.
+    pub fn take_calibrated(&mut self) -> Option<[i32; 8]> {
+        core::mem::take(&mut self.calibrated).then_some(self.offsets)
+    }
+
+    /// Adds a sample to a running calibration; true while it goes on.
+    fn calibration_step(&mut self, raw: &Sample) -> bool {
+        let Some(c) = &mut self.calibration else { return false };
+        for (sum, v) in c.sums.iter_mut().zip(raw.channels()) {
+            *sum += i64::from(v);
+        }
+        c.n += 1;
+        if c.n == CALIBRATION_SAMPLES {
+            let n = i64::from(c.n);
+            for i in CALIBRATED {
+                self.offsets[i] = ((c.sums[i] + n / 2) / n) as i32;
+            }
+            self.calibration = None;
+            self.calibrated = true;
+            self.filtered = None;
+        }
+        true
     }
 
     /// Applies a setting from the host; false (and no change) when invalid.
@@ -146,13 +200,17 @@ impl Processor {
             }
             Setting::ForceGain { cell, gain } => self.force_gain[usize::from(cell)] = gain,
             Setting::AccelRange(r) => self.accel_range = r,
+            Setting::Calibrate => self.calibrate(),
         }
         true
     }
 
     /// Processes one raw sample: offsets, gains, low-pass, events, and the
-    /// send decision.
+    /// send decision. During a calibration nothing comes out.
     pub fn process(&mut self, raw: &Sample) -> Outputs {
+        if self.calibration_step(raw) {
+            return Outputs::new();
+        }
         let mut x = [0f32; 8];
         for (i, (v, o)) in raw.channels().into_iter().zip(self.offsets).enumerate() {
             let gain = if (1..4).contains(&i) { self.force_gain[i - 1] } else { 1.0 };
@@ -261,5 +319,21 @@ mod tests {
         let Message::Sample(s) = out[0] else { panic!("{out:?}") };
         assert_eq!(s.force()[0], 400);
         assert_eq!(p.period_us(), 4000);
+    }
+
+    #[test]
+    fn calibration_measures_proximity_and_force_offsets_only() {
+        let mut p = Processor::new();
+        assert!(p.apply(&Setting::Calibrate));
+        let rest = Sample::new(700, [30, 40, 50], [1, 2, 250], 800, 0).unwrap();
+        for _ in 0..CALIBRATION_SAMPLES {
+            assert!(p.calibrating());
+            assert!(p.process(&rest).is_empty());
+        }
+        assert!(!p.calibrating());
+        assert_eq!(p.take_calibrated(), Some([700, 30, 40, 50, 0, 0, 0, 0]));
+        assert_eq!(p.take_calibrated(), None);
+        let Message::Sample(s) = p.process(&rest)[0] else { panic!() };
+        assert_eq!((s.proximity(), s.force(), s.accel()), (0, [0; 3], [1, 2, 250]));
     }
 }

@@ -51,6 +51,7 @@ fn setting() -> impl Strategy<Value = Setting> {
         (any::<u8>(), any::<u16>()).prop_map(|(channel, counts)| Setting::Delta { channel, counts }),
         (any::<u8>(), finite()).prop_map(|(cell, gain)| Setting::ForceGain { cell, gain }),
         prop_oneof![Just(AccelRange::G2), Just(AccelRange::G8), Just(AccelRange::G16)].prop_map(Setting::AccelRange),
+        Just(Setting::Calibrate),
     ]
 }
 

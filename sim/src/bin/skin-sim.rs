@@ -4,7 +4,6 @@
 //! sensor traffic under a stimulus, suffers the faults asked for, and
 //! reports latency, losses and capacity (`--json` for one JSON object).
 
-use std::io::Write;
 use std::net::SocketAddr;
 use std::process::ExitCode;
 
@@ -139,10 +138,11 @@ fn network(args: NetworkArgs) -> Result<(), NetworkError> {
     );
     let report = scenario.run(&mut transport, &mut |f| bar.set_position((f * 1000.0) as u64))?;
     bar.finish_and_clear();
-    let text =
-        if args.json { serde_json::to_string_pretty(&report).expect("a report serializes") } else { report.summary() };
-    // A closed pipe (`| head`) is the reader's choice, not an error.
-    let _ = writeln!(std::io::stdout().lock(), "{text}");
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report).expect("a report serializes"));
+    } else {
+        println!("{}", report.summary());
+    }
     Ok(())
 }
 

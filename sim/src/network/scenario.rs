@@ -260,23 +260,17 @@ impl Scenario {
 }
 
 /// Runs the network to `until_ns`, handing datagrams to the host and its
-/// answers back; a host on UDP is heard every millisecond of virtual time.
+/// answers back.
 pub fn pump(net: &mut Network, transport: &mut Transport, until_ns: u64) -> Result<(), NetworkError> {
-    const POLL_NS: u64 = 1_000_000;
-    loop {
-        let slice = until_ns.min(net.now_ns().saturating_add(POLL_NS));
-        while let Some(d) = net.step(slice) {
-            for reply in transport.deliver(&d)? {
-                net.inject(&reply)?;
-            }
-        }
-        for reply in transport.poll(net.now_ns())? {
+    while let Some(d) = net.step(until_ns) {
+        for reply in transport.deliver(&d)? {
             net.inject(&reply)?;
         }
-        if net.now_ns() >= until_ns {
-            return Ok(());
-        }
     }
+    for reply in transport.poll(net.now_ns())? {
+        net.inject(&reply)?;
+    }
+    Ok(())
 }
 
 /// Checks self-organization against the live wiring.

@@ -419,9 +419,7 @@ impl Network {
         };
         if !ok {
             return Err(NetworkError::Flag(format!(
-                "fault {fault}: this skin has no such link, cell or interface port (cells 0..{}, interface ports 0..{})",
-                self.nodes.len(),
-                self.interfaces.len()
+                "fault {fault:?} names no link, cell or interface port of this skin"
             )));
         }
         self.events.at(at_ns, Event::Fault(fault));
