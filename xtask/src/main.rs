@@ -4,6 +4,11 @@
 //! - `cargo xtask ci`: installs what a fresh machine lacks, then runs every
 //!   check CI runs, one line per step, and a final `N passed, N failed`.
 //! - `cargo xtask install`: only the installation part.
+//! - `cargo xtask firmware`: builds the cell firmware for both boards and
+//!   checks it against its flash and RAM budget.
+//! - `cargo xtask qemu-net --cells N`: a hexagonal patch of N QEMU cells.
+
+mod elf;
 
 use std::env;
 use std::fs;
@@ -12,48 +17,60 @@ use std::process::{Command, ExitCode, Stdio};
 use std::time::Instant;
 
 const THUMB: &str = "thumbv7em-none-eabihf";
+/// The cell MCU's budget (issue 4): flash and static RAM in bytes.
+const FLASH_BUDGET: u64 = 64 * 1024;
+const RAM_BUDGET: u64 = 16 * 1024;
+/// The firmware binaries, with the cargo features of their board.
+const BOARDS: [(&str, &str); 2] = [("qemu", "cell-qemu"), ("stm32f4", "cell-stm32f4")];
 
-/// One check: a name and the command that runs it.
+/// What a step does.
+enum Action {
+    /// Runs a program with its output in the step's log.
+    Run(&'static str, Vec<&'static str>),
+    /// Runs a check of our own; `Ok` carries lines to print.
+    Check(fn() -> Result<Vec<String>, String>),
+}
+
+/// One check of `cargo xtask ci`.
 struct Step {
     name: &'static str,
-    program: &'static str,
-    args: Vec<&'static str>,
+    action: Action,
 }
 
-fn step(name: &'static str, program: &'static str, args: &[&'static str]) -> Step {
-    Step { name, program, args: args.to_vec() }
-}
-
-fn cargo(name: &'static str, args: &[&'static str]) -> Step {
-    step(name, "cargo", args)
+/// A cargo step; `args` are split on spaces.
+fn cargo(name: &'static str, args: &'static str) -> Step {
+    Step { name, action: Action::Run("cargo", args.split(' ').collect()) }
 }
 
 /// Every check of `cargo xtask ci`, in order.
 fn ci_steps() -> Vec<Step> {
     vec![
-        cargo("format", &["fmt", "--all", "--check"]),
-        cargo("clippy (host crates)", &["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]),
+        cargo("format", "fmt --all --check"),
+        cargo("clippy (host crates)", "clippy --workspace --all-targets -- -D warnings"),
         cargo(
-            "clippy (no_std crates, thumb)",
-            &[
-                "clippy",
-                "-p",
-                "skin-protocol",
-                "--target",
-                THUMB,
-                "--no-default-features",
-                "--features",
-                "defmt",
-                "--",
-                "-D",
-                "warnings",
-            ],
+            "clippy (skin-protocol, thumb)",
+            "clippy -p skin-protocol --target thumbv7em-none-eabihf --no-default-features --features defmt -- -D warnings",
         ),
-        cargo("tests (host)", &["test", "--workspace"]),
         cargo(
-            "build skin-protocol (thumb)",
-            &["build", "-p", "skin-protocol", "--target", THUMB, "--no-default-features"],
+            "clippy (firmware, qemu board)",
+            "clippy -p skin-firmware --target thumbv7em-none-eabihf --features qemu --bins --examples -- -D warnings",
         ),
+        cargo(
+            "clippy (firmware, stm32f4 board)",
+            "clippy -p skin-firmware --target thumbv7em-none-eabihf --features stm32f4 --bins -- -D warnings",
+        ),
+        cargo("tests (host)", "test --workspace"),
+        cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
+        cargo(
+            "build firmware (qemu board)",
+            "build -p skin-firmware --profile firmware --target thumbv7em-none-eabihf --features qemu --bin cell-qemu --examples",
+        ),
+        cargo(
+            "build firmware (stm32f4 board)",
+            "build -p skin-firmware --profile firmware --target thumbv7em-none-eabihf --features stm32f4 --bin cell-stm32f4",
+        ),
+        Step { name: "firmware size within budget", action: Action::Check(firmware_size) },
+        cargo("QEMU tests (fault exits, 7-cell network)", "test -p skin-tests --test qemu -- --ignored"),
     ]
 }
 
@@ -64,18 +81,27 @@ fn main() -> ExitCode {
         eprintln!("xtask: cannot enter the workspace root {}: {e}", root.display());
         return ExitCode::FAILURE;
     }
-    match args.first().map(String::as_str) {
-        Some("ci") => ci(&root),
-        Some("install") => match install() {
-            Ok(()) => ExitCode::SUCCESS,
-            Err(e) => {
-                eprintln!("xtask install: {e}");
-                ExitCode::FAILURE
-            }
-        },
+    let result = match args.first().map(String::as_str) {
+        Some("ci") => return ci(&root),
+        Some("install") => install(),
+        Some("firmware") => firmware(),
+        Some("qemu-net") => qemu_net(&args[1..]),
         _ => {
-            eprintln!("usage: cargo xtask <command>\n\n  ci        install what is missing, then run every CI check\n  install   only install what is missing (rustup target and components, qemu-system-arm)");
-            ExitCode::from(2)
+            eprintln!(
+                "usage: cargo xtask <command>\n\n  \
+                 ci                   install what is missing, then run every CI check\n  \
+                 install              only install what is missing (rustup target and components, qemu-system-arm)\n  \
+                 firmware             build the cell firmware for both boards and check its size\n  \
+                 qemu-net --cells N   run a hexagonal patch of N QEMU cells (more flags: --json, --keep)"
+            );
+            return ExitCode::from(2);
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("xtask: {e}");
+            ExitCode::FAILURE
         }
     }
 }
@@ -83,6 +109,10 @@ fn main() -> ExitCode {
 fn workspace_root() -> PathBuf {
     let manifest = env::var_os("CARGO_MANIFEST_DIR").map(PathBuf::from).unwrap_or_else(|| PathBuf::from("xtask"));
     manifest.parent().map(Path::to_path_buf).unwrap_or(manifest)
+}
+
+fn target_dir() -> PathBuf {
+    env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|| PathBuf::from("target"))
 }
 
 fn ci(root: &Path) -> ExitCode {
@@ -104,17 +134,26 @@ fn ci(root: &Path) -> ExitCode {
         }
     }
     for (i, s) in ci_steps().iter().enumerate() {
-        let log = logs.join(format!("{:02}-{}.log", i + 1, slug(s.name)));
         let t = Instant::now();
-        let ok = run_logged(s, &log);
+        let log = logs.join(format!("{:02}-{}.log", i + 1, slug(s.name)));
+        let outcome = match &s.action {
+            Action::Run(program, args) => run_logged(program, args, &log)
+                .map(|()| Vec::new())
+                .map_err(|()| format!("`{program} {}`, log {}", args.join(" "), log.display())),
+            Action::Check(check) => check(),
+        };
         let secs = t.elapsed().as_secs_f64();
-        if ok {
-            println!("ok    {} ({secs:.1} s)", s.name);
-            passed += 1;
-        } else {
-            println!("FAIL  {} ({secs:.1} s): `{} {}`, log {}", s.name, s.program, s.args.join(" "), log.display());
-            print_tail(&log, 40);
-            failed += 1;
+        match outcome {
+            Ok(lines) => {
+                println!("ok    {} ({secs:.1} s)", s.name);
+                lines.iter().for_each(|l| println!("      {l}"));
+                passed += 1;
+            }
+            Err(why) => {
+                println!("FAIL  {} ({secs:.1} s): {why}", s.name);
+                print_tail(&log, 40);
+                failed += 1;
+            }
         }
     }
     println!("{passed} passed, {failed} failed ({:.0} s)", started.elapsed().as_secs_f64());
@@ -131,17 +170,12 @@ fn slug(name: &str) -> String {
     s.split('-').filter(|p| !p.is_empty()).collect::<Vec<_>>().join("-")
 }
 
-/// Runs a step with its output in a log file; true on success.
-fn run_logged(s: &Step, log: &Path) -> bool {
-    let Ok(out) = fs::File::create(log) else { return false };
-    let Ok(err) = out.try_clone() else { return false };
-    Command::new(s.program)
-        .args(&s.args)
-        .stdin(Stdio::null())
-        .stdout(out)
-        .stderr(err)
-        .status()
-        .is_ok_and(|st| st.success())
+/// Runs a program with its output in a log file.
+fn run_logged(program: &str, args: &[&str], log: &Path) -> Result<(), ()> {
+    let out = fs::File::create(log).map_err(drop)?;
+    let err = out.try_clone().map_err(drop)?;
+    let status = Command::new(program).args(args).stdin(Stdio::null()).stdout(out).stderr(err).status();
+    status.is_ok_and(|s| s.success()).then_some(()).ok_or(())
 }
 
 fn print_tail(log: &Path, lines: usize) {
@@ -162,6 +196,7 @@ fn output(program: &str, args: &[&str]) -> Option<String> {
     out.status.success().then(|| String::from_utf8_lossy(&out.stdout).into_owned())
 }
 
+/// Runs a program in the foreground, its output going to ours.
 fn run(program: &str, args: &[&str]) -> Result<(), String> {
     let status = Command::new(program)
         .args(args)
@@ -194,4 +229,57 @@ fn install() -> Result<(), String> {
         run("apt-get", &["install", "-y", "-q", "qemu-system-arm"])?;
     }
     Ok(())
+}
+
+fn build_board(features: &str, bin: &str) -> Result<(), String> {
+    let mut args = vec!["build", "-p", "skin-firmware", "--profile", "firmware", "--target", THUMB];
+    args.extend(["--features", features, "--bin", bin]);
+    run("cargo", &args)
+}
+
+/// `cargo xtask firmware`: builds both boards and prints their size.
+fn firmware() -> Result<(), String> {
+    for (features, bin) in BOARDS {
+        build_board(features, bin)?;
+    }
+    firmware_size()?.iter().for_each(|l| println!("{l}"));
+    Ok(())
+}
+
+/// Flash and static RAM of each board's binary against the budget.
+fn firmware_size() -> Result<Vec<String>, String> {
+    let dir = target_dir().join(THUMB).join("firmware");
+    let mut lines = Vec::new();
+    let mut over = Vec::new();
+    for (_, bin) in BOARDS {
+        let path = dir.join(bin);
+        let bytes = fs::read(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        let size = elf::size(&bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+        lines.push(format!(
+            "{bin}: flash {} B of {} ({:.0}%), static RAM {} B of {} ({:.0}%)",
+            size.flash,
+            FLASH_BUDGET,
+            100.0 * size.flash as f64 / FLASH_BUDGET as f64,
+            size.ram,
+            RAM_BUDGET,
+            100.0 * size.ram as f64 / RAM_BUDGET as f64,
+        ));
+        if size.flash > FLASH_BUDGET || size.ram > RAM_BUDGET {
+            over.push(bin);
+        }
+    }
+    if over.is_empty() {
+        Ok(lines)
+    } else {
+        Err(format!("over budget: {} ({})", over.join(", "), lines.join("; ")))
+    }
+}
+
+/// `cargo xtask qemu-net --cells N ...`: builds the QEMU board and runs the
+/// network of QEMU cells.
+fn qemu_net(args: &[String]) -> Result<(), String> {
+    build_board("qemu", "cell-qemu")?;
+    let mut all = vec!["run", "--quiet", "-p", "skin-tests", "--bin", "qemu-net", "--"];
+    all.extend(args.iter().map(String::as_str));
+    run("cargo", &all)
 }
