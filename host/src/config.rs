@@ -103,7 +103,7 @@ impl Default for InterfaceConfig {
 }
 
 /// How cells send their samples.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum Traffic {
     /// Every sample at the sampling rate.
@@ -292,13 +292,17 @@ impl Config {
         let body = toml::to_string(self).unwrap_or_default();
         let mut out =
             String::from("# Configuration of the `skin` program. Every key is optional; these are the defaults.\n");
+        let mut noted = [false; SECTION_NOTES.len()];
         for line in body.lines() {
-            if let Some((_, note)) = SECTION_NOTES.iter().find(|(header, _)| *header == line) {
-                if !out.ends_with("\n\n") {
+            if let Some(i) = SECTION_NOTES.iter().position(|(header, _)| *header == line) {
+                if !noted[i] {
+                    noted[i] = true;
+                    if !out.ends_with("\n\n") {
+                        out.push('\n');
+                    }
+                    out.push_str(SECTION_NOTES[i].1);
                     out.push('\n');
                 }
-                out.push_str(note);
-                out.push('\n');
             }
             out.push_str(line);
             out.push('\n');

@@ -1,0 +1,45 @@
+//! The `skin` command line: one module per subcommand, dispatched here.
+
+mod config;
+mod loadgen;
+mod monitor;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// The robot PC side of a self-organizing, multi-modal robot skin.
+#[derive(Parser)]
+#[command(name = "skin", version)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Watch the skin live: cells, rates, tactile events, drops.
+    Monitor(monitor::Args),
+    /// Write the default configuration file, or check one.
+    Config(config::Args),
+    /// Simulate a skin that sends interface datagrams to a host (for measuring and watching without hardware).
+    Loadgen(loadgen::Args),
+}
+
+/// Runs the subcommand; errors are printed as one line, never a backtrace.
+pub fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()))
+        .init();
+    let result = match Cli::parse().command {
+        Command::Monitor(args) => monitor::run(args),
+        Command::Config(args) => config::run(args),
+        Command::Loadgen(args) => loadgen::run(args),
+    };
+    result.unwrap_or_else(|e| {
+        eprintln!("error: {e}");
+        ExitCode::FAILURE
+    })
+}
