@@ -14,5 +14,6 @@ fn main() {
     };
     let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     std::fs::copy(format!("memory/{board}.x"), out.join("memory.x")).expect("the board's memory layout exists");
+    std::fs::copy("memory/stack.x", out.join("stack.x")).expect("the stack reserve check exists");
     println!("cargo:rustc-link-search={}", out.display());
 }

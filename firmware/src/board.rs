@@ -1,12 +1,16 @@
 //! What a cell needs from its hardware, and the main loop that glues the
 //! board to the [`Node`].
 
+use core::mem::MaybeUninit;
+use core::ptr::addr_of_mut;
+
 use embedded_storage::nor_flash::NorFlash;
 use skin_protocol::message::{Port, Setting};
 use skin_protocol::organize::Config;
 
 use crate::node::Node;
 use crate::sensors::Sensors;
+use crate::store::Store;
 
 /// Timings of self-organization for cells on QEMU: about 10 times the
 /// defaults of [`Config::default`].
@@ -67,10 +71,20 @@ pub struct Firmware<B, F> {
 }
 
 impl<B: Board, F: NorFlash> Firmware<B, F> {
-    /// Joins a board and a node booted on it.
-    pub fn new(mut board: B, node: Node<F>) -> Self {
-        let next_sample_us = board.now_us();
-        Firmware { board, node, next_sample_us }
+    /// Boots a node on `board` into `slot`, in place: the state (kilobytes
+    /// of queues and buffers) lives in a static, where the memory layout
+    /// accounts for it, and never passes through the stack.
+    pub fn boot(slot: &mut MaybeUninit<Self>, mut board: B, config: Config, store: Store<F>) -> &mut Self {
+        let now_us = board.now_us();
+        let firmware = slot.as_mut_ptr();
+        // SAFETY: each field is written once through a pointer into `slot`,
+        // and the firmware is only referred to once all are written.
+        unsafe {
+            Node::boot(&mut *addr_of_mut!((*firmware).node).cast(), config, store, now_us);
+            addr_of_mut!((*firmware).board).write(board);
+            addr_of_mut!((*firmware).next_sample_us).write(now_us);
+            slot.assume_init_mut()
+        }
     }
 
     /// The node.

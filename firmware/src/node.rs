@@ -5,6 +5,9 @@
 //! The board hands it received bytes, raw samples and the time; it hands
 //! back bytes to transmit and the accelerometer range to apply.
 
+use core::mem::MaybeUninit;
+use core::ptr::addr_of_mut;
+
 use embedded_storage::nor_flash::NorFlash;
 use skin_protocol::cell::Cell;
 use skin_protocol::frame::FRAME_LEN;
@@ -48,6 +51,15 @@ impl<F: NorFlash> Node<F> {
     /// Boots with what the store holds: ID, offsets and settings. Without
     /// offsets the first samples calibrate them (see [`Processor::calibrate`]).
     pub fn new(config: Config, store: Store<F>, now_us: u64) -> Node<F> {
+        let mut slot = MaybeUninit::uninit();
+        Node::boot(&mut slot, config, store, now_us);
+        // SAFETY: `boot` wrote every field.
+        unsafe { slot.assume_init() }
+    }
+
+    /// [`Node::new`] built in place, in a static: no copy of the state
+    /// (kilobytes of queues) passes through the stack at boot.
+    pub fn boot(slot: &mut MaybeUninit<Node<F>>, config: Config, store: Store<F>, now_us: u64) -> &mut Node<F> {
         let mut processor = Processor::new();
         for setting in store.state().settings.iter().flatten() {
             processor.apply(setting);
@@ -56,9 +68,19 @@ impl<F: NorFlash> Node<F> {
             Some(offsets) => processor.set_offsets(offsets),
             None => processor.calibrate(),
         }
-        let cell = Cell::new(config, &store, now_us);
+        let node = slot.as_mut_ptr();
         let idle = Transmitter { frame: [0; FRAME_LEN], at: FRAME_LEN };
-        Node { cell, processor, store, rx: Default::default(), tx: [idle; 4], losses: Losses::default() }
+        // SAFETY: each field is written once through a pointer into `slot`,
+        // and the node is only referred to once all are written.
+        unsafe {
+            addr_of_mut!((*node).cell).write(Cell::new(config, &store, now_us));
+            addr_of_mut!((*node).store).write(store);
+            addr_of_mut!((*node).processor).write(processor);
+            addr_of_mut!((*node).rx).write(Default::default());
+            addr_of_mut!((*node).tx).write([idle; 4]);
+            addr_of_mut!((*node).losses).write(Losses::default());
+            slot.assume_init_mut()
+        }
     }
 
     /// This cell's address.

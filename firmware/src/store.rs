@@ -203,11 +203,16 @@ pub struct RamFlash<const N: usize> {
 
 impl<const N: usize> Default for RamFlash<N> {
     fn default() -> Self {
-        RamFlash { bytes: [0xFF; N] }
+        RamFlash::new()
     }
 }
 
 impl<const N: usize> RamFlash<N> {
+    /// Erased flash.
+    pub const fn new() -> Self {
+        RamFlash { bytes: [0xFF; N] }
+    }
+
     fn range(offset: u32, len: usize) -> Result<core::ops::Range<usize>, NorFlashErrorKind> {
         let start = offset as usize;
         match start.checked_add(len) {

@@ -36,4 +36,6 @@ fn seven_qemu_cells_organize_deliver_and_survive_a_death() {
     let opts = NetOptions { cells: 7, elf: default_elf_dir().join("cell-qemu"), keep: false };
     let report = run(&opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(report.ids.len(), 7);
+    let stack = report.stack.expect("the cells report their stack peak in their QEMU logs");
+    assert!(stack.peak_bytes <= stack.reserved_bytes, "stack {stack:?}: the memory layout reserves too little");
 }

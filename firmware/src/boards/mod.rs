@@ -2,6 +2,7 @@
 
 #[cfg(feature = "qemu")]
 pub mod qemu;
+pub mod stack;
 #[cfg(feature = "stm32f4")]
 pub mod stm32f4;
 pub mod systick;

@@ -5,7 +5,9 @@
 //! - [`crate::board::QEMU_CONFIG`] are its self-organization timings.
 //! - SysTick at 1 kHz is the clock; with the UART receive interrupts it
 //!   wakes the core from WFI, so an idle QEMU cell costs no host CPU.
-//! - Logs go out with defmt over semihosting (QEMU's stdout).
+//! - Logs go out with defmt over semihosting (QEMU's stdout). The stack's
+//!   peak use, whenever it grows, goes out as a text line on semihosting's
+//!   stderr (QEMU's stderr): `stack peak N bytes of R reserved`.
 //! - Persistent storage is a file on the host named by `store=PATH` in
 //!   QEMU's `-append`, accessed through semihosting: flash that survives
 //!   the QEMU process as real flash survives a power cycle. Without it the
@@ -23,10 +25,12 @@ use semihosting::fs::File;
 use semihosting::io::{Read, Seek, SeekFrom, Write};
 use skin_protocol::message::Port;
 
+use super::stack::{self, PeakWatch};
 use super::systick::Clock;
 use crate::board::{Board, SerialPort};
 use crate::sensors::{SensorError, Sensors};
 use crate::stimulus::Stimulated;
+use crate::store::RamFlash;
 
 use defmt_semihosting as _;
 
@@ -141,6 +145,7 @@ pub struct Qemu {
     ports: [Uart; 4],
     sensors: QemuSensors,
     clock: Clock,
+    stack: PeakWatch,
 }
 
 impl Qemu {
@@ -157,7 +162,8 @@ impl Qemu {
             // SAFETY: the handler (DefaultHandler) clears these interrupts.
             unsafe { NVIC::unmask(RxInterrupt(irq)) };
         }
-        let board = Qemu { ports, sensors: QemuSensors { uart: stimulus_uart, stimulus: Stimulated::new() }, clock };
+        let sensors = QemuSensors { uart: stimulus_uart, stimulus: Stimulated::new() };
+        let board = Qemu { ports, sensors, clock, stack: PeakWatch::new() };
         (board, StoreFlash::open())
     }
 }
@@ -179,6 +185,9 @@ impl Board for Qemu {
     }
 
     fn sleep(&mut self) {
+        if let Some(peak) = self.stack.grew(self.clock.now_us()) {
+            semihosting::eprintln!("stack peak {} bytes of {} reserved", peak, stack::reserved_bytes());
+        }
         // With interrupts masked, a byte arriving after the check still
         // wakes the WFI (it is pending), so none waits for the next tick.
         cortex_m::interrupt::free(|_| {
@@ -193,14 +202,12 @@ impl Board for Qemu {
 defmt::timestamp!("{=u64:us}", Clock::log_time_us(SYSCLK_HZ));
 
 /// The persistent store: a semihosting file, or RAM when none was named.
-// Only one value exists, and without an allocator the RAM variant cannot be boxed.
-#[allow(clippy::large_enum_variant)]
 #[derive(Debug)]
 pub enum StoreFlash {
     /// `store=PATH` from QEMU's `-append`.
     File(File),
-    /// No file: lost at exit.
-    Ram(crate::store::RamFlash<STORE_LEN>),
+    /// No file: a static, lost at exit.
+    Ram(&'static mut RamFlash<STORE_LEN>),
 }
 
 impl StoreFlash {
@@ -210,7 +217,10 @@ impl StoreFlash {
             Some(file) => StoreFlash::File(file),
             None => {
                 defmt::warn!("no store=PATH in the command line: ID and settings are kept in RAM only");
-                StoreFlash::Ram(Default::default())
+                match cortex_m::singleton!(: RamFlash<STORE_LEN> = RamFlash::new()) {
+                    Some(ram) => StoreFlash::Ram(ram),
+                    None => defmt::panic!("store opened twice"),
+                }
             }
         }
     }

@@ -11,7 +11,8 @@
 //! The core sleeps with WFE; the UARTs' receive interrupts are enabled in
 //! the peripherals but not in the NVIC, and SEVONPEND makes them wake the
 //! core without a handler, so the main loop reads every byte. Logs go out
-//! with defmt over RTT; a panic or a fault resets the cell, which comes back
+//! with defmt over RTT, and so does the stack's peak use whenever it grows;
+//! a panic or a fault resets the cell, which comes back
 //! with its ID, offsets and settings from flash.
 
 use core::cell::RefCell;
@@ -30,6 +31,7 @@ use stm32f4xx_hal::rcc::Config as ClockConfig;
 use stm32f4xx_hal::serial::{self, Rx, Serial, Tx};
 use stm32f4xx_hal::spi::{Mode, Phase, Polarity, Spi};
 
+use super::stack::{self, PeakWatch};
 use super::systick::Clock;
 use crate::board::{Board, SerialPort};
 use crate::drivers::bma250::Bma250;
@@ -108,6 +110,7 @@ pub struct Stm32f4 {
     ports: Ports,
     chips: CellChips,
     clock: Clock,
+    stack: PeakWatch,
 }
 
 impl Stm32f4 {
@@ -176,7 +179,7 @@ impl Stm32f4 {
             ),
         };
         let clock = Clock::start(&mut cp.SYST, SYSCLK_HZ);
-        (Stm32f4 { ports, chips, clock }, CellFlash(LockedFlash::new(dp.FLASH)))
+        (Stm32f4 { ports, chips, clock, stack: PeakWatch::new() }, CellFlash(LockedFlash::new(dp.FLASH)))
     }
 }
 
@@ -202,6 +205,9 @@ impl Board for Stm32f4 {
     }
 
     fn sleep(&mut self) {
+        if let Some(peak) = self.stack.grew(self.clock.now_us()) {
+            defmt::info!("stack peak {} bytes of {} reserved", peak, stack::reserved_bytes());
+        }
         for irq in [Interrupt::USART1, Interrupt::USART2, Interrupt::USART3, Interrupt::UART4] {
             NVIC::unpend(irq);
         }

@@ -126,6 +126,31 @@ pub fn gateway_socket(dir: &Path) -> PathBuf {
     dir.join("gateway.sock")
 }
 
+/// The stack use a cell measured: its cortex-m-rt-painted stack's
+/// high-water mark, and what the memory layout reserves for it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct StackUse {
+    /// The deepest the stack has been, in bytes.
+    pub peak_bytes: usize,
+    /// Bytes the memory layout reserves for the stack.
+    pub reserved_bytes: usize,
+}
+
+impl StackUse {
+    /// The largest peak in a cell's QEMU log, where the firmware writes
+    /// `stack peak N bytes of R reserved` whenever its peak grows.
+    pub fn parse(log: &str) -> Option<StackUse> {
+        log.lines()
+            .filter_map(|line| {
+                let rest = line.strip_prefix("stack peak ")?;
+                let (peak, rest) = rest.split_once(" bytes of ")?;
+                let reserved = rest.strip_suffix(" reserved")?;
+                Some(StackUse { peak_bytes: peak.parse().ok()?, reserved_bytes: reserved.parse().ok()? })
+            })
+            .max_by_key(|s| s.peak_bytes)
+    }
+}
+
 /// Running cells. Dropping this kills every QEMU it started, so no process
 /// outlives the harness, whether it ends by success, error or panic.
 #[derive(Debug)]
@@ -150,6 +175,11 @@ impl Cells {
     /// QEMU's own messages for cell `i`.
     pub fn qemu_log(&self, i: usize) -> PathBuf {
         self.dir.join(format!("cell{i}.log"))
+    }
+
+    /// The stack use cell `i` reported in its QEMU log so far (across restarts).
+    pub fn stack_use(&self, i: usize) -> Option<StackUse> {
+        std::fs::read_to_string(self.qemu_log(i)).ok().as_deref().and_then(StackUse::parse)
     }
 
     /// Starts cell `i`.
@@ -215,5 +245,17 @@ pub fn run_alone(elf: &Path, limit: Duration) -> Result<Option<ExitStatus>, Qemu
             return Ok(None);
         }
         std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_largest_stack_peak_of_a_log_is_found() {
+        let log = "qemu-system-arm: terminating\nstack peak 1200 bytes of 4096 reserved\nstack peak 2400 bytes of 4096 reserved\nstack peak x bytes of 4096 reserved\n";
+        assert_eq!(StackUse::parse(log), Some(StackUse { peak_bytes: 2400, reserved_bytes: 4096 }));
+        assert_eq!(StackUse::parse("no report"), None);
     }
 }

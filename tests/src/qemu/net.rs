@@ -14,7 +14,7 @@ use skin_protocol::event::Quantizer;
 use skin_protocol::message::{Channel, Neighbour, Port, Setting, TrafficMode};
 use skin_protocol::{Address, Sample};
 
-use super::cells::{gateway_socket, plan, stimulus_socket, CellCommand, Cells};
+use super::cells::{gateway_socket, plan, stimulus_socket, CellCommand, Cells, StackUse};
 use super::gateway::{Gateway, GatewayStats};
 use super::hex::{End, Wiring};
 use super::host::Host;
@@ -58,6 +58,8 @@ pub struct NetReport {
     pub events: usize,
     /// The interface port's counts.
     pub gateway: GatewayStats,
+    /// The deepest stack of any cell over the run, and the reserve.
+    pub stack: Option<StackUse>,
     /// The run directory, when kept.
     pub dir: Option<PathBuf>,
 }
@@ -417,6 +419,7 @@ fn run_in(opts: &NetOptions, dir: &Path, progress: &mut dyn FnMut(&str)) -> Resu
     }
 
     let World { cells, host, gateway, .. } = w;
+    let stack = (0..n).filter_map(|i| cells.stack_use(i)).max_by_key(|s| s.peak_bytes);
     drop(cells);
     Ok(NetReport {
         cells: n,
@@ -431,6 +434,7 @@ fn run_in(opts: &NetOptions, dir: &Path, progress: &mut dyn FnMut(&str)) -> Resu
         samples: host.samples.len(),
         events: host.events.len(),
         gateway: gateway.stop(),
+        stack,
         dir: None,
     })
 }
