@@ -150,7 +150,33 @@ fn loopback(spec: LoadSpec, pace: Pace, seconds: f64) -> (skin_host::interface::
     (sent, receiver.join().expect("receiver thread"))
 }
 
+/// How many datagrams of `frames` frames the default receive buffer holds
+/// while nobody reads: the longest burst (or stall of the receiver) the
+/// interface survives.
+fn buffer_depth(frames: usize) -> (usize, usize) {
+    let config = InterfaceConfig { listen: SocketAddr::from(([127, 0, 0, 1], 0)), ..InterfaceConfig::default() };
+    let mut interface = Interface::bind(&config).expect("bind the interface on loopback");
+    let sender = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind a sender");
+    let datagram = vec![0u8; 16 + 20 * frames];
+    for _ in 0..1_000_000 {
+        if sender.send_to(&datagram, interface.local_addr()).is_err() {
+            break;
+        }
+    }
+    let mut events = Vec::new();
+    while interface.poll(Duration::from_millis(100), &mut events).expect("poll") > 0 {}
+    (interface.counters().datagrams.received as usize, interface.recv_buffer_bytes())
+}
+
 fn loopback_report(seconds: f64) {
+    for frames in [1, 20] {
+        let (held, granted) = buffer_depth(frames);
+        println!(
+            "receive buffer {granted} bytes granted: holds {held} datagrams of {frames} frame(s) unread, \
+             {:.0} ms of a 315,000 frames/s skin",
+            1e3 * (held * frames) as f64 / 315_000.0
+        );
+    }
     println!("\nLoopback, {seconds} s per run (load generator and interface each on one thread):");
     let flat = heavy_skin(1_000_000);
     let drops0 = rcvbuf_errors();
@@ -182,13 +208,15 @@ fn loopback_report(seconds: f64) {
         let lost = sent.frames - c.frames.accepted.min(sent.frames);
         println!(
             "  {rate:.0} frames/s clock-driven, {what} ({:.1} frames/datagram): sent {} frames in {} datagrams \
-             over {:.2} s (sender at worst {} us behind its clock)\n    \
+             over {:.2} s = {:.0} frames/s ({} send errors; sender at worst {} us behind its clock)\n    \
              lost {lost} frames ({:.4} %), datagrams missing by sequence {}, rejected {}, \
              receiving thread {}; socket receive buffer {} bytes granted (asked {})",
             sent.frames as f64 / sent.datagrams.max(1) as f64,
             sent.frames,
             sent.datagrams,
             sent.wall_time_s,
+            sent.frames as f64 / sent.wall_time_s,
+            sent.send_errors,
             sent.behind_max_us,
             100.0 * lost as f64 / sent.frames.max(1) as f64,
             c.datagrams.missing,

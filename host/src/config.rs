@@ -69,8 +69,10 @@ pub struct InterfaceConfig {
     /// The host's socket; every interface port sends here.
     pub listen: SocketAddr,
     /// Receive buffer asked of the OS, in bytes. It absorbs bursts while the
-    /// host is busy; Linux caps it at `net.core.rmem_max` (and reports twice
-    /// the granted size).
+    /// host is busy elsewhere (the interface benchmark prints how long a
+    /// burst the default holds). Linux caps it at
+    /// `net.core.rmem_max` unless the process has `CAP_NET_ADMIN` (and
+    /// reports twice the granted size).
     pub recv_buffer_bytes: usize,
     /// Most datagrams taken per receive call.
     pub batch: usize,
@@ -94,7 +96,7 @@ impl Default for InterfaceConfig {
     fn default() -> Self {
         InterfaceConfig {
             listen: SocketAddr::from(([127, 0, 0, 1], 7700)),
-            recv_buffer_bytes: 8 << 20,
+            recv_buffer_bytes: 32 << 20,
             batch: 64,
             // The five ports of the HRP-2 skin interface.
             ports: (0..5).map(|number| PortConfig { number, address: None }).collect(),

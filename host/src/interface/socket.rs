@@ -38,6 +38,13 @@ impl BatchSocket {
     pub fn bind(addr: SocketAddr, recv_buffer_bytes: usize, batch: usize, batched: bool) -> io::Result<BatchSocket> {
         let socket = Socket::new(Domain::for_address(addr), Type::DGRAM, Some(Protocol::UDP))?;
         socket.set_recv_buffer_size(recv_buffer_bytes)?;
+        #[cfg(target_os = "linux")]
+        if socket.recv_buffer_size()? < recv_buffer_bytes {
+            // Past `net.core.rmem_max` only a privileged process may go; when
+            // this one is, it gets the buffer it was configured with.
+            use std::os::fd::AsRawFd;
+            let _ = mmsg::force_recv_buffer(socket.as_raw_fd(), recv_buffer_bytes);
+        }
         socket.bind(&addr.into())?;
         let batch = batch.clamp(1, MAX_BATCH);
         Ok(BatchSocket {
@@ -168,8 +175,9 @@ pub fn is_no_datagram(e: &io::Error) -> bool {
     )
 }
 
-/// The Linux batch calls. The only unsafe code of the interface: the
-/// message headers point into buffers that outlive each call.
+/// The Linux batch calls, and the privileged receive buffer. The only
+/// unsafe code of the interface: the message headers point into buffers
+/// that outlive each call.
 #[cfg(target_os = "linux")]
 #[allow(unsafe_code)]
 mod mmsg {
@@ -177,6 +185,27 @@ mod mmsg {
     use std::mem::{size_of, zeroed};
     use std::net::{Ipv4Addr, Ipv6Addr, SocketAddr, SocketAddrV4, SocketAddrV6};
     use std::os::fd::RawFd;
+
+    /// Asks for a receive buffer of `bytes` past the system limit, which
+    /// needs `CAP_NET_ADMIN`; the error says when the process lacks it.
+    pub fn force_recv_buffer(fd: RawFd, bytes: usize) -> io::Result<()> {
+        let value = libc::c_int::try_from(bytes).unwrap_or(libc::c_int::MAX);
+        // SAFETY: the option value is a c_int that lives for the call, and
+        // its size is passed with it.
+        let r = unsafe {
+            libc::setsockopt(
+                fd,
+                libc::SOL_SOCKET,
+                libc::SO_RCVBUFFORCE,
+                (&value as *const libc::c_int).cast(),
+                size_of::<libc::c_int>() as libc::socklen_t,
+            )
+        };
+        if r < 0 {
+            return Err(io::Error::last_os_error());
+        }
+        Ok(())
+    }
 
     /// Headers, I/O vectors and source addresses for one batch.
     #[derive(Debug)]

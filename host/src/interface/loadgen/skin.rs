@@ -188,7 +188,7 @@ impl SimSkin {
             let height = 0.5 + 0.5 * (std::f64::consts::TAU * t_s / 2.0).cos();
             proximity = (-(d2 + (3.0 * height).powi(2)) / 2.0).exp();
             if height < 0.2 {
-                force = 0.6 * (-d2).exp() * (0.2 - height) / 0.2;
+                force = 0.35 * (-d2).exp() * (0.2 - height) / 0.2;
             }
         }
         let rng = &mut self.rng;
@@ -343,5 +343,29 @@ mod tests {
         let port1: usize = skin.outgoing(1).map(|(_, f)| f).sum();
         let port0: usize = skin.outgoing(0).map(|(_, f)| f).sum();
         assert!(port1 < 20 && port0 > 1000, "port 0 {port0}, port 1 {port1}");
+    }
+
+    /// Highest level seen per channel (proximity, forces 0..3) in 4 s.
+    fn max_levels(touch: bool) -> [u8; 4] {
+        let spec = LoadSpec { cells: 80, ports: 1, flush_us: 0, touch, ..LoadSpec::default() };
+        let mut skin = SimSkin::new(spec).unwrap();
+        skin.generate(4_000_000);
+        let mut levels = [0u8; 4];
+        for (d, _) in skin.outgoing(0) {
+            for frame in Datagram::parse(d).unwrap().frames() {
+                if let Ok(Message::Event(e)) = frame.unwrap().message() {
+                    let i = e.channel as usize;
+                    levels[i] = levels[i].max(e.level);
+                }
+            }
+        }
+        levels
+    }
+
+    #[test]
+    fn a_touch_raises_tactile_events_and_a_quiet_skin_none() {
+        let touched = max_levels(true);
+        assert!(touched[0] >= 3 && touched[1..].iter().all(|l| (2..=3).contains(l)), "{touched:?}");
+        assert_eq!(max_levels(false), [0; 4]);
     }
 }
