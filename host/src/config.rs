@@ -41,15 +41,24 @@ pub enum Error {
         message: String,
     },
     /// A value has the right type but is out of range.
-    #[error("{origin}: `{key}` {message}")]
+    #[error("{}`{key}` {message}", prefix(origin))]
     Invalid {
-        /// The file (or other origin) of the text.
+        /// The file (or other origin) of the text; empty for a configuration
+        /// built in code.
         origin: String,
         /// The dotted key, e.g. `cells.sample_rate_hz`.
         key: String,
         /// What is wrong and what is expected.
         message: String,
     },
+}
+
+fn prefix(origin: &str) -> String {
+    if origin.is_empty() {
+        String::new()
+    } else {
+        format!("{origin}: ")
+    }
 }
 
 /// Everything the `skin` program can be configured with.
@@ -197,7 +206,12 @@ impl CellSettings {
         self.keyed().into_iter().map(|(_, s)| s).collect()
     }
 
-    fn validate(&self) -> Result<(), (String, String)> {
+    /// Checks every value; the error names the first bad key.
+    pub fn validate(&self) -> Result<(), Error> {
+        self.check().map_err(|(key, message)| invalid("cells", key, message))
+    }
+
+    fn check(&self) -> Result<(), (String, String)> {
         if ![2, 8, 16].contains(&self.accel_range_g) {
             return Err(("accel_range_g".into(), format!("= {}: must be 2, 8 or 16", self.accel_range_g)));
         }
@@ -222,7 +236,12 @@ impl CellSettings {
 }
 
 impl InterfaceConfig {
-    fn validate(&self) -> Result<(), (String, String)> {
+    /// Checks every value; the error names the first bad key.
+    pub fn validate(&self) -> Result<(), Error> {
+        self.check().map_err(|(key, message)| invalid("interface", key, message))
+    }
+
+    fn check(&self) -> Result<(), (String, String)> {
         if self.recv_buffer_bytes < MAX_DATAGRAM {
             return Err(("recv_buffer_bytes".into(), format!("must be at least {MAX_DATAGRAM} (one datagram)")));
         }
@@ -246,6 +265,10 @@ impl InterfaceConfig {
         }
         Ok(())
     }
+}
+
+fn invalid(section: &str, key: String, message: String) -> Error {
+    Error::Invalid { origin: String::new(), key: format!("{section}.{key}"), message }
 }
 
 /// Section comments of the written-out defaults.
@@ -279,13 +302,8 @@ impl Config {
 
     /// Checks every value; the error names the first bad key.
     pub fn validate(&self) -> Result<(), Error> {
-        let sections = [("interface", self.interface.validate()), ("cells", self.cells.validate())];
-        for (section, result) in sections {
-            if let Err((key, message)) = result {
-                return Err(Error::Invalid { origin: String::new(), key: format!("{section}.{key}"), message });
-            }
-        }
-        Ok(())
+        self.interface.validate()?;
+        self.cells.validate()
     }
 
     /// The configuration as commented TOML.

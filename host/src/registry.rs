@@ -199,22 +199,17 @@ impl Registry {
         if self.cells.len() <= i {
             self.cells.resize(i + 1, None);
         }
-        let seen = match &mut self.cells[i] {
+        let seen = match &self.cells[i] {
             Some(c) if c.interface == interface => Seen::Known,
-            Some(c) => {
-                let from = c.interface;
-                c.interface = interface;
-                Seen::Moved { from }
-            }
-            slot @ None => {
-                *slot = Some(CellRecord::new(id, interface, now_us));
+            Some(c) => Seen::Moved { from: c.interface },
+            None => {
                 self.len += 1;
                 self.allocator.observe(id);
                 Seen::New
             }
         };
-        // Just filled when it was empty.
-        let cell = self.cells[i].as_mut().expect("cell record present");
+        let cell = self.cells[i].get_or_insert_with(|| CellRecord::new(id, interface, now_us));
+        cell.interface = interface;
         cell.last_seen_us = now_us;
         (cell, seen)
     }

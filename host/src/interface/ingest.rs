@@ -6,7 +6,7 @@
 use std::net::SocketAddr;
 
 use skin_protocol::frame::FrameError;
-use skin_protocol::interface::{Datagram, DatagramError};
+use skin_protocol::interface::{Datagram, DatagramError, HEADER_LEN};
 use skin_protocol::{Address, Frame, Kind, Message, FRAME_LEN};
 
 use super::counters::{Counters, DatagramReject, FrameReject};
@@ -97,7 +97,8 @@ impl Ingest {
                         corrupt += 1;
                     }
                     if let Some(suppressed) = self.frame_log[reason as usize].allow(now_us) {
-                        let at = bytes.get(16 + i * FRAME_LEN..16 + (i + 1) * FRAME_LEN).unwrap_or_default();
+                        let at =
+                            bytes.get(HEADER_LEN + i * FRAME_LEN..HEADER_LEN + (i + 1) * FRAME_LEN).unwrap_or_default();
                         tracing::warn!(
                             port = header.interface, %from, frame = i, suppressed,
                             "dropped frame: {} ({at:02x?})", reason.name()
@@ -172,21 +173,20 @@ impl Ingest {
             return Ok(());
         }
 
-        let (cell, seen) = self.registry.heard(src, origin.interface, now_us);
         let kind = match message {
-            Message::Sample(s) => {
-                Registry::sample(cell, s, now_us);
-                EventKind::Sample(s)
-            }
-            Message::Event(e) => {
-                Registry::tactile(cell, &e);
-                EventKind::Tactile(e)
-            }
+            Message::Sample(s) => EventKind::Sample(s),
+            Message::Event(e) => EventKind::Tactile(e),
             Message::ConfigAck(a) => EventKind::ConfigAck(a),
             Message::NeighbourReport(r) => EventKind::Neighbours(r),
             // Ruled out by the kind check above.
             _ => return Err(FrameReject::UnexpectedKind),
         };
+        let (cell, seen) = self.registry.heard(src, origin.interface, now_us);
+        match kind {
+            EventKind::Sample(s) => Registry::sample(cell, s, now_us),
+            EventKind::Tactile(e) => Registry::tactile(cell, &e),
+            _ => {}
+        }
         match seen {
             Seen::Known => {}
             Seen::New => events.push(event(src, EventKind::Joined)),

@@ -27,7 +27,7 @@ pub mod loadgen;
 mod ports;
 mod ratelog;
 mod sequence;
-pub mod socket;
+mod socket;
 
 use std::net::SocketAddr;
 use std::time::{Duration, Instant};
@@ -40,7 +40,6 @@ pub use counters::{Counters, DatagramCounters, DatagramReject, FrameCounters, Fr
 pub use event::{Event, EventKind};
 pub use ingest::Ingest;
 pub use ports::{Port, PortStats, Ports};
-pub use sequence::{SeqWindow, Verdict};
 
 use crate::config::InterfaceConfig;
 use crate::registry::Registry;
@@ -50,6 +49,9 @@ use socket::BatchSocket;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
+    /// The interface configuration is inconsistent.
+    #[error(transparent)]
+    Config(#[from] crate::config::Error),
     /// The socket could not be opened on the address.
     #[error("cannot listen for the skin on {addr}: {source} (is another `skin` using it? pick another with --interface ADDR)")]
     Bind {
@@ -81,6 +83,8 @@ pub enum Error {
 #[derive(Debug)]
 pub struct Interface {
     socket: BatchSocket,
+    local_addr: SocketAddr,
+    recv_buffer_bytes: usize,
     ingest: Ingest,
     started: Instant,
     next_tag: u8,
@@ -96,6 +100,7 @@ impl Interface {
     /// As [`Interface::bind`]; `batched` false forces one system call per
     /// datagram (the path of systems without `recvmmsg`).
     pub fn bind_with(config: &InterfaceConfig, batched: bool) -> Result<Interface, Error> {
+        config.validate()?;
         let socket = BatchSocket::bind(config.listen, config.recv_buffer_bytes, config.batch, batched)
             .map_err(|source| Error::Bind { addr: config.listen, source })?;
         let granted = socket.recv_buffer_bytes()?;
@@ -108,6 +113,8 @@ impl Interface {
             );
         }
         Ok(Interface {
+            local_addr: socket.local_addr()?,
+            recv_buffer_bytes: granted,
             socket,
             ingest: Ingest::new(&config.ports),
             started: Instant::now(),
@@ -118,13 +125,12 @@ impl Interface {
 
     /// The address the interface listens on.
     pub fn local_addr(&self) -> SocketAddr {
-        // A bound socket always has a local address.
-        self.socket.local_addr().unwrap_or_else(|_| SocketAddr::from(([0, 0, 0, 0], 0)))
+        self.local_addr
     }
 
     /// The receive buffer the OS granted, in bytes.
     pub fn recv_buffer_bytes(&self) -> usize {
-        self.socket.recv_buffer_bytes().unwrap_or(0)
+        self.recv_buffer_bytes
     }
 
     /// The host clock of the interface: microseconds since it was bound.

@@ -26,7 +26,7 @@ use skin_protocol::Address;
 pub use skin::SimSkin;
 
 use super::socket::{is_no_datagram, BatchSocket};
-use crate::config::{PortConfig, Traffic};
+use crate::config::Traffic;
 
 /// What skin to simulate and how it sends.
 #[derive(Clone, Debug, PartialEq)]
@@ -90,12 +90,6 @@ impl LoadSpec {
             return Err("the report period must be at least 0.001 s".into());
         }
         Ok(())
-    }
-
-    /// The interface ports the host must accept: numbers `0..ports`, each
-    /// bound to the address of the generator socket that sends for it.
-    pub fn port_configs(&self, addresses: &[SocketAddr]) -> Vec<PortConfig> {
-        addresses.iter().enumerate().map(|(i, a)| PortConfig { number: i as u8, address: Some(*a) }).collect()
     }
 }
 
