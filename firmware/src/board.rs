@@ -5,6 +5,7 @@ use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use embedded_storage::nor_flash::NorFlash;
+use skin_protocol::frame::FRAME_LEN;
 use skin_protocol::message::{Port, Setting};
 use skin_protocol::organize::Config;
 
@@ -33,14 +34,19 @@ pub const QEMU_CONFIG: Config = Config {
     report_period_us: 4_000_000,
 };
 
-/// One cell-2-cell port: a UART seen a byte at a time.
+/// Received bytes taken from a port at a time: a few frames.
+const RX_CHUNK: usize = 64;
+
+/// One cell-2-cell port: bytes in, whole frames out.
 pub trait SerialPort {
-    /// A received byte, if one is waiting.
-    fn read(&mut self) -> Option<u8>;
-    /// True when the transmitter takes a byte now.
-    fn can_write(&mut self) -> bool;
-    /// Queues a byte; call only after [`SerialPort::can_write`].
-    fn write(&mut self, byte: u8);
+    /// Moves received bytes into `buf`; returns how many (0: none waiting).
+    fn read(&mut self, buf: &mut [u8]) -> usize;
+    /// True when the transmitter takes another frame now. A port that
+    /// feeds its UART a byte at a time moves on with the frame it is
+    /// sending first.
+    fn can_send(&mut self) -> bool;
+    /// Sends a frame; call only after [`SerialPort::can_send`].
+    fn send(&mut self, frame: &[u8; FRAME_LEN]);
 }
 
 /// A cell's hardware: four ports, the sensors, a clock, and a way to sleep.
@@ -96,10 +102,13 @@ impl<B: Board, F: NorFlash> Firmware<B, F> {
     pub fn step(&mut self) -> bool {
         let now = self.board.now_us();
         let mut busy = false;
+        // One chunk per port and step, so a flooded port starves no other work.
+        let mut chunk = [0u8; RX_CHUNK];
         for p in Port::ALL {
-            while let Some(byte) = self.board.port(p).read() {
-                busy = true;
-                if let Some(Setting::AccelRange(r)) = self.node.receive(p, byte, now) {
+            let n = self.board.port(p).read(&mut chunk);
+            busy |= n > 0;
+            for byte in &chunk[..n] {
+                if let Some(Setting::AccelRange(r)) = self.node.receive(p, *byte, now) {
                     if let Err(_e) = self.board.sensors().set_accel_range(r) {
                         #[cfg(feature = "defmt")]
                         defmt::warn!("accelerometer range not set: {}", _e);
@@ -126,11 +135,9 @@ impl<B: Board, F: NorFlash> Firmware<B, F> {
         }
         for p in Port::ALL {
             let port = self.board.port(p);
-            while port.can_write() {
-                match self.node.next_byte(p) {
-                    Some(byte) => port.write(byte),
-                    None => break,
-                }
+            while port.can_send() {
+                let Some(frame) = self.node.transmit(p) else { break };
+                port.send(frame.as_bytes());
                 busy = true;
             }
         }

@@ -8,6 +8,7 @@
 //! - [`sensors`]: one raw sample per period from the chips (or a stand-in).
 //! - [`stimulus`]: the QEMU stand-in, fed with readings by the test harness.
 //! - [`deframer`]: frames out of a UART byte stream.
+//! - [`ring`]: index arithmetic of the DMA rings behind a board's ports.
 //! - [`store`]: ID, offsets and settings in flash.
 //! - [`node`]: the cell's logic: [`skin_protocol::cell::Cell`] and
 //!   [`skin_protocol::processing::Processor`] on bytes and samples.
@@ -20,6 +21,7 @@ pub mod board;
 pub mod deframer;
 pub mod drivers;
 pub mod node;
+pub mod ring;
 pub mod sensors;
 pub mod stimulus;
 pub mod store;

@@ -3,14 +3,14 @@
 //! and the byte-level framing of the four ports.
 //!
 //! The board hands it received bytes, raw samples and the time; it hands
-//! back bytes to transmit and the accelerometer range to apply.
+//! back frames to transmit and the accelerometer range to apply.
 
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use embedded_storage::nor_flash::NorFlash;
 use skin_protocol::cell::Cell;
-use skin_protocol::frame::FRAME_LEN;
+use skin_protocol::frame::Frame;
 use skin_protocol::message::{ConfigAck, Message, Port, Setting};
 use skin_protocol::organize::Config;
 use skin_protocol::processing::Processor;
@@ -29,13 +29,6 @@ pub struct Losses {
     pub store_failed: u32,
 }
 
-/// The frame a port is transmitting and how far it got.
-#[derive(Clone, Copy, Debug)]
-struct Transmitter {
-    frame: [u8; FRAME_LEN],
-    at: usize,
-}
-
 /// A skin cell's logic.
 #[derive(Debug)]
 pub struct Node<F> {
@@ -43,7 +36,6 @@ pub struct Node<F> {
     processor: Processor,
     store: Store<F>,
     rx: [Deframer; 4],
-    tx: [Transmitter; 4],
     losses: Losses,
 }
 
@@ -69,7 +61,6 @@ impl<F: NorFlash> Node<F> {
             None => processor.calibrate(),
         }
         let node = slot.as_mut_ptr();
-        let idle = Transmitter { frame: [0; FRAME_LEN], at: FRAME_LEN };
         // SAFETY: each field is written once through a pointer into `slot`,
         // and the node is only referred to once all are written.
         unsafe {
@@ -77,7 +68,6 @@ impl<F: NorFlash> Node<F> {
             addr_of_mut!((*node).store).write(store);
             addr_of_mut!((*node).processor).write(processor);
             addr_of_mut!((*node).rx).write(Default::default());
-            addr_of_mut!((*node).tx).write([idle; 4]);
             addr_of_mut!((*node).losses).write(Losses::default());
             slot.assume_init_mut()
         }
@@ -163,20 +153,14 @@ impl<F: NorFlash> Node<F> {
         }
     }
 
-    /// True when `port` has bytes to transmit.
+    /// True when `port` has frames to transmit.
     pub fn has_pending(&self, port: Port) -> bool {
-        self.tx[port.index()].at < FRAME_LEN || self.cell.has_pending(port)
+        self.cell.has_pending(port)
     }
 
-    /// The next byte for `port`'s transmitter, which has room for it.
-    pub fn next_byte(&mut self, port: Port) -> Option<u8> {
-        let tx = &mut self.tx[port.index()];
-        if tx.at == FRAME_LEN {
-            tx.frame = *self.cell.transmit(port)?.as_bytes();
-            tx.at = 0;
-        }
-        tx.at += 1;
-        Some(tx.frame[tx.at - 1])
+    /// The next frame for `port`, whose transmitter has room for it.
+    pub fn transmit(&mut self, port: Port) -> Option<Frame> {
+        self.cell.transmit(port)
     }
 }
 
@@ -206,9 +190,8 @@ mod tests {
             for f in down.drain(..) {
                 sink.send(f).unwrap();
             }
-            let from_cell: Vec<u8> = core::iter::from_fn(|| node.next_byte(Port::P0)).collect();
-            for chunk in from_cell.chunks(FRAME_LEN) {
-                if let Ok(FromCell::Host(f)) = sink.receive(chunk, *t) {
+            while let Some(frame) = node.transmit(Port::P0) {
+                if let Ok(FromCell::Host(f)) = sink.receive(frame.as_bytes(), *t) {
                     up.push(f);
                 }
             }

@@ -23,6 +23,7 @@ use cortex_m_rt::{exception, ExceptionFrame};
 use embedded_storage::nor_flash::{ErrorType, NorFlash, NorFlashErrorKind, ReadNorFlash};
 use semihosting::fs::File;
 use semihosting::io::{Read, Seek, SeekFrom, Write};
+use skin_protocol::frame::FRAME_LEN;
 use skin_protocol::message::Port;
 
 use super::stack::{self, PeakWatch};
@@ -39,10 +40,13 @@ const SYSCLK_HZ: u32 = 25_000_000;
 /// Bytes of the persistent store (one erase sector, four record slots).
 pub const STORE_LEN: usize = 1024;
 
-/// A CMSDK APB UART.
+/// A CMSDK APB UART, with the frame it is sending: it takes one byte at a
+/// time (QEMU passes each on to its chardev at once).
 #[derive(Debug)]
 pub struct Uart {
     base: usize,
+    tx: [u8; FRAME_LEN],
+    tx_at: usize,
 }
 
 impl Uart {
@@ -60,7 +64,7 @@ impl Uart {
     /// # Safety
     /// `base` is a CMSDK UART that nothing else uses.
     unsafe fn new(base: usize) -> Uart {
-        let uart = Uart { base };
+        let uart = Uart { base, tx: [0; FRAME_LEN], tx_at: FRAME_LEN };
         // The smallest divider the CMSDK UART accepts; QEMU ignores the rate.
         uart.set(Self::BAUDDIV, 16);
         uart.set(Self::CTRL, Self::TX_EN | Self::RX_EN | Self::RX_INT_EN);
@@ -80,19 +84,37 @@ impl Uart {
     fn rx_ready(&self) -> bool {
         self.get(Self::STATE) & Self::RX_FULL != 0
     }
+
+    fn read_byte(&mut self) -> Option<u8> {
+        self.rx_ready().then(|| self.get(Self::DATA) as u8)
+    }
 }
 
 impl SerialPort for Uart {
-    fn read(&mut self) -> Option<u8> {
-        self.rx_ready().then(|| self.get(Self::DATA) as u8)
+    fn read(&mut self, buf: &mut [u8]) -> usize {
+        let mut n = 0;
+        while n < buf.len() {
+            match self.read_byte() {
+                Some(byte) => buf[n] = byte,
+                None => break,
+            }
+            n += 1;
+        }
+        n
     }
 
-    fn can_write(&mut self) -> bool {
-        self.get(Self::STATE) & Self::TX_FULL == 0
+    fn can_send(&mut self) -> bool {
+        while self.tx_at < FRAME_LEN && self.get(Self::STATE) & Self::TX_FULL == 0 {
+            self.set(Self::DATA, u32::from(self.tx[self.tx_at]));
+            self.tx_at += 1;
+        }
+        self.tx_at == FRAME_LEN
     }
 
-    fn write(&mut self, byte: u8) {
-        self.set(Self::DATA, u32::from(byte));
+    fn send(&mut self, frame: &[u8; FRAME_LEN]) {
+        self.tx = *frame;
+        self.tx_at = 0;
+        self.can_send();
     }
 }
 
@@ -122,7 +144,7 @@ pub struct QemuSensors {
 
 impl QemuSensors {
     fn drain(&mut self) {
-        while let Some(byte) = self.uart.read() {
+        while let Some(byte) = self.uart.read_byte() {
             self.stimulus.feed(byte);
         }
     }

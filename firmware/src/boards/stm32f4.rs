@@ -2,18 +2,16 @@
 //!
 //! | function            | peripheral | pins                    |
 //! |---------------------|------------|-------------------------|
-//! | port 0..3           | USART1, USART2, USART3, UART4 at 4 Mbit/s | PA9/PA10, PA2/PA3, PB10/PB11, PC10/PC11 |
+//! | port 0..3           | USART1, USART2, USART3, UART4 at 4 Mbit/s, DMA ([`ports`]) | PA9/PA10, PA2/PA3, PB10/PB11, PC10/PC11 |
 //! | VCNL4010            | I2C1, 400 kHz | PB8 (SCL), PB9 (SDA) |
 //! | BMA250, LM71        | SPI1, 4 MHz, mode 0 | PA5/PA6/PA7, chip selects PA4 (BMA250), PB0 (LM71) |
 //! | force pads          | GPIO open drain, 1 MOhm pull-ups | PC0, PC1, PC2 |
 //! | persistent store    | flash sector 5 | 0x0802_0000, 128 KiB |
 //!
-//! The core sleeps with WFE; the UARTs' receive interrupts are enabled in
-//! the peripherals but not in the NVIC, and SEVONPEND makes them wake the
-//! core without a handler, so the main loop reads every byte. Logs go out
-//! with defmt over RTT, and so does the stack's peak use whenever it grows;
-//! a panic or a fault resets the cell, which comes back
-//! with its ID, offsets and settings from flash.
+//! The core sleeps with WFE until a port receives, a DMA interrupt or the
+//! tick ([`ports`] says how). Logs go out with defmt over RTT, and so does
+//! the stack's peak use whenever it grows; a panic or a fault resets the
+//! cell, which comes back with its ID, offsets and settings from flash.
 
 use core::cell::RefCell;
 
@@ -22,18 +20,21 @@ use cortex_m_rt::{exception, ExceptionFrame};
 use embedded_hal_bus::spi::{NoDelay, RefCellDevice};
 use embedded_storage::nor_flash::{ErrorType, NorFlash, ReadNorFlash};
 use skin_protocol::message::{AccelRange, Port};
+use stm32f4xx_hal::dma::traits::PeriAddress;
 use stm32f4xx_hal::flash::{self, FlashExt, LockedFlash};
 use stm32f4xx_hal::gpio::{ErasedPin, OpenDrain, Output, PushPull};
 use stm32f4xx_hal::i2c::I2c;
 use stm32f4xx_hal::pac::{self, Interrupt, I2C1, SPI1};
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Config as ClockConfig;
-use stm32f4xx_hal::serial::{self, Rx, Serial, Tx};
+use stm32f4xx_hal::rcc::Enable;
+use stm32f4xx_hal::serial::{self, config::DmaConfig, Serial};
 use stm32f4xx_hal::spi::{Mode, Phase, Polarity, Spi};
 
+use self::ports::DmaPort;
 use super::stack::{self, PeakWatch};
 use super::systick::Clock;
-use crate::board::{Board, SerialPort};
+use crate::board::Board;
 use crate::drivers::bma250::Bma250;
 use crate::drivers::force::RcTiming;
 use crate::drivers::lm71::Lm71;
@@ -41,6 +42,8 @@ use crate::drivers::vcnl4010::Vcnl4010;
 use crate::sensors::Chips;
 
 use defmt_rtt as _;
+
+pub mod ports;
 
 /// Core clock.
 const SYSCLK_HZ: u32 = 64_000_000;
@@ -53,53 +56,6 @@ pub const STORE_LEN: u32 = 0x2_0000;
 /// VCNL4010 LED current: 100 mA.
 const LED_CURRENT: u8 = 10;
 
-/// One cell port: a U(S)ART, polled.
-pub struct Uart<U: serial::Instance> {
-    tx: Tx<U>,
-    rx: Rx<U>,
-}
-
-impl<U: serial::Instance> Uart<U> {
-    fn rx_ready(&self) -> bool {
-        self.rx.is_rx_not_empty()
-    }
-}
-
-/// The four ports, which are of four types.
-pub struct Ports {
-    p0: Uart<pac::USART1>,
-    p1: Uart<pac::USART2>,
-    p2: Uart<pac::USART3>,
-    p3: Uart<pac::UART4>,
-}
-
-/// One port behind a trait object, so the four types read as one.
-pub trait AnyPort: SerialPort {
-    /// True when a received byte waits.
-    fn has_byte(&self) -> bool;
-}
-
-impl<U: serial::Instance> SerialPort for Uart<U> {
-    fn read(&mut self) -> Option<u8> {
-        embedded_hal_nb::serial::Read::read(&mut self.rx).ok()
-    }
-
-    fn can_write(&mut self) -> bool {
-        self.tx.is_tx_empty()
-    }
-
-    fn write(&mut self, byte: u8) {
-        // Cannot block: the caller checked that the data register is empty.
-        let _ = embedded_hal_nb::serial::Write::write(&mut self.tx, byte);
-    }
-}
-
-impl<U: serial::Instance> AnyPort for Uart<U> {
-    fn has_byte(&self) -> bool {
-        self.rx_ready()
-    }
-}
-
 type Spi1 = Spi<SPI1>;
 type SpiDevice = RefCellDevice<'static, Spi1, ErasedPin<Output<PushPull>>, NoDelay>;
 /// The sensor chips of the cell.
@@ -107,7 +63,7 @@ pub type CellChips = Chips<I2c<I2C1>, SpiDevice, SpiDevice, ErasedPin<Output<Ope
 
 /// The STM32F405 cell.
 pub struct Stm32f4 {
-    ports: Ports,
+    ports: [DmaPort; 4],
     chips: CellChips,
     clock: Clock,
     stack: PeakWatch,
@@ -125,25 +81,30 @@ impl Stm32f4 {
         let gpiob = dp.GPIOB.split(&mut rcc);
         let gpioc = dp.GPIOC.split(&mut rcc);
 
-        let config = serial::Config::default().baudrate(PORT_BAUD.bps());
+        pac::DMA1::enable(&mut rcc);
+        pac::DMA2::enable(&mut rcc);
+        let config = serial::Config::default().baudrate(PORT_BAUD.bps()).dma(DmaConfig::TxRx);
         macro_rules! port {
-            ($usart:expr, $tx:expr, $rx:expr, $irq:expr) => {{
+            ($index:expr, $usart:expr, $tx:expr, $rx:expr, $irq:expr) => {{
                 let mut s: Serial<_> = match Serial::new($usart, ($tx, $rx), config, &mut rcc) {
                     Ok(s) => s,
                     Err(_) => defmt::panic!("port UART configuration"),
                 };
                 s.listen(serial::Event::RxNotEmpty);
                 NVIC::unpend($irq);
-                let (tx, rx) = s.split();
-                Uart { tx, rx }
+                // The UART and its pins stay configured when the HAL's
+                // handles go: from here on only the DMA touches it.
+                let (_, rx) = s.split();
+                // SAFETY: once per port, the DMAs clocked above and used by nothing else.
+                unsafe { DmaPort::start($index, rx.address()) }
             }};
         }
-        let ports = Ports {
-            p0: port!(dp.USART1, gpioa.pa9, gpioa.pa10, Interrupt::USART1),
-            p1: port!(dp.USART2, gpioa.pa2, gpioa.pa3, Interrupt::USART2),
-            p2: port!(dp.USART3, gpiob.pb10, gpiob.pb11, Interrupt::USART3),
-            p3: port!(dp.UART4, gpioc.pc10, gpioc.pc11, Interrupt::UART4),
-        };
+        let ports = [
+            port!(0, dp.USART1, gpioa.pa9, gpioa.pa10, Interrupt::USART1),
+            port!(1, dp.USART2, gpioa.pa2, gpioa.pa3, Interrupt::USART2),
+            port!(2, dp.USART3, gpiob.pb10, gpiob.pb11, Interrupt::USART3),
+            port!(3, dp.UART4, gpioc.pc10, gpioc.pc11, Interrupt::UART4),
+        ];
         // Pending receive interrupts wake WFE without running a handler.
         cp.SCB.set_sevonpend();
 
@@ -184,20 +145,15 @@ impl Stm32f4 {
 }
 
 impl Board for Stm32f4 {
-    type Port = dyn AnyPort;
+    type Port = DmaPort;
     type Sensors = CellChips;
 
     fn now_us(&mut self) -> u64 {
         self.clock.now_us()
     }
 
-    fn port(&mut self, port: Port) -> &mut (dyn AnyPort + 'static) {
-        match port {
-            Port::P0 => &mut self.ports.p0,
-            Port::P1 => &mut self.ports.p1,
-            Port::P2 => &mut self.ports.p2,
-            Port::P3 => &mut self.ports.p3,
-        }
+    fn port(&mut self, port: Port) -> &mut DmaPort {
+        &mut self.ports[port.index()]
     }
 
     fn sensors(&mut self) -> &mut CellChips {
@@ -211,8 +167,7 @@ impl Board for Stm32f4 {
         for irq in [Interrupt::USART1, Interrupt::USART2, Interrupt::USART3, Interrupt::UART4] {
             NVIC::unpend(irq);
         }
-        let p = &self.ports;
-        if !(p.p0.has_byte() || p.p1.has_byte() || p.p2.has_byte() || p.p3.has_byte()) {
+        if !self.ports.iter().any(DmaPort::has_byte) {
             // A byte arriving after the check sets the event flag: WFE returns at once.
             cortex_m::asm::wfe();
         }
