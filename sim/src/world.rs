@@ -249,6 +249,7 @@ impl World {
     pub fn step(&mut self, out: &mut Vec<(Address, Sample)>) {
         let h = self.cfg.tick_s / f64::from(SUBSTEPS);
         let follow = 1.0 - (-h / self.cfg.servo_time_constant_s).exp();
+        let start = self.qd.clone();
         for _ in 0..SUBSTEPS {
             for (d, dof) in self.robot.dofs().iter().enumerate() {
                 let (q, w) = (self.q[d], self.qd[d]);
@@ -268,6 +269,10 @@ impl World {
                 self.q[d] = pos;
             }
             self.rock_base(h);
+        }
+        // The sensors' bandwidth spans the tick: they see its mean acceleration.
+        for ((a, w), w0) in self.qdd.iter_mut().zip(&self.qd).zip(&start) {
+            *a = (w - w0) / self.cfg.tick_s;
         }
         self.ticks += 1;
         self.update_kinematics();

@@ -1,6 +1,7 @@
 //! The `skin` command line: one module per subcommand, dispatched here.
 
 mod config;
+mod explore;
 mod loadgen;
 mod monitor;
 
@@ -18,6 +19,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Learn the robot's kinematic tree and sensory-motor map from its skin (section 4).
+    Explore(explore::Args),
     /// Watch the skin live: cells, rates, tactile events, drops.
     Monitor(monitor::Args),
     /// Write the default configuration file, or check one.
@@ -34,6 +37,7 @@ pub fn main() -> ExitCode {
         .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()))
         .init();
     let result = match Cli::parse().command {
+        Command::Explore(args) => explore::run(args),
         Command::Monitor(args) => monitor::run(args),
         Command::Config(args) => config::run(args),
         Command::Loadgen(args) => loadgen::run(args),

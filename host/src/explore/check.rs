@@ -7,11 +7,42 @@
 //! the noise-free tangential acceleration direction in the cell frame.
 
 use std::collections::{BTreeMap, HashMap};
+use std::time::Instant;
 
 use skin_sim::world::World;
 
 use super::merge::merge;
-use super::{Exploration, KinematicTree};
+use super::{explore, Exploration, ExploreConfig, ExploreError, KinematicTree};
+use crate::robot::SimRobot;
+
+/// One exploration of a simulated world, checked against its truth.
+#[derive(Debug)]
+pub struct Trial {
+    /// The exploration and its check, or why it failed.
+    pub outcome: Result<(Exploration, TruthReport), ExploreError>,
+    /// Wall-clock time of the exploration, s.
+    pub wall_time_s: f64,
+}
+
+impl Trial {
+    /// Explores `world` with `cfg` and checks the result.
+    pub fn run(world: World, cfg: &ExploreConfig) -> Trial {
+        let mut rig = SimRobot::new(world);
+        let start = Instant::now();
+        let result = explore(&mut rig, cfg, &mut |_| ());
+        let wall_time_s = start.elapsed().as_secs_f64();
+        let outcome = result.map(|found| {
+            let truth = check(&found, rig.world());
+            (found, truth)
+        });
+        Trial { outcome, wall_time_s }
+    }
+
+    /// The exploration succeeded and its tree is the true one.
+    pub fn tree_correct(&self) -> bool {
+        self.outcome.as_ref().is_ok_and(|(_, t)| t.tree_correct)
+    }
+}
 
 /// How an exploration compares with the truth.
 #[derive(Clone, Debug, PartialEq)]

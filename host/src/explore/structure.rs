@@ -178,7 +178,8 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
         loop {
             let average_s = cfg.average_s * f64::from(1u32 << attempt.min(16));
             let step = self.step(d, direction * cfg.step_rad, average_s)?;
-            if step.moved_rad.abs() < 0.5 * cfg.step_rad {
+            // Less than a quarter of the step: at a limit.
+            if step.moved_rad.abs() < 0.25 * cfg.step_rad {
                 blocked += 1;
                 if blocked > 1 {
                     return Err(ExploreError::Stuck(self.dof_names[d].clone()));
@@ -203,7 +204,7 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
     /// and returns how far it really turned, rad.
     fn turn(&mut self, p: usize, delta: f64) -> Result<f64, ExploreError> {
         let mut turned = self.step(p, delta, self.cfg.average_s)?.moved_rad;
-        if turned.abs() < 0.5 * delta.abs() {
+        if turned.abs() < 0.25 * delta.abs() {
             turned += self.step(p, -delta, self.cfg.average_s)?.moved_rad;
         }
         Ok(turned)

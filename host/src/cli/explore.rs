@@ -1,0 +1,240 @@
+//! `skin explore`: kinematic self-exploration of a simulated robot.
+//!
+//! The simulator builds the robot (the built-in HRP-2-like upper body, or
+//! any URDF) and its skin; the host explores it through the `Robot` trait
+//! and the sample stream only. Ground truth is read afterwards, for the
+//! `truth` section alone.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::ValueEnum;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::{json, Value};
+use skin_host::explore::check::{check, TruthReport};
+use skin_host::explore::{explore, Exploration, ExploreConfig, ExploreError, StructureConfig};
+use skin_host::robot::SimRobot;
+use skin_sim::accel::Bma250Config;
+use skin_sim::robot::{hrp2, Robot, UrdfError};
+use skin_sim::skin::{Skin, SkinError};
+use skin_sim::world::{BaseConfig, World, WorldConfig};
+
+/// The exploration the paper timed on HRP-2, for comparison.
+const PAPER_STRUCTURE_S: f64 = 70.0;
+
+/// Arguments of `skin explore`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Robot description; without it, the built-in HRP-2-like upper body (14 DoF, 74 cells).
+    #[arg(long, value_name = "FILE")]
+    urdf: Option<PathBuf>,
+    /// Cells on every link with geometry or mass [default: 4; the built-in robot: its own 74-cell skin].
+    #[arg(long, value_name = "N", conflicts_with = "skin")]
+    cells_per_link: Option<usize>,
+    /// Skin file (TOML or JSON) listing the cells of each link with their poses.
+    #[arg(long, value_name = "FILE")]
+    skin: Option<PathBuf>,
+    /// Seed of everything random: skin placement, sensor errors, noise, sway.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Accelerometer noise relative to the BMA250 datasheet (0: noise-free).
+    #[arg(long, default_value_t = 1.0, value_name = "X")]
+    noise_scale: f64,
+    /// How the static base sits in the world.
+    #[arg(long, value_enum, default_value_t = Base::Standing)]
+    base: Base,
+    /// The paper's structural timing (0.5 s settling, 1.0 s averaging, two runs) instead of the fast default.
+    #[arg(long)]
+    paper: bool,
+    /// One JSON object on stdout instead of the human summary.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Base {
+    /// Upright and balancing, as HRP-2 stood in the paper.
+    Standing,
+    /// Lying on its back.
+    Lying,
+    /// Bolted down and perfectly still.
+    Rigid,
+}
+
+/// Why `skin explore` could not run.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// The URDF is unusable.
+    #[error(transparent)]
+    Urdf(#[from] UrdfError),
+    /// The skin cannot be built.
+    #[error(transparent)]
+    Skin(#[from] SkinError),
+    /// A flag value out of range.
+    #[error("--noise-scale must be a finite number >= 0, not {0}")]
+    NoiseScale(f64),
+}
+
+pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
+    if !(args.noise_scale.is_finite() && args.noise_scale >= 0.0) {
+        return Err(Error::NoiseScale(args.noise_scale).into());
+    }
+    let robot = match &args.urdf {
+        Some(path) => Robot::from_urdf_file(path).map_err(Error::from)?,
+        None => hrp2::robot(),
+    };
+    let skin = match (&args.skin, args.cells_per_link, &args.urdf) {
+        (Some(path), _, _) => Skin::from_file(&robot, path),
+        (None, Some(n), _) => Skin::per_link(&robot, n, args.seed),
+        (None, None, None) => Skin::with_counts(&robot, &hrp2::SKIN, args.seed),
+        (None, None, Some(_)) => Skin::per_link(&robot, 4, args.seed),
+    }
+    .map_err(Error::from)?;
+    let base = match args.base {
+        Base::Standing => BaseConfig::standing(),
+        Base::Lying => BaseConfig::lying(),
+        Base::Rigid => BaseConfig::rigid(),
+    };
+    let world = World::new(
+        robot,
+        skin,
+        WorldConfig {
+            base,
+            accel: Bma250Config::default().with_noise_scale(args.noise_scale),
+            seed: args.seed,
+            ..WorldConfig::default()
+        },
+    );
+    let name = world.robot().name().to_owned();
+    let mut rig = SimRobot::new(world);
+    let cfg = ExploreConfig {
+        structure: if args.paper { StructureConfig::paper() } else { StructureConfig::default() },
+        ..ExploreConfig::default()
+    };
+
+    let bar = ProgressBar::new(0).with_style(
+        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} DoF measurements")
+            .expect("a valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_message("exploring");
+    let wall = Instant::now();
+    let result = explore(&mut rig, &cfg, &mut |p| {
+        bar.set_length(p.total as u64);
+        bar.set_position(p.done as u64);
+    });
+    let wall_time_s = wall.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+
+    match result {
+        Ok(found) => {
+            let truth = check(&found, rig.world());
+            let text = if args.json {
+                report(&name, &found, &truth, wall_time_s).to_string()
+            } else {
+                summary(&name, &found, &truth, wall_time_s)
+            };
+            write_stdout(&text)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(e) => {
+            if args.json {
+                let dofs: Vec<String> = rig.world().robot().dofs().iter().map(|d| d.name.clone()).collect();
+                let links: Value =
+                    rig.world().skin().cells().iter().map(|c| (c.id.0.to_string(), json!(c.link))).collect();
+                println!(
+                    "{:#}",
+                    json!({"robot": name, "dofs": dofs, "error": e.to_string(), "truth": {"cell_links": links}})
+                );
+                Ok(ExitCode::FAILURE)
+            } else {
+                Err(explain(e).into())
+            }
+        }
+    }
+}
+
+/// The failure with a hint when it is the skin rather than the method.
+fn explain(e: ExploreError) -> String {
+    match e {
+        ExploreError::NotATree(_) | ExploreError::Undecided(_) => {
+            format!(
+                "{e}\n(the skin decides what can be learned: every body part needs a cell, every DoF must move one)"
+            )
+        }
+        other => other.to_string(),
+    }
+}
+
+fn report(name: &str, found: &Exploration, truth: &TruthReport, wall_time_s: f64) -> Value {
+    let tree = &found.tree;
+    let names = |dofs: &[usize]| dofs.iter().map(|&d| found.dof_names[d].clone()).collect::<Vec<_>>();
+    json!({
+        "robot": name,
+        "dofs": found.dof_names,
+        "cells": found.cells.len(),
+        "exploration_time_s": found.exploration_time_s(),
+        "structure_time_s": found.structure_time_s,
+        "smm_time_s": found.smm_time_s,
+        "wall_time_s": wall_time_s,
+        "body_parts": tree.body_parts().iter().enumerate().map(|(id, p)| json!({
+            "id": id,
+            "cells": p.cells.iter().map(|c| c.0).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
+        "root_body_part": tree.root(),
+        "joints": tree.joints().iter().enumerate().map(|(id, j)| json!({
+            "id": id,
+            "dofs": names(&j.dofs),
+            "parent_body_part": j.parent,
+            "child_body_part": j.child,
+        })).collect::<Vec<_>>(),
+        "leaves": tree.leaves(),
+        "inner_nodes": tree.inner_nodes(),
+        "limbs": tree.limbs(),
+        "warnings": found.warnings,
+        "truth": {
+            "cell_links": truth.cell_links.iter().map(|(id, l)| (id.to_string(), json!(l))).collect::<serde_json::Map<_, _>>(),
+            "tree_correct": truth.tree_correct,
+            "wrong_entries": truth.wrong_entries,
+            "smm_mean_abs_error": truth.smm_mean_abs_error,
+            "smm_mean_abs_error_moved": truth.smm_mean_abs_error_moved,
+        },
+    })
+}
+
+/// Writes `text` and a newline to stdout; a reader that went away (a
+/// closed pipe) is not an error.
+fn write_stdout(text: &str) -> std::io::Result<()> {
+    match writeln!(std::io::stdout().lock(), "{text}") {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => other,
+    }
+}
+
+fn summary(name: &str, found: &Exploration, truth: &TruthReport, wall_time_s: f64) -> String {
+    let mut s = format!("robot {name}: {} DoFs, {} cells\n\n", found.dof_names.len(), found.cells.len());
+    s += &found.tree.draw();
+    let limbs: Vec<String> = found.tree.limbs().iter().map(|l| format!("{l:?}")).collect();
+    s += &format!("\nlimbs (joints): {}\n", limbs.join(" "));
+    s += &format!(
+        "robot time: structure {:.1} s (the paper: about {PAPER_STRUCTURE_S:.0} s) + sensory-motor map {:.1} s = {:.1} s; wall time {:.2} s\n",
+        found.structure_time_s,
+        found.smm_time_s,
+        found.exploration_time_s(),
+        wall_time_s
+    );
+    s += &format!(
+        "truth: tree {}, {} wrong activity entries, sensory-motor map mean |w - w_true| {:.3} ({:.3} where the DoF moves the cell)",
+        if truth.tree_correct { "correct" } else { "WRONG" },
+        truth.wrong_entries,
+        truth.smm_mean_abs_error,
+        truth.smm_mean_abs_error_moved
+    );
+    for w in &found.warnings {
+        s += &format!("\nwarning: {w}");
+    }
+    s
+}
