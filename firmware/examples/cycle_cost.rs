@@ -50,7 +50,7 @@ fn main() -> ! {
     core.SYST.enable_counter();
 
     // A calibrated cell with ID 5 below an interface port on port 0, with a child on port 1.
-    let mut store = Store::open(RamFlash::<1024>::default(), 0, 1024).unwrap_or_else(|_| exit(2));
+    let mut store = Store::open(RamFlash::<1024, 2>::default(), 0, 2048).unwrap_or_else(|_| exit(2));
     store.store(Address(5));
     let _ = store.set_offsets([0; 8]);
     let mut node = Node::new(Config::default(), store, 0);

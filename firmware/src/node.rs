@@ -172,10 +172,10 @@ mod tests {
     use skin_protocol::message::{ConfigWrite, IdAssign, TrafficMode};
     use skin_protocol::organize::{FromCell, Sink};
 
-    type Flash = RamFlash<1024>;
+    type Flash = RamFlash<1024, 2>;
 
     fn node(flash: Flash, now_us: u64) -> Node<Flash> {
-        Node::new(Config::default(), Store::open(flash, 0, 1024).unwrap(), now_us)
+        Node::new(Config::default(), Store::open(flash, 0, 2048).unwrap(), now_us)
     }
 
     /// A node on port 0 of an interface port: every byte each way, on a

@@ -15,7 +15,9 @@
 //! - A panic, a hard fault or any unexpected exception ends QEMU with a
 //!   failure exit code.
 
+use core::cell::UnsafeCell;
 use core::ffi::CStr;
+use core::sync::atomic::{AtomicBool, Ordering};
 
 use cortex_m::interrupt::InterruptNumber;
 use cortex_m::peripheral::{NVIC, SCB};
@@ -37,8 +39,10 @@ use defmt_semihosting as _;
 
 /// Core and peripheral clock of the board.
 const SYSCLK_HZ: u32 = 25_000_000;
-/// Bytes of the persistent store (one erase sector, four record slots).
-pub const STORE_LEN: usize = 1024;
+/// Bytes of an erase sector of the persistent store (four record slots).
+const STORE_SECTOR: usize = 1024;
+/// Bytes of the persistent store: two sectors, used in turn.
+pub const STORE_LEN: usize = 2 * STORE_SECTOR;
 
 /// A CMSDK APB UART, with the frame it is sending: it takes one byte at a
 /// time (QEMU passes each on to its chardev at once).
@@ -229,7 +233,7 @@ pub enum StoreFlash {
     /// `store=PATH` from QEMU's `-append`.
     File(File),
     /// No file: a static, lost at exit.
-    Ram(&'static mut RamFlash<STORE_LEN>),
+    Ram(&'static mut RamFlash<STORE_SECTOR, 2>),
 }
 
 impl StoreFlash {
@@ -239,13 +243,31 @@ impl StoreFlash {
             Some(file) => StoreFlash::File(file),
             None => {
                 defmt::warn!("no store=PATH in the command line: ID and settings are kept in RAM only");
-                match cortex_m::singleton!(: RamFlash<STORE_LEN> = RamFlash::new()) {
+                match take_ram_store() {
                     Some(ram) => StoreFlash::Ram(ram),
                     None => defmt::panic!("store opened twice"),
                 }
             }
         }
     }
+}
+
+/// The store without a file: erased flash is zeros in [`RamFlash`], so
+/// this static sits in `.bss` and is neither built nor copied at start.
+static RAM_STORE: RamStore = RamStore { flash: UnsafeCell::new(RamFlash::new()), taken: AtomicBool::new(false) };
+
+struct RamStore {
+    flash: UnsafeCell<RamFlash<STORE_SECTOR, 2>>,
+    taken: AtomicBool,
+}
+
+// SAFETY: the flash is handed out once, by `take_ram_store`.
+unsafe impl Sync for RamStore {}
+
+/// The RAM store, the first time only.
+fn take_ram_store() -> Option<&'static mut RamFlash<STORE_SECTOR, 2>> {
+    // SAFETY: the first and only reference to the flash.
+    (!RAM_STORE.taken.swap(true, Ordering::AcqRel)).then(|| unsafe { &mut *RAM_STORE.flash.get() })
 }
 
 /// The NUL-terminated path of `store=PATH` among the semihosting arguments.
@@ -317,13 +339,17 @@ impl ReadNorFlash for StoreFlash {
 
 impl NorFlash for StoreFlash {
     const WRITE_SIZE: usize = 1;
-    const ERASE_SIZE: usize = STORE_LEN;
+    const ERASE_SIZE: usize = STORE_SECTOR;
 
     fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
         match self {
             StoreFlash::Ram(ram) => ram.erase(from, to),
             StoreFlash::File(file) => {
-                check(from, (to.saturating_sub(from)) as usize)?;
+                let sector = STORE_SECTOR as u32;
+                if from % sector != 0 || to % sector != 0 || from > to {
+                    return Err(NorFlashErrorKind::NotAligned);
+                }
+                check(from, (to - from) as usize)?;
                 file.seek(SeekFrom::Start(from.into())).map_err(|_| NorFlashErrorKind::Other)?;
                 let erased = [0xFF; 256];
                 let mut left = (to - from) as usize;

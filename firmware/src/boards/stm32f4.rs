@@ -6,7 +6,7 @@
 //! | VCNL4010            | I2C1, 400 kHz | PB8 (SCL), PB9 (SDA) |
 //! | BMA250, LM71        | SPI1, 4 MHz, mode 0 | PA5/PA6/PA7, chip selects PA4 (BMA250), PB0 (LM71) |
 //! | force pads          | GPIO open drain, 1 MOhm pull-ups | PC0, PC1, PC2 |
-//! | persistent store    | flash sector 5 | 0x0802_0000, 128 KiB |
+//! | persistent store    | flash sectors 5 and 6, used in turn | 0x0802_0000, 2 x 128 KiB |
 //!
 //! The core sleeps with WFE until a port receives, a DMA interrupt or the
 //! tick ([`ports`] says how). Logs go out with defmt over RTT, and so does
@@ -49,10 +49,10 @@ pub mod ports;
 const SYSCLK_HZ: u32 = 64_000_000;
 /// Cell-2-cell bit rate (Table 2).
 const PORT_BAUD: u32 = 4_000_000;
-/// The store region: flash sector 5.
+/// The store region: flash sectors 5 and 6 (128 KiB each), used in turn.
 pub const STORE_BASE: u32 = 0x2_0000;
 /// Length of the store region.
-pub const STORE_LEN: u32 = 0x2_0000;
+pub const STORE_LEN: u32 = 0x4_0000;
 /// VCNL4010 LED current: 100 mA.
 const LED_CURRENT: u8 = 10;
 
