@@ -177,7 +177,13 @@ fn loopback_report(seconds: f64) {
             1e3 * (held * frames) as f64 / 315_000.0
         );
     }
-    println!("\nLoopback, {seconds} s per run (load generator and interface each on one thread):");
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!(
+        "\nLoopback, {seconds} s per run (load generator and interface each on one thread; \
+         {} cores, load average {})",
+        thread::available_parallelism().map_or(0, |n| n.get()),
+        load.split_whitespace().take(3).collect::<Vec<_>>().join(" ")
+    );
     let flat = heavy_skin(1_000_000);
     let drops0 = rcvbuf_errors();
     let (sent, got) = loopback(flat, Pace::FlatOut, seconds);

@@ -97,7 +97,9 @@ impl LoadSpec {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Pace {
     /// On the sampling clock: the datagrams of each moment leave at that
-    /// moment of wall time.
+    /// moment of wall time. A generator that cannot keep up sends late (and
+    /// says how late) and stops at the end of the wall time all the same,
+    /// having covered less skin time.
     RealTime,
     /// As fast as the generator can, for the given wall time.
     FlatOut,
@@ -161,8 +163,8 @@ impl LoadGen {
         self.skin.spec()
     }
 
-    /// Sends for `duration` (of skin time when real-time, of wall time when
-    /// flat out); `progress` is called with the totals after every slice of
+    /// Sends for `duration` of wall time (at most that much skin time when
+    /// real-time); `progress` is called with the totals after every slice of
     /// 0.25 ms (real time) or 1 ms (flat out) of skin time.
     pub fn run(&mut self, duration: Duration, pace: Pace, mut progress: impl FnMut(&LoadReport)) -> LoadReport {
         let slice_us = if pace == Pace::RealTime { 250 } else { 1000 };
@@ -170,10 +172,7 @@ impl LoadGen {
         let start_us = self.skin.time_us();
         let end_us = start_us + duration.as_micros() as u64;
         let mut t_us = start_us;
-        while match pace {
-            Pace::RealTime => t_us < end_us,
-            Pace::FlatOut => start.elapsed() < duration,
-        } {
+        while start.elapsed() < duration && (pace == Pace::FlatOut || t_us < end_us) {
             let before_us = t_us;
             t_us += slice_us;
             if pace == Pace::RealTime {
