@@ -52,6 +52,10 @@ pub struct NetworkConfig {
     pub traffic: TrafficMode,
     /// What the skin feels.
     pub stimulus: StimulusKind,
+    /// Send-on-delta thresholds the host sets, per sample channel (the
+    /// order of `Sample::channels`), in counts; `None` keeps the firmware's
+    /// default (about twice the sensor noise).
+    pub delta_counts: [Option<u16>; 8],
     /// Bit-error rate of every cell-2-cell wire.
     pub bit_error_rate: f64,
     /// Seed of boot order, sampling phases, sensor noise and bit errors.
@@ -66,6 +70,7 @@ impl Default for NetworkConfig {
             rate_hz: 250.0,
             traffic: TrafficMode::Clock,
             stimulus: StimulusKind::Quiet,
+            delta_counts: [None; 8],
             bit_error_rate: 0.0,
             seed: 0,
         }
@@ -317,6 +322,11 @@ impl Network {
             return Err(NetworkError::Flag(format!("rate {} Hz: use a rate in (0, 10000] Hz", config.rate_hz)));
         }
         p.apply(&Setting::Traffic(config.traffic));
+        for (channel, counts) in (0u8..).zip(config.delta_counts) {
+            if let Some(counts) = counts {
+                p.apply(&Setting::Delta { channel, counts });
+            }
+        }
         Ok(p)
     }
 
