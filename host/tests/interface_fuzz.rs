@@ -54,6 +54,7 @@ fn any_message() -> impl Strategy<Value = Message> {
             Message::NeighbourReport(NeighbourReport {
                 neighbours: n
                     .map(|x| x.filter(|(id, _)| *id != Address::UNASSIGNED).map(|(id, port)| Neighbour { id, port })),
+                master: None,
             })
         }),
         (any::<u8>(), any::<bool>()).prop_map(|(tag, accepted)| Message::ConfigAck(ConfigAck { tag, accepted })),

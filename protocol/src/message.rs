@@ -107,18 +107,22 @@ pub struct Neighbour {
 
 /// Phase 4: the sender's whole neighbour table (the sender is the frame's
 /// source), indexed by the sender's own port; `None` where a port is free or
-/// its link is down. Sent upstream on every change and as a heartbeat; each
-/// report is complete, so the latest one received is the truth.
+/// its link is down; and the sender's master port, so the host sees the
+/// trees too. Sent upstream on every change and as a heartbeat; each report
+/// is complete, so the latest one received is the truth.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[serde(into = "PackedReport", try_from = "PackedReport")]
 pub struct NeighbourReport {
     /// Who is on each of the sender's ports.
     pub neighbours: [Option<Neighbour>; 4],
+    /// The sender's port toward its interface port, if it has one.
+    pub master: Option<Port>,
 }
 
 /// Wire form of a [`NeighbourReport`]: four little-endian IDs, the four
-/// neighbour ports in 2 bits each, and a presence bit per row.
+/// neighbour ports in 2 bits each, a presence bit per row (low nibble) and
+/// the master port as one bit of the high nibble.
 #[derive(Clone, Copy, Serialize, Deserialize, MaxSize)]
 struct PackedReport {
     ids: [u8; 8],
@@ -136,12 +140,15 @@ impl From<NeighbourReport> for PackedReport {
                 p.present |= 1 << i;
             }
         }
+        if let Some(m) = r.master {
+            p.present |= 0x10 << m.index();
+        }
         p
     }
 }
 
-/// A packed report with bits set outside its rows, or a present row without
-/// an ID, has no meaning.
+/// A packed report with bits set outside its rows, a present row without an
+/// ID, or two master ports, has no meaning.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct NotCanonical;
 
@@ -154,10 +161,14 @@ impl core::fmt::Display for NotCanonical {
 impl TryFrom<PackedReport> for NeighbourReport {
     type Error = NotCanonical;
     fn try_from(p: PackedReport) -> Result<NeighbourReport, NotCanonical> {
-        if p.present > 0xF {
+        let master = p.present >> 4;
+        if master.count_ones() > 1 {
             return Err(NotCanonical);
         }
         let mut r = NeighbourReport::default();
+        if master != 0 {
+            r.master = Port::from_index(master.trailing_zeros() as usize);
+        }
         for i in 0..4 {
             let id = Address(u16::from_le_bytes([p.ids[2 * i], p.ids[2 * i + 1]]));
             let port = (p.ports >> (2 * i)) & 3;

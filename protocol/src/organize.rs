@@ -346,10 +346,13 @@ impl Organizer {
         Self::push(outs, Out::Up(Frame::new(Address::UNASSIGNED, Address::HOST, &request)));
     }
 
-    /// The neighbour table as it is now; neighbours without an ID yet are
-    /// left out until they have one.
+    /// The neighbour table and master port as they are now; neighbours
+    /// without an ID yet are left out until they have one.
     pub fn table(&self) -> NeighbourReport {
-        NeighbourReport { neighbours: Port::ALL.map(|p| self.neighbour(p).filter(|n| n.id != Address::UNASSIGNED)) }
+        NeighbourReport {
+            neighbours: Port::ALL.map(|p| self.neighbour(p).filter(|n| n.id != Address::UNASSIGNED)),
+            master: self.master(),
+        }
     }
 
     /// Phase 4: reports the table when it changed, when a repeat of the last
@@ -547,6 +550,12 @@ mod allocator {
             if let Some(request) = self.pending_by_id.remove(&src) {
                 self.pending.remove(&request);
             }
+        }
+
+        /// The ID already handed out for this request and not yet seen on
+        /// the network: a repeated request (the cell retried).
+        pub fn pending(&self, request: &IdRequest) -> Option<Address> {
+            self.pending.get(request).copied()
         }
 
         /// The answer to an ID request: a frame to send down the interface

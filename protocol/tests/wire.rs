@@ -75,8 +75,8 @@ fn message() -> impl Strategy<Value = Message> {
         })),
         (address(), port()).prop_map(|(parent, port)| Message::IdRequest(IdRequest { parent, port })),
         (port(), address()).prop_map(|(port, id)| Message::IdAssign(IdAssign { port, id })),
-        proptest::array::uniform4(proptest::option::of(neighbour()))
-            .prop_map(|neighbours| Message::NeighbourReport(NeighbourReport { neighbours })),
+        (proptest::array::uniform4(proptest::option::of(neighbour())), proptest::option::of(port()))
+            .prop_map(|(neighbours, master)| Message::NeighbourReport(NeighbourReport { neighbours, master })),
         sample().prop_map(Message::Sample),
         (channel(), 0..5u8, any::<u16>()).prop_map(|(channel, level, value)| Message::Event(TactileEvent {
             channel,

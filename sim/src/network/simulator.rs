@@ -27,7 +27,7 @@ use skin_protocol::processing::Processor;
 use skin_protocol::router::Counters;
 
 use super::fault::{FaultKind, REBOOT_DOWN_NS};
-use super::ledger::{DropReason, Drops, Histogram, Ledger};
+use super::ledger::{DropReason, Histogram, Ledger};
 use super::link::{BitErrors, LinkTiming};
 use super::scheduler::Scheduler;
 use super::stimulus::{Stimulus, StimulusKind};
@@ -52,10 +52,6 @@ pub struct NetworkConfig {
     pub traffic: TrafficMode,
     /// What the skin feels.
     pub stimulus: StimulusKind,
-    /// Send-on-delta thresholds the host sets, per sample channel (the
-    /// order of `Sample::channels`), in counts; `None` keeps the firmware's
-    /// default (about twice the sensor noise).
-    pub delta_counts: [Option<u16>; 8],
     /// Bit-error rate of every cell-2-cell wire.
     pub bit_error_rate: f64,
     /// Seed of boot order, sampling phases, sensor noise and bit errors.
@@ -70,7 +66,6 @@ impl Default for NetworkConfig {
             rate_hz: 250.0,
             traffic: TrafficMode::Clock,
             stimulus: StimulusKind::Quiet,
-            delta_counts: [None; 8],
             bit_error_rate: 0.0,
             seed: 0,
         }
@@ -189,10 +184,6 @@ pub struct Measurements {
     pub interface_frames: Vec<(u64, u64)>,
     /// Measuring time in ns.
     pub measured_ns: u64,
-    /// Events the simulator handled while measuring.
-    pub events: u64,
-    /// Upstream drops before measuring began (the ledger counts from power-up).
-    pub dropped_before: Drops,
 }
 
 /// A skin network on a virtual clock.
@@ -322,11 +313,6 @@ impl Network {
             return Err(NetworkError::Flag(format!("rate {} Hz: use a rate in (0, 10000] Hz", config.rate_hz)));
         }
         p.apply(&Setting::Traffic(config.traffic));
-        for (channel, counts) in (0u8..).zip(config.delta_counts) {
-            if let Some(counts) = counts {
-                p.apply(&Setting::Delta { channel, counts });
-            }
-        }
         Ok(p)
     }
 
@@ -433,9 +419,7 @@ impl Network {
         };
         if !ok {
             return Err(NetworkError::Flag(format!(
-                "fault {fault}: this skin has no such link, cell or interface port (cells 0..{}, interface ports 0..{})",
-                self.nodes.len(),
-                self.interfaces.len()
+                "fault {fault:?} names no link, cell or interface port of this skin"
             )));
         }
         self.events.at(at_ns, Event::Fault(fault));
@@ -512,7 +496,6 @@ impl Network {
     }
 
     fn handle(&mut self, event: Event) {
-        self.m.events += 1;
         match event {
             Event::PowerOn(i) => self.power_on(i),
             Event::Poll(i, epoch) => {
@@ -687,14 +670,15 @@ impl Network {
         let now_ns = self.events.now_ns();
         let n = &mut self.nodes[i];
         let Some(cell) = n.cell.as_mut() else { return };
-        let busy = n.busy_until_ns[p.index()];
-        // A busy transmitter that will be woken asks for its frame then.
-        if busy > now_ns && n.waking[p.index()] || !cell.has_pending(p) {
+        if !cell.has_pending(p) {
             return;
         }
+        let busy = n.busy_until_ns[p.index()];
         if busy > now_ns {
-            n.waking[p.index()] = true;
-            self.events.at(busy, Event::TxFree(End::Cell(i as u32, p)));
+            if !n.waking[p.index()] {
+                n.waking[p.index()] = true;
+                self.events.at(busy, Event::TxFree(End::Cell(i as u32, p)));
+            }
             return;
         }
         let before = cell.router().upstream_lens();
@@ -711,8 +695,7 @@ impl Network {
             Some(e.created_ns)
         });
         n.busy_until_ns[p.index()] = end_ns;
-        // At most one wake-up per transmitter: one may be due right now.
-        if !n.waking[p.index()] && cell.has_pending(p) {
+        if cell.has_pending(p) {
             n.waking[p.index()] = true;
             self.events.at(end_ns, Event::TxFree(End::Cell(i as u32, p)));
         }
@@ -734,7 +717,7 @@ impl Network {
         }
         let Some(frame) = i.sink.transmit() else { return };
         i.busy_until_ns = now_ns + self.frame_ns;
-        if !i.waking && i.sink.queued() > 0 {
+        if i.sink.queued() > 0 {
             i.waking = true;
             self.events.at(i.busy_until_ns, Event::TxFree(End::Interface(k)));
         }
@@ -888,7 +871,7 @@ impl Network {
         }
         self.followed_on_ethernet += followed;
         self.events.at(at_ns, Event::ToHost { bytes: buf[..len].to_vec(), followed });
-        if !self.ethernet_waking && self.interfaces.iter().any(|i| !i.up.is_empty()) {
+        if self.interfaces.iter().any(|i| !i.up.is_empty()) {
             self.ethernet_waking = true;
             self.events.at(at_ns, Event::EthernetFree);
         }
