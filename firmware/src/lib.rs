@@ -13,11 +13,13 @@
 //! - [`node`]: the cell's logic: [`skin_protocol::cell::Cell`] and
 //!   [`skin_protocol::processing::Processor`] on bytes and samples.
 //! - [`board`]: what a board provides, and the main loop.
+//! - [`cycle`]: a 250 Hz cycle of a cell, as its cost is measured.
 //! - `boards`: `qemu` (mps2-an386) and `stm32f4` (STM32F405), target only.
 #![cfg_attr(not(test), no_std)]
 #![warn(missing_docs)]
 
 pub mod board;
+pub mod cycle;
 pub mod deframer;
 pub mod drivers;
 pub mod node;

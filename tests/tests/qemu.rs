@@ -14,8 +14,8 @@ use skin_tests::qemu::net::{run, NetOptions};
 
 fn exit_code(example: &str) -> Option<i32> {
     let elf = default_elf_dir().join("examples").join(example);
-    let status = run_alone(&elf, Duration::from_secs(20)).unwrap_or_else(|e| panic!("{e}"));
-    status.expect("QEMU hung instead of exiting").code()
+    let run = run_alone(&elf, &[], Duration::from_secs(20)).unwrap_or_else(|e| panic!("{e}"));
+    run.status.expect("QEMU hung instead of exiting").code()
 }
 
 #[test]
@@ -28,6 +28,21 @@ fn a_panic_ends_qemu_with_the_panic_code() {
 #[ignore]
 fn a_hard_fault_ends_qemu_with_the_fault_code() {
     assert_eq!(exit_code("hardfault"), Some(3));
+}
+
+/// The cycle-cost measurement runs to the end (its node fits the board's
+/// RAM), its scale check holds, and the cell forwards every frame.
+#[test]
+#[ignore]
+fn the_cycle_cost_program_measures_a_whole_cycle() {
+    let elf = default_elf_dir().join("examples").join("cycle-cost");
+    let run = run_alone(&elf, &["-icount", "shift=0"], Duration::from_secs(60)).unwrap_or_else(|e| panic!("{e}"));
+    let out = String::from_utf8_lossy(&run.stdout);
+    assert_eq!(run.status.and_then(|s| s.code()), Some(0), "{out}");
+    let delay = out.lines().find_map(|l| l.strip_prefix("scale check: asm::delay(10000) took "));
+    let delay: u64 = delay.and_then(|d| d.split(' ').next()?.parse().ok()).unwrap_or_else(|| panic!("{out}"));
+    assert!(delay.abs_diff(20_002) <= 40, "one SysTick tick of error at most: {out}");
+    assert!(out.contains("forwarded 3200 frames, dropped 0"), "{out}");
 }
 
 #[test]

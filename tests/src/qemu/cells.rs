@@ -2,6 +2,7 @@
 
 use std::ffi::OsString;
 use std::fs::{File, OpenOptions};
+use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
@@ -77,11 +78,13 @@ impl CellCommand {
         CellCommand { args }
     }
 
-    /// A program alone, its UARTs joined to nothing (fault tests).
-    pub fn alone(elf: &Path) -> CellCommand {
+    /// A program alone, its UARTs joined to nothing, with `extra` QEMU
+    /// arguments (fault tests, `-icount` measurements).
+    pub fn alone(elf: &Path, extra: &[&str]) -> CellCommand {
         let mut args: Vec<OsString> = BOARD.iter().map(OsString::from).collect();
         args.extend(["-kernel".into(), elf.into()]);
         args.extend((0..5).flat_map(|_| ["-serial".into(), "null".into()]));
+        args.extend(extra.iter().map(OsString::from));
         CellCommand { args }
     }
 
@@ -224,28 +227,59 @@ impl Drop for Cells {
     }
 }
 
-/// Runs a program alone until it exits or `limit` passes (then it is
-/// killed); returns its exit status, or `None` when it had to be killed.
-pub fn run_alone(elf: &Path, limit: Duration) -> Result<Option<ExitStatus>, QemuError> {
+/// How a program run alone ended.
+#[derive(Debug)]
+pub struct Alone {
+    /// Its exit status; `None` when it outlived the limit and was killed.
+    pub status: Option<ExitStatus>,
+    /// What it wrote to semihosting's stdout (QEMU's stdout).
+    pub stdout: Vec<u8>,
+}
+
+/// Runs a program alone, with `extra` QEMU arguments, until it exits or
+/// `limit` passes (then it is killed).
+pub fn run_alone(elf: &Path, extra: &[&str], limit: Duration) -> Result<Alone, QemuError> {
     if !elf.is_file() {
         return Err(QemuError::MissingElf(elf.to_owned()));
     }
-    let mut child = CellCommand::alone(elf).spawn(
-        File::create("/dev/null").context(|| "opening /dev/null".into())?,
+    let stdout = tempfile()?;
+    let mut child = CellCommand::alone(elf, extra).spawn(
+        stdout.try_clone().context(|| "duplicating the output file".into())?,
         File::create("/dev/null").context(|| "opening /dev/null".into())?,
     )?;
     let start = Instant::now();
-    loop {
+    let status = loop {
         if let Some(status) = child.try_wait().context(|| "waiting for QEMU".into())? {
-            return Ok(Some(status));
+            break Some(status);
         }
         if start.elapsed() > limit {
             let _ = child.kill();
             let _ = child.wait();
-            return Ok(None);
+            break None;
         }
         std::thread::sleep(Duration::from_millis(20));
-    }
+    };
+    let mut out = Vec::new();
+    let mut stdout = stdout;
+    stdout
+        .seek(SeekFrom::Start(0))
+        .and_then(|_| stdout.read_to_end(&mut out))
+        .context(|| "reading QEMU's output".into())?;
+    Ok(Alone { status, stdout: out })
+}
+
+/// A temporary file for a program's output, its name removed at once.
+fn tempfile() -> Result<File, QemuError> {
+    let stamp = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
+    let path = std::env::temp_dir().join(format!("skin-qemu-alone-{}-{stamp}.out", std::process::id()));
+    let file = OpenOptions::new()
+        .create_new(true)
+        .read(true)
+        .write(true)
+        .open(&path)
+        .context(|| format!("creating {}", path.display()))?;
+    let _ = std::fs::remove_file(&path);
+    Ok(file)
 }
 
 #[cfg(test)]
