@@ -14,7 +14,8 @@ use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{json, Value};
 use skin_host::explore::check::{check, TruthReport};
-use skin_host::explore::{explore, Exploration, ExploreConfig, ExploreError, StructureConfig};
+use skin_host::explore::smm::Evaluation;
+use skin_host::explore::{explore, Exploration, ExploreConfig, ExploreError, SmmConfig, StructureConfig};
 use skin_host::robot::SimRobot;
 use skin_sim::accel::Bma250Config;
 use skin_sim::robot::{hrp2, Robot, UrdfError};
@@ -40,7 +41,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Accelerometer noise relative to the BMA250 datasheet (0: noise-free).
-    #[arg(long, default_value_t = 1.0, value_name = "X")]
+    #[arg(long, default_value_t = 1.0, value_name = "X", allow_negative_numbers = true)]
     noise_scale: f64,
     /// How the static base sits in the world.
     #[arg(long, value_enum, default_value_t = Base::Standing)]
@@ -48,6 +49,9 @@ pub struct Args {
     /// The paper's structural timing (0.5 s settling, 1.0 s averaging, two runs) instead of the fast default.
     #[arg(long)]
     paper: bool,
+    /// How sensory-motor weights are read from the pattern's accelerations.
+    #[arg(long, value_enum, default_value_t = SmmEvaluation::Regression)]
+    smm: SmmEvaluation,
     /// One JSON object on stdout instead of the human summary.
     #[arg(long)]
     json: bool,
@@ -61,6 +65,14 @@ enum Base {
     Lying,
     /// Bolted down and perfectly still.
     Rigid,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SmmEvaluation {
+    /// Equations (10)-(12) of the paper: peak-to-peak amplitude shares.
+    Amplitudes,
+    /// Least squares on the DoF's motion: the tangential term alone.
+    Regression,
 }
 
 /// Why `skin explore` could not run.
@@ -110,8 +122,13 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     );
     let name = world.robot().name().to_owned();
     let mut rig = SimRobot::new(world);
+    let evaluation = match args.smm {
+        SmmEvaluation::Amplitudes => Evaluation::Amplitudes,
+        SmmEvaluation::Regression => Evaluation::Regression,
+    };
     let cfg = ExploreConfig {
         structure: if args.paper { StructureConfig::paper() } else { StructureConfig::default() },
+        smm: SmmConfig { evaluation, ..SmmConfig::default() },
         ..ExploreConfig::default()
     };
 
@@ -219,6 +236,12 @@ fn summary(name: &str, found: &Exploration, truth: &TruthReport, wall_time_s: f6
     s += &found.tree.draw();
     let limbs: Vec<String> = found.tree.limbs().iter().map(|l| format!("{l:?}")).collect();
     s += &format!("\nlimbs (joints): {}\n", limbs.join(" "));
+    s += "\nmerged activity matrix, sorted strictly lower triangular (rows: body parts, columns: joints):\n";
+    for (part, row) in found.tree.lower_triangular().iter().enumerate() {
+        let marks: String = row.iter().map(|&m| if m { '1' } else { '.' }).collect();
+        s += &format!("{part:>4} {marks}\n");
+    }
+    s += "\n";
     s += &format!(
         "robot time: structure {:.1} s (the paper: about {PAPER_STRUCTURE_S:.0} s) + sensory-motor map {:.1} s = {:.1} s; wall time {:.2} s\n",
         found.structure_time_s,

@@ -21,6 +21,7 @@
 //! deviations of their own noise; what neither can decide stays
 //! [`Activity::Unknown`] and is measured again, never guessed.
 
+use super::fit::LeastSquares;
 use super::session::{Trace, Window};
 use super::StructureConfig;
 use skin_sim::accel::G0;
@@ -162,7 +163,7 @@ impl Step {
                     static_mps2: norm(&diff),
                     static_sigma,
                     lever_m: lever.map_or(0.0, |l| norm(&l)),
-                    lever_sigma: (worst_var * regressors.alpha_variance).sqrt(),
+                    lever_sigma: (worst_var * regressors.alpha_variance()).sqrt(),
                     static_saturated: pre.saturated[u] || post.saturated[u],
                     trace_saturated: trace.saturated[u] || lever.is_none(),
                 }
@@ -212,15 +213,10 @@ impl Step {
     }
 }
 
-/// The DoF's angular acceleration and squared velocity during a trace,
-/// from position feedback, and the variance factor of the acceleration
-/// coefficient in a least-squares fit on `[1, alpha, omega^2]`.
+/// The DoF's motion during a trace as regressors of the lever test: a
+/// constant, the angular acceleration (the lever) and the squared velocity.
 struct Regressors {
-    alpha: Vec<f64>,
-    omega_sq: Vec<f64>,
-    /// Rows of the inverse normal matrix.
-    inverse: [[f64; 3]; 3],
-    alpha_variance: f64,
+    fit: Option<LeastSquares<3>>,
     /// Position relative to the start, rad.
     phi: Vec<f64>,
 }
@@ -228,19 +224,16 @@ struct Regressors {
 impl Regressors {
     fn new(trace: &Trace, tick_s: f64) -> Regressors {
         let (phi, omega, alpha) = trace.motion(tick_s);
-        let omega_sq: Vec<f64> = omega.iter().map(|w| w * w).collect();
-        let mut normal = [[0.0; 3]; 3];
-        for (a, w2) in alpha.iter().zip(&omega_sq) {
-            let x = [1.0, *a, *w2];
-            for i in 0..3 {
-                for j in 0..3 {
-                    normal[i][j] += x[i] * x[j];
-                }
-            }
+        let rows = alpha.iter().zip(&omega).map(|(a, w)| [1.0, *a, w * w]).collect();
+        Regressors { fit: LeastSquares::new(rows), phi }
+    }
+
+    /// Variance of the lever per unit sample variance (infinite without a fit).
+    fn alpha_variance(&self) -> f64 {
+        match &self.fit {
+            Some(f) if f.variance_factor(1) > 0.0 => f.variance_factor(1),
+            _ => f64::INFINITY,
         }
-        let inverse = invert3(&normal).unwrap_or([[0.0; 3]; 3]);
-        let alpha_variance = if inverse[1][1] > 0.0 { inverse[1][1] } else { f64::INFINITY };
-        Regressors { alpha, omega_sq, inverse, alpha_variance, phi }
     }
 
     /// The acceleration coefficient per axis of cell `u`, m, after removing
@@ -255,24 +248,14 @@ impl Regressors {
         g1: &[f64; 3],
         moved: f64,
     ) -> Option<[f64; 3]> {
-        if !self.alpha_variance.is_finite() {
-            return None;
-        }
+        let fit = self.fit.as_ref()?;
         let mut lever = [0.0; 3];
         for (a, l) in lever.iter_mut().enumerate() {
-            let mut xz = [0.0; 3];
-            for k in 0..trace.len() {
-                let y = f64::from(trace.accel[k * cells + u][a]);
-                if !y.is_finite() {
-                    return None;
-                }
-                let turned = if moved.abs() > 0.0 { (g1[a] - g0[a]) * self.phi[k] / moved } else { 0.0 };
-                let z = y - g0[a] - turned;
-                xz[0] += z;
-                xz[1] += self.alpha[k] * z;
-                xz[2] += self.omega_sq[k] * z;
-            }
-            *l = (0..3).map(|j| self.inverse[1][j] * xz[j]).sum();
+            let residual = (0..trace.len()).map(|k| {
+                let turned = if moved != 0.0 { (g1[a] - g0[a]) * self.phi[k] / moved } else { 0.0 };
+                f64::from(trace.accel[k * cells + u][a]) - g0[a] - turned
+            });
+            *l = fit.fit(residual)?[1];
         }
         Some(lever)
     }
@@ -282,25 +265,66 @@ fn norm(v: &[f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
-/// Inverse of a symmetric 3x3 matrix, if it is not singular.
-fn invert3(m: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
-    let c = |i: usize, j: usize| {
-        let (r0, r1) = ((i + 1) % 3, (i + 2) % 3);
-        let (c0, c1) = ((j + 1) % 3, (j + 2) % 3);
-        m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0]
-    };
-    let det: f64 = (0..3).map(|j| m[0][j] * c(0, j)).sum();
-    let scale = m.iter().flatten().map(|x| x.abs()).fold(0.0, f64::max).powi(3);
-    if det.is_nan() || det.abs() <= 1e-12 * scale {
-        return None;
-    }
-    // The cofactor matrix transposed, over the determinant.
-    Some(std::array::from_fn(|i| std::array::from_fn(|j| c(j, i) / det)))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    fn window(mean: [f64; 3], var: f64, n: u32, saturated: bool) -> Window {
+        Window { mean: vec![mean], var: vec![[var; 3]], n: vec![n], saturated: vec![saturated] }
+    }
+
+    fn trace(accel: Vec<[f32; 3]>, q: Vec<f64>) -> Trace {
+        Trace { accel, q0: 0.0, q, saturated: vec![false] }
+    }
+
+    /// Any float at all, the edges included.
+    fn edgy() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            Just(0.0),
+            Just(-0.0),
+            Just(f64::NAN),
+            Just(f64::INFINITY),
+            Just(f64::MIN_POSITIVE),
+            Just(f64::MAX),
+            -20.0f64..20.0,
+        ]
+    }
+
+    proptest! {
+        #[test]
+        fn any_numbers_give_a_decision_or_unknown_never_a_panic(
+            mean0 in prop::array::uniform3(edgy()), mean1 in prop::array::uniform3(edgy()),
+            var in edgy(), n in 2u32..500, saturated in any::<bool>(),
+            accel in prop::collection::vec(prop::array::uniform3(edgy().prop_map(|x| x as f32)), 1..60),
+            q in prop::collection::vec(edgy(), 1..60),
+        ) {
+            let len = accel.len().min(q.len());
+            let t = trace(accel[..len].to_vec(), q[..len].to_vec());
+            let step = Step::measure(&window(mean0, var, n, saturated), &window(mean1, var, n, false), &t, 0.004, 0.038);
+            let (decisions, _) = step.decide(&StructureConfig::default());
+            prop_assert_eq!(decisions.len(), 1);
+        }
+
+        #[test]
+        fn nothing_changing_is_never_a_movement(
+            g in prop::array::uniform3(-12.0f64..12.0), var in 0.0f64..0.1, n in 2u32..300, ticks in 1usize..80,
+        ) {
+            let still = trace(vec![g.map(|x| x as f32); ticks], vec![0.0; ticks]);
+            let step = Step::measure(&window(g, var, n, false), &window(g, var, n, false), &still, 0.004, 0.038);
+            let (decisions, _) = step.decide(&StructureConfig::default());
+            prop_assert_ne!(decisions[0], Activity::Moved);
+        }
+    }
+
+    #[test]
+    fn nan_samples_decide_nothing() {
+        let nan = [f64::NAN; 3];
+        let t = trace(vec![[f32::NAN; 3]; 40], (0..40).map(|k| 0.0025 * f64::from(k)).collect());
+        let step =
+            Step::measure(&window(nan, f64::NAN, 50, false), &window(nan, f64::NAN, 50, false), &t, 0.004, 0.038);
+        assert_eq!(step.decide(&StructureConfig::default()).0, vec![Activity::Unknown]);
+    }
 
     #[test]
     fn or_prefers_a_sure_movement_then_a_sure_stillness() {
@@ -309,16 +333,5 @@ mod tests {
         assert_eq!(Still.or(Moved), Moved);
         assert_eq!(Unknown.or(Still), Still);
         assert_eq!(Unknown.or(Unknown), Unknown);
-    }
-
-    #[test]
-    fn inverse_of_a_symmetric_matrix() {
-        let m = [[4.0, 1.0, 2.0], [1.0, 3.0, 0.5], [2.0, 0.5, 5.0]];
-        let inv = invert3(&m).unwrap();
-        let product = |i: usize, j: usize| (0..3).map(|k| m[i][k] * inv[k][j]).sum::<f64>();
-        for (i, j) in (0..3).flat_map(|i| (0..3).map(move |j| (i, j))) {
-            assert!((product(i, j) - if i == j { 1.0 } else { 0.0 }).abs() < 1e-12);
-        }
-        assert_eq!(invert3(&[[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 0.0, 1.0]]), None);
     }
 }

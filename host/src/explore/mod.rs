@@ -11,6 +11,7 @@
 
 pub mod activity;
 pub mod check;
+mod fit;
 pub mod lowpass;
 pub mod merge;
 mod session;

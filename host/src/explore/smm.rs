@@ -11,6 +11,12 @@
 //! be grounded on the static body part and is suppressed, the others are
 //! normalized so reactions have the same strength along a kinematic chain.
 //!
+//! Past the paper, [`Evaluation::Regression`] (the default) fits each axis
+//! on the DoF's own position, acceleration and squared velocity (from
+//! position feedback), so the turning gravity and the centripetal term are
+//! removed instead of neglected, and takes the normal share of the
+//! tangential term: a quarter of the amplitudes' error against the truth.
+//!
 //! Sign convention (that of equation 11): a weight of +1 means a positive
 //! velocity of the DoF moves the cell into its surface, away from a touch,
 //! so `omega = w * reaction` is an evasive motion.
@@ -19,10 +25,20 @@ use skin_protocol::message::AccelRange;
 use skin_protocol::Address;
 
 use super::activity::ActivityMatrix;
+use super::fit::LeastSquares;
 use super::lowpass::Butterworth;
 use super::session::{Session, Trace};
 use super::ExploreError;
 use crate::robot::{Robot, SampleSource};
+
+/// How a pattern's accelerations become a weight.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Evaluation {
+    /// Equations (10)-(12): shares of the low-passed axes' peak-to-peak amplitudes.
+    Amplitudes,
+    /// Least squares on the DoF's motion: shares of the tangential term alone.
+    Regression,
+}
 
 /// Parameters of the sensory-motor exploration.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -35,6 +51,8 @@ pub struct SmmConfig {
     pub duration_s: f64,
     /// Low-pass bandwidth `B`, Hz; must exceed ten times `f`.
     pub lowpass_hz: f64,
+    /// The regression past the paper, or equations (10)-(12).
+    pub evaluation: Evaluation,
     /// Still time before each pattern, s.
     pub settle_s: f64,
     /// Recording time after each pattern, s.
@@ -54,6 +72,7 @@ impl Default for SmmConfig {
             frequency_hz: 2.0,
             duration_s: 0.5,
             lowpass_hz: 25.0,
+            evaluation: Evaluation::Regression,
             settle_s: 0.1,
             tail_s: 0.1,
             suppression: 0.1,
@@ -217,9 +236,21 @@ impl SensoryMotorMap {
         for d in 0..dofs {
             session.hold(cfg.settle_s)?;
             let trace = session.trace(d, cfg.duration_s + cfg.tail_s, |t| cfg.position(t))?;
-            let (_, _, alpha) = trace.motion(session.tick_s());
-            for u in 0..u_count {
-                raw[u * dofs + d] = normal_weight(&trace, u, u_count, &lowpass, &alpha);
+            let (phi, omega, alpha) = trace.motion(session.tick_s());
+            match cfg.evaluation {
+                Evaluation::Amplitudes => {
+                    for u in 0..u_count {
+                        raw[u * dofs + d] = normal_weight(&trace, u, u_count, &lowpass, &alpha);
+                    }
+                }
+                Evaluation::Regression => {
+                    let rows = (0..trace.len()).map(|k| [1.0, phi[k], alpha[k], omega[k] * omega[k]]).collect();
+                    if let Some(fit) = LeastSquares::new(rows) {
+                        for u in 0..u_count {
+                            raw[u * dofs + d] = tangential_weight(&trace, u, u_count, &fit);
+                        }
+                    }
+                }
             }
             // Back to the tile's pose before the next DoF.
             session.move_to(pose, cfg.move_speed_rad_s, cfg.pose_tolerance_rad, 10.0)?;
@@ -268,6 +299,24 @@ fn normal_weight(trace: &Trace, u: usize, cells: usize, lowpass: &Butterworth, a
     let total: f64 = amplitude.iter().sum();
     if total > 0.0 {
         (sign * amplitude[2] / total) as f32
+    } else {
+        0.0
+    }
+}
+
+/// The regression's weight for cell `u`: the normal share of the fitted
+/// tangential term, with equation (11)'s sign. Zero if the trace has gaps.
+fn tangential_weight(trace: &Trace, u: usize, cells: usize, fit: &LeastSquares<4>) -> f32 {
+    let mut t = [0.0; 3];
+    for (a, c) in t.iter_mut().enumerate() {
+        match fit.fit((0..trace.len()).map(|k| f64::from(trace.accel[k * cells + u][a]))) {
+            Some(coefficients) => *c = coefficients[2],
+            None => return 0.0,
+        }
+    }
+    let total: f64 = t.iter().map(|c| c.abs()).sum();
+    if total > 0.0 {
+        (-t[2] / total) as f32
     } else {
         0.0
     }

@@ -86,12 +86,6 @@ impl StructureConfig {
         }
         Ok(())
     }
-
-    /// Robot time of the structural exploration of `dofs` DoFs when no
-    /// step needs repeating, s.
-    pub fn nominal_time_s(&self, dofs: usize) -> f64 {
-        self.settle_s + self.average_s + (self.runs * dofs) as f64 * (self.move_s + self.settle_s + self.average_s)
-    }
 }
 
 /// The or-ed activity matrix and the DoFs that stayed static-blind.
