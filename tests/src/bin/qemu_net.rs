@@ -52,6 +52,13 @@ fn main() -> ExitCode {
                  cell {} killed: others re-attached in {:.2} s; restarted: back with its ID in {:.2} s",
                 r.cells, r.links, r.ids, r.organize_s, r.configure_s, r.samples_s, r.killed, r.reattach_s, r.rejoin_s
             );
+            println!(
+                "QEMU cells: {:.1} CPU-s in {:.1} s ({:.2} cores on average), {:.1} s waiting for a CPU",
+                r.cpu.run_s,
+                r.wall_s,
+                r.cpu.run_s / r.wall_s,
+                r.cpu.wait_s
+            );
             if let Some(s) = r.stack {
                 println!("stack: deepest of all cells {} bytes of {} reserved", s.peak_bytes, s.reserved_bytes);
             }

@@ -154,6 +154,32 @@ impl StackUse {
     }
 }
 
+/// Processor time of QEMU processes, from the scheduler's statistics of
+/// each of their threads (Linux `/proc/PID/task/TID/schedstat`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct CpuUse {
+    /// Seconds on a CPU.
+    pub run_s: f64,
+    /// Seconds runnable but waiting for a CPU: the cells' clocks ran on
+    /// while their code did not.
+    pub wait_s: f64,
+}
+
+impl CpuUse {
+    /// The use of process `pid` so far; `None` where `/proc` does not tell.
+    fn of(pid: u32) -> Option<CpuUse> {
+        let mut total = CpuUse::default();
+        for task in std::fs::read_dir(format!("/proc/{pid}/task")).ok()?.flatten() {
+            let stat = std::fs::read_to_string(task.path().join("schedstat")).ok()?;
+            let mut fields = stat.split_whitespace().map(|f| f.parse::<u64>().ok());
+            let (Some(Some(run_ns)), Some(Some(wait_ns))) = (fields.next(), fields.next()) else { return None };
+            total.run_s += run_ns as f64 * 1e-9;
+            total.wait_s += wait_ns as f64 * 1e-9;
+        }
+        Some(total)
+    }
+}
+
 /// Running cells. Dropping this kills every QEMU it started, so no process
 /// outlives the harness, whether it ends by success, error or panic.
 #[derive(Debug)]
@@ -161,13 +187,15 @@ pub struct Cells {
     dir: PathBuf,
     commands: Vec<CellCommand>,
     children: Vec<Option<Child>>,
+    /// Processor time of the cells killed so far.
+    cpu: CpuUse,
 }
 
 impl Cells {
     /// Cells not yet started; their logs go to `dir`.
     pub fn new(dir: &Path, commands: Vec<CellCommand>) -> Cells {
         let children = commands.iter().map(|_| None).collect();
-        Cells { dir: dir.to_owned(), commands, children }
+        Cells { dir: dir.to_owned(), commands, children, cpu: CpuUse::default() }
     }
 
     /// The defmt log (QEMU's stdout) of cell `i`, appended across restarts.
@@ -199,10 +227,23 @@ impl Cells {
     /// Kills cell `i` (a power cut: no goodbye on any wire).
     pub fn kill(&mut self, i: usize) {
         if let Some(mut child) = self.children[i].take() {
+            if let Some(cpu) = CpuUse::of(child.id()) {
+                self.cpu.run_s += cpu.run_s;
+                self.cpu.wait_s += cpu.wait_s;
+            }
             let _ = child.kill();
             let _ = child.wait();
             tracing::debug!(cell = i, "killed");
         }
+    }
+
+    /// Kills every cell; returns the processor time they all took since
+    /// they were started.
+    pub fn stop(mut self) -> CpuUse {
+        for i in 0..self.children.len() {
+            self.kill(i);
+        }
+        self.cpu
     }
 
     /// An error for the first running cell that exited on its own.

@@ -14,7 +14,7 @@ use skin_protocol::event::Quantizer;
 use skin_protocol::message::{Channel, Neighbour, Port, Setting, TrafficMode};
 use skin_protocol::{Address, Sample};
 
-use super::cells::{gateway_socket, plan, stimulus_socket, CellCommand, Cells, StackUse};
+use super::cells::{gateway_socket, plan, stimulus_socket, CellCommand, Cells, CpuUse, StackUse};
 use super::gateway::{Gateway, GatewayStats};
 use super::hex::{End, Wiring};
 use super::host::Host;
@@ -60,6 +60,10 @@ pub struct NetReport {
     pub gateway: GatewayStats,
     /// The deepest stack of any cell over the run, and the reserve.
     pub stack: Option<StackUse>,
+    /// Wall time of the run, from the start of the cells.
+    pub wall_s: f64,
+    /// Processor time the QEMU cells took over the run.
+    pub cpu: CpuUse,
     /// The run directory, when kept.
     pub dir: Option<PathBuf>,
 }
@@ -140,13 +144,21 @@ impl World {
         }
     }
 
-    /// Presses `cells` one after the other with their stimulus of `round`.
-    fn press(&mut self, cells: &[usize], round: usize) -> Result<(), QemuError> {
+    /// Gives `cells` their stimulus one after the other, 20 ms apart, as a
+    /// hand moves over the skin: all at once, their first samples would be
+    /// a burst that the 16-frame queues near the interface port drop (the
+    /// protocol repeats no samples).
+    fn stimulate(&mut self, cells: &[usize], stimulus: impl Fn(usize) -> Sample) -> Result<(), QemuError> {
         for &i in cells {
-            self.set_stimulus(i, stimulus_for(i, round));
+            self.set_stimulus(i, stimulus(i));
             self.pump(Duration::from_millis(20))?;
         }
         Ok(())
+    }
+
+    /// Presses `cells` one after the other with their stimulus of `round`.
+    fn press(&mut self, cells: &[usize], round: usize) -> Result<(), QemuError> {
+        self.stimulate(cells, |i| stimulus_for(i, round))
     }
 
     /// Pumps until `done` gives a value or `limit` passes.
@@ -324,6 +336,7 @@ fn run_in(opts: &NetOptions, dir: &Path, progress: &mut dyn FnMut(&str)) -> Resu
     };
 
     progress(&format!("starting {n} QEMU cells, interface on cell {} port {:?}", interface.0, interface.1));
+    let started = Instant::now();
     for i in 0..n {
         w.cells.start(i)?;
     }
@@ -359,15 +372,10 @@ fn run_in(opts: &NetOptions, dir: &Path, progress: &mut dyn FnMut(&str)) -> Resu
     // its first sample: all calibrated channels zero.
     progress("baseline stimulus: cells calibrate their offsets");
     let since = Instant::now();
-    for i in 0..n {
-        w.set_stimulus(i, baseline());
-    }
+    w.stimulate(&everyone, |_| baseline())?;
     let ((), _) = w.wait("calibration", Duration::from_secs(15), |w| delivered(w, &ids, &everyone, since))?;
 
     progress("injecting a distinct press on every cell");
-    // One press after the other, 20 ms apart, as a hand moves over the skin:
-    // a press on every cell at once would be a burst that the 16-frame
-    // queues near the interface port drop (the protocol repeats no samples).
     let since = Instant::now();
     w.press(&everyone, 1)?;
     w.wait("sample and event delivery", Duration::from_secs(15), |w| {
@@ -420,7 +428,7 @@ fn run_in(opts: &NetOptions, dir: &Path, progress: &mut dyn FnMut(&str)) -> Resu
 
     let World { cells, host, gateway, .. } = w;
     let stack = (0..n).filter_map(|i| cells.stack_use(i)).max_by_key(|s| s.peak_bytes);
-    drop(cells);
+    let cpu = cells.stop();
     Ok(NetReport {
         cells: n,
         links: wiring.links().len(),
@@ -435,6 +443,8 @@ fn run_in(opts: &NetOptions, dir: &Path, progress: &mut dyn FnMut(&str)) -> Resu
         events: host.events.len(),
         gateway: gateway.stop(),
         stack,
+        wall_s: started.elapsed().as_secs_f64(),
+        cpu,
         dir: None,
     })
 }
