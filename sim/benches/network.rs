@@ -64,7 +64,7 @@ fn benches(c: &mut Criterion) {
     let big = Topology::hex(100, 100).and_then(|t| t.with_interfaces(16)).expect("a valid patch");
     let event =
         NetworkConfig { traffic: TrafficMode::Event, stimulus: StimulusKind::Grasp, ..NetworkConfig::default() };
-    speed(c, "hex_10000_cells_16_ports_event_250hz", big, event, 5.0, 0.1);
+    speed(c, "hex_10000_cells_16_ports_event_250hz", big, event, 1.0, 0.1);
 }
 
 criterion_group! {

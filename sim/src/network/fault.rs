@@ -27,6 +27,17 @@ pub enum FaultKind {
     InterfaceDown(u8),
 }
 
+impl std::fmt::Display for FaultKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FaultKind::Cut(p) => write!(f, "cut:{}.{}", p.cell, p.port.index()),
+            FaultKind::Dead(c) => write!(f, "dead:{c}"),
+            FaultKind::Reboot(c) => write!(f, "reboot:{c}"),
+            FaultKind::InterfaceDown(k) => write!(f, "interface:{k}"),
+        }
+    }
+}
+
 /// A fault at a time of the run.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fault {

@@ -83,6 +83,8 @@ pub struct Ledger {
     pub delivered: u64,
     /// Upstream frames lost, by reason.
     pub dropped: Drops,
+    /// Of those, sensor frames (samples and tactile events).
+    pub sensor_dropped: u64,
     /// Own messages a cell could not queue at all (its own queue was full).
     pub refused_at_source: u64,
     /// Frames put on any wire by cells and interface ports.
@@ -105,9 +107,10 @@ pub struct Ledger {
 }
 
 impl Ledger {
-    /// Books an upstream frame as lost.
-    pub fn drop_upstream(&mut self, reason: DropReason, n: u64) {
+    /// Books `n` upstream frames as lost, `sensor` of them sensor frames.
+    pub fn drop_upstream(&mut self, reason: DropReason, n: u64, sensor: u64) {
         *self.dropped.slot(reason) += n;
+        self.sensor_dropped += sensor;
     }
 
     /// True when the upstream book adds up, given the upstream frames still
@@ -199,7 +202,7 @@ mod tests {
     fn books_balance_only_when_every_frame_is_accounted() {
         let mut l =
             Ledger { entered: 10, delivered: 6, transmitted: 20, received: 17, lost_no_link: 2, ..Ledger::default() };
-        l.drop_upstream(DropReason::Reroute, 3);
+        l.drop_upstream(DropReason::Reroute, 3, 1);
         assert!(l.balanced(1, 1));
         assert!(!l.balanced(0, 1), "one upstream frame vanished");
         assert!(!l.balanced(1, 0), "one frame vanished from a wire");

@@ -110,6 +110,10 @@ pub struct Report {
     pub dropped: u64,
     /// Upstream frames lost, by reason.
     pub dropped_by_reason: Drops,
+    /// Upstream frames lost after the skin organized (while measuring).
+    pub dropped_while_measuring: u64,
+    /// Sensor frames (samples, tactile events) among them.
+    pub sensor_dropped_while_measuring: u64,
     /// Upstream frames still queued or on a wire at the end.
     pub in_network: u64,
     /// Frames of any kind whose CRC (or payload check) failed at a receiver.
@@ -128,13 +132,16 @@ pub struct Report {
     pub traffic: Traffic,
     /// Cells one interface port could serve with this run's traffic at its
     /// busiest: the interface link's frames per second, less its control
-    /// traffic, over the busiest per-cell sensor rate.
-    pub max_cells_per_interface_at_rate: u64,
-    /// The worst sensor latency stayed within one sampling period and
-    /// nothing was dropped for a full queue.
+    /// traffic, over the busiest per-cell sensor rate (`null` when no
+    /// cell sent any).
+    pub max_cells_per_interface_at_rate: Option<u64>,
+    /// The worst sensor latency stayed within one sampling period and no
+    /// sensor frame was lost while measuring.
     pub meets_rate: bool,
     /// The paper's figures from the link model.
     pub model: Model,
+    /// Simulator events handled while measuring.
+    pub events: u64,
     /// Virtual time simulated.
     pub sim_time_s: f64,
     /// Wall time the run took.
@@ -207,7 +214,7 @@ impl Scenario {
             m.interface_frames.iter().map(|(all, data)| (all - data) as f64 / measured_s).fold(0.0, f64::max);
         let model = Model::new(&c.timing, f64::from(c.rate_hz), c.organize.probe_period_us);
         let capacity = (c.timing.frames_per_s() - control_hz).max(0.0);
-        let max_cells = if peak_per_cell_hz > 0.0 { (capacity / peak_per_cell_hz).floor() as u64 } else { u64::MAX };
+        let max_cells = (peak_per_cell_hz > 0.0).then(|| (capacity / peak_per_cell_hz).floor() as u64);
         let latency_us = m.latency.quantiles();
         Report {
             cells: net.cells(),
@@ -233,6 +240,8 @@ impl Scenario {
             delivered: l.delivered,
             dropped: l.dropped.total(),
             dropped_by_reason: l.dropped,
+            dropped_while_measuring: l.dropped.total() - m.dropped_before.total(),
+            sensor_dropped_while_measuring: l.sensor_dropped - m.sensor_dropped_before,
             in_network: net.upstream_in_network(),
             corrupt_rejected: l.corrupt_rejected,
             corrupt_accepted: l.corrupt_accepted,
@@ -251,8 +260,9 @@ impl Scenario {
                 control_per_interface_hz: control_hz,
             },
             max_cells_per_interface_at_rate: max_cells,
-            meets_rate: (latency_us.max as f64) < period_s * 1e6 && l.dropped.queue_full == 0,
+            meets_rate: (latency_us.max as f64) < period_s * 1e6 && l.sensor_dropped == m.sensor_dropped_before,
             model,
+            events: m.events,
             sim_time_s: net.now_ns() as f64 * 1e-9,
             wall_time_s,
         }
@@ -260,17 +270,23 @@ impl Scenario {
 }
 
 /// Runs the network to `until_ns`, handing datagrams to the host and its
-/// answers back.
+/// answers back; a host on UDP is heard every millisecond of virtual time.
 pub fn pump(net: &mut Network, transport: &mut Transport, until_ns: u64) -> Result<(), NetworkError> {
-    while let Some(d) = net.step(until_ns) {
-        for reply in transport.deliver(&d)? {
+    const POLL_NS: u64 = 1_000_000;
+    loop {
+        let slice = until_ns.min(net.now_ns().saturating_add(POLL_NS));
+        while let Some(d) = net.step(slice) {
+            for reply in transport.deliver(&d)? {
+                net.inject(&reply)?;
+            }
+        }
+        for reply in transport.poll(net.now_ns())? {
             net.inject(&reply)?;
         }
+        if net.now_ns() >= until_ns {
+            return Ok(());
+        }
     }
-    for reply in transport.poll(net.now_ns())? {
-        net.inject(&reply)?;
-    }
-    Ok(())
 }
 
 /// Checks self-organization against the live wiring.
@@ -314,13 +330,15 @@ impl Report {
             "{cells} cells, {ifs} interface ports, {rate} Hz {mode} traffic, {stim} skin, seed {seed}\n\
              {org}; tree depth {depth}; IDs unique: {ids}; neighbour table correct: {neighbours}; \
              attached {att}/{reach}; IDs kept: {kept}\n\
-             delivered {del}, dropped {drop} ({reasons:?}), in network {inn}; corrupt rejected {cr}, accepted {ca}; \
+             delivered {del}, dropped {drop} ({after} after organizing, {sensors} of them sensor frames; {reasons:?}), \
+             in network {inn}; \
+             corrupt rejected {cr}, accepted {ca}; \
              ledger balanced: {bal}\n\
              sensor latency p50 {p50} us, p99 {p99} us, max {max} us; tactile events max {emax} us ({en} events)\n\
              worst stay in a cell {hol:.0} us (head of line), {any:.0} us (any); model {fw} us, {fwc} us with control\n\
              traffic {frac:.1}% of clock-driven; peak {peak:.1} frames/s per cell; \
              max cells per interface port at {rate} Hz: {maxc}; meets the rate: {meets}\n\
-             simulated {sim:.3} s in {wall:.3} s wall ({speed:.0}x real time)",
+             simulated {sim:.3} s in {wall:.3} s wall ({speed:.0}x real time; {events} events measured)",
             cells = self.cells,
             ifs = self.interfaces,
             rate = self.rate_hz,
@@ -334,6 +352,8 @@ impl Report {
             kept = yes(self.ids_kept),
             del = self.delivered,
             drop = self.dropped,
+            after = self.dropped_while_measuring,
+            sensors = self.sensor_dropped_while_measuring,
             reasons = self.dropped_by_reason,
             inn = self.in_network,
             cr = self.corrupt_rejected,
@@ -350,11 +370,13 @@ impl Report {
             fwc = self.model.forwarding_with_control_us,
             frac = 100.0 * self.traffic.fraction_of_clock,
             peak = self.traffic.peak_per_cell_hz,
-            maxc = self.max_cells_per_interface_at_rate,
+            maxc =
+                self.max_cells_per_interface_at_rate.map_or("unbounded (no sensor traffic)".into(), |n| n.to_string()),
             meets = yes(self.meets_rate),
             sim = self.sim_time_s,
             wall = self.wall_time_s,
             speed = self.sim_time_s / self.wall_time_s.max(1e-9),
+            events = self.events,
         )
     }
 }

@@ -27,7 +27,7 @@ use skin_protocol::processing::Processor;
 use skin_protocol::router::Counters;
 
 use super::fault::{FaultKind, REBOOT_DOWN_NS};
-use super::ledger::{DropReason, Histogram, Ledger};
+use super::ledger::{DropReason, Drops, Histogram, Ledger};
 use super::link::{BitErrors, LinkTiming};
 use super::scheduler::Scheduler;
 use super::stimulus::{Stimulus, StimulusKind};
@@ -52,6 +52,10 @@ pub struct NetworkConfig {
     pub traffic: TrafficMode,
     /// What the skin feels.
     pub stimulus: StimulusKind,
+    /// Send-on-delta thresholds the host sets, per sample channel (the
+    /// order of `Sample::channels`), in counts; `None` keeps the firmware's
+    /// default (about twice the sensor noise).
+    pub delta_counts: [Option<u16>; 8],
     /// Bit-error rate of every cell-2-cell wire.
     pub bit_error_rate: f64,
     /// Seed of boot order, sampling phases, sensor noise and bit errors.
@@ -66,6 +70,7 @@ impl Default for NetworkConfig {
             rate_hz: 250.0,
             traffic: TrafficMode::Clock,
             stimulus: StimulusKind::Quiet,
+            delta_counts: [None; 8],
             bit_error_rate: 0.0,
             seed: 0,
         }
@@ -94,10 +99,18 @@ impl End {
     }
 }
 
+/// An upstream frame the simulator follows from its making to the host.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Followed {
+    created_ns: u64,
+    /// A sample or tactile event.
+    sensor: bool,
+}
+
 /// An upstream frame in a router queue, as the simulator follows it.
 #[derive(Clone, Copy, Debug)]
 struct Entry {
-    created_ns: u64,
+    frame: Followed,
     /// When it was received (for a forwarded frame) or made.
     since_ns: u64,
     /// It entered an empty queue: its wait is bounded by one round robin.
@@ -135,9 +148,8 @@ struct Interface {
     alive: bool,
     busy_until_ns: u64,
     waking: bool,
-    /// Frames for the host waiting for the Ethernet, with their creation
-    /// time when followed.
-    up: VecDeque<(Frame, Option<u64>)>,
+    /// Frames for the host waiting for the Ethernet, followed or not.
+    up: VecDeque<(Frame, Option<Followed>)>,
     seq: u32,
     /// Frames received from the cell since measuring began, and how many
     /// of them were sensor data.
@@ -151,7 +163,7 @@ enum Event {
     Poll(usize, u32),
     Sample(usize, u32),
     TxFree(End),
-    Arrive { from: End, to: End, bytes: [u8; FRAME_LEN], corrupted: bool, created_ns: Option<u64> },
+    Arrive { from: End, to: End, bytes: [u8; FRAME_LEN], corrupted: bool, followed: Option<Followed> },
     SinkPoll(u8),
     EthernetFree,
     ToHost { bytes: Vec<u8>, followed: u64 },
@@ -184,6 +196,12 @@ pub struct Measurements {
     pub interface_frames: Vec<(u64, u64)>,
     /// Measuring time in ns.
     pub measured_ns: u64,
+    /// Events the simulator handled while measuring.
+    pub events: u64,
+    /// Upstream drops before measuring began (the ledger counts from power-up).
+    pub dropped_before: Drops,
+    /// Sensor frames among them.
+    pub sensor_dropped_before: u64,
 }
 
 /// A skin network on a virtual clock.
@@ -313,6 +331,11 @@ impl Network {
             return Err(NetworkError::Flag(format!("rate {} Hz: use a rate in (0, 10000] Hz", config.rate_hz)));
         }
         p.apply(&Setting::Traffic(config.traffic));
+        for (channel, counts) in (0u8..).zip(config.delta_counts) {
+            if let Some(counts) = counts {
+                p.apply(&Setting::Delta { channel, counts });
+            }
+        }
         Ok(p)
     }
 
@@ -351,8 +374,13 @@ impl Network {
         self.measure_from_ns = self.now_ns();
         self.window = (self.now_ns() / self.period_ns, 0);
         let ledger = std::mem::take(&mut self.m.ledger);
-        self.m =
-            Measurements { ledger, interface_frames: vec![(0, 0); self.interfaces.len()], ..Measurements::default() };
+        self.m = Measurements {
+            dropped_before: ledger.dropped,
+            sensor_dropped_before: ledger.sensor_dropped,
+            ledger,
+            interface_frames: vec![(0, 0); self.interfaces.len()],
+            ..Measurements::default()
+        };
         for i in &mut self.interfaces {
             (i.from_cell, i.data_from_cell) = (0, 0);
         }
@@ -419,7 +447,9 @@ impl Network {
         };
         if !ok {
             return Err(NetworkError::Flag(format!(
-                "fault {fault:?} names no link, cell or interface port of this skin"
+                "fault {fault}: this skin has no such link, cell or interface port (cells 0..{}, interface ports 0..{})",
+                self.nodes.len(),
+                self.interfaces.len()
             )));
         }
         self.events.at(at_ns, Event::Fault(fault));
@@ -496,6 +526,7 @@ impl Network {
     }
 
     fn handle(&mut self, event: Event) {
+        self.m.events += 1;
         match event {
             Event::PowerOn(i) => self.power_on(i),
             Event::Poll(i, epoch) => {
@@ -506,7 +537,7 @@ impl Network {
                 }
                 n.poll_ns = u64::MAX;
                 if n.cell.as_ref().is_some_and(|c| c.poll_at() <= now_us) {
-                    self.touch(i, None, |c, _, now| c.poll(now));
+                    self.touch(i, None, false, |c, _, now| c.poll(now));
                 }
                 self.settle(i);
             }
@@ -525,9 +556,7 @@ impl Network {
                     self.kick_interface(k);
                 }
             },
-            Event::Arrive { from, to, bytes, corrupted, created_ns } => {
-                self.arrive(from, to, bytes, corrupted, created_ns)
-            }
+            Event::Arrive { from, to, bytes, corrupted, followed } => self.arrive(from, to, bytes, corrupted, followed),
             Event::SinkPoll(k) => {
                 let now_us = self.now_us();
                 let i = &mut self.interfaces[usize::from(k)];
@@ -569,13 +598,14 @@ impl Network {
     }
 
     /// Runs `f` on cell `i` and books what it did to the upstream queues:
-    /// frames that entered (made by the cell, or `arriving`, made at that
-    /// time) and frames the router dropped. Returns `f`'s result and
-    /// whether `dropped_full` moved.
+    /// frames that entered (the `arriving` frame when it is followed, else
+    /// frames made now, sensor frames when `sensor`) and frames the router
+    /// dropped. Returns `f`'s result and whether `dropped_full` moved.
     fn touch<R>(
         &mut self,
         i: usize,
-        arriving: Option<u64>,
+        arriving: Option<Followed>,
+        sensor: bool,
         f: impl FnOnce(&mut Cell, &mut Option<Address>, u64) -> R,
     ) -> (R, bool) {
         let now_ns = self.events.now_ns();
@@ -591,20 +621,21 @@ impl Network {
             if a < b {
                 // A queue is only ever cleared (its port became the master).
                 let lost = n.shadow[q].len() as u64;
+                let sensors = n.shadow[q].iter().filter(|e| e.frame.sensor).count() as u64;
                 n.shadow[q].clear();
-                self.m.ledger.drop_upstream(DropReason::Reroute, lost);
+                self.m.ledger.drop_upstream(DropReason::Reroute, lost, sensors);
             }
             let fresh = if a < b { a } else { a - b };
             for k in 0..fresh {
-                let created_ns = match arriving {
-                    Some(t) if q != OWN => t,
+                let frame = match arriving {
+                    Some(f) if q != OWN => f,
                     _ => {
                         self.m.ledger.entered += 1;
-                        now_ns
+                        Followed { created_ns: now_ns, sensor }
                     }
                 };
                 let since_ns = if q == OWN { now_ns } else { now_ns - self.config.timing.processing_ns };
-                n.shadow[q].push_back(Entry { created_ns, since_ns, head: b == 0 && k == 0 });
+                n.shadow[q].push_back(Entry { frame, since_ns, head: b == 0 && k == 0 });
             }
         }
         (r, full)
@@ -645,9 +676,10 @@ impl Network {
 
     /// A cell sends one of its own messages upstream.
     fn send_own(&mut self, i: usize, message: &Message, measuring: bool) {
-        let (sent, _) = self.touch(i, None, |c, _, _| c.send(message));
+        let sensor = is_data(message.kind());
+        let (sent, _) = self.touch(i, None, sensor, |c, _, _| c.send(message));
         match sent {
-            Ok(()) if measuring && is_data(message.kind()) => {
+            Ok(()) if measuring && sensor => {
                 self.m.data_frames += 1;
                 let w = self.events.now_ns() / self.period_ns;
                 if w != self.window.0 {
@@ -659,7 +691,7 @@ impl Network {
             Ok(()) | Err(SendError::NoId) => {}
             Err(SendError::QueueFull) => {
                 self.m.ledger.entered += 1;
-                self.m.ledger.drop_upstream(DropReason::QueueFull, 1);
+                self.m.ledger.drop_upstream(DropReason::QueueFull, 1, u64::from(sensor));
             }
         }
     }
@@ -670,36 +702,36 @@ impl Network {
         let now_ns = self.events.now_ns();
         let n = &mut self.nodes[i];
         let Some(cell) = n.cell.as_mut() else { return };
-        if !cell.has_pending(p) {
+        let busy = n.busy_until_ns[p.index()];
+        // A busy transmitter that will be woken asks for its frame then.
+        if busy > now_ns && n.waking[p.index()] || !cell.has_pending(p) {
             return;
         }
-        let busy = n.busy_until_ns[p.index()];
         if busy > now_ns {
-            if !n.waking[p.index()] {
-                n.waking[p.index()] = true;
-                self.events.at(busy, Event::TxFree(End::Cell(i as u32, p)));
-            }
+            n.waking[p.index()] = true;
+            self.events.at(busy, Event::TxFree(End::Cell(i as u32, p)));
             return;
         }
         let before = cell.router().upstream_lens();
         let Some(frame) = cell.transmit(p) else { return };
         let after = cell.router().upstream_lens();
         let end_ns = now_ns + self.frame_ns;
-        let created_ns = (0..5).find(|q| after[*q] < before[*q]).and_then(|q| {
+        let followed = (0..5).find(|q| after[*q] < before[*q]).and_then(|q| {
             let e = n.shadow[q].pop_front()?;
             let stay = end_ns - e.since_ns;
             self.m.forwarding_any_ns = self.m.forwarding_any_ns.max(stay);
             if e.head {
                 self.m.forwarding_head_ns = self.m.forwarding_head_ns.max(stay);
             }
-            Some(e.created_ns)
+            Some(e.frame)
         });
         n.busy_until_ns[p.index()] = end_ns;
-        if cell.has_pending(p) {
+        // At most one wake-up per transmitter: one may be due right now.
+        if !n.waking[p.index()] && cell.has_pending(p) {
             n.waking[p.index()] = true;
             self.events.at(end_ns, Event::TxFree(End::Cell(i as u32, p)));
         }
-        self.put_on_wire(End::Cell(i as u32, p), frame, created_ns);
+        self.put_on_wire(End::Cell(i as u32, p), frame, followed);
     }
 
     fn kick_interface(&mut self, k: u8) {
@@ -717,7 +749,7 @@ impl Network {
         }
         let Some(frame) = i.sink.transmit() else { return };
         i.busy_until_ns = now_ns + self.frame_ns;
-        if i.sink.queued() > 0 {
+        if !i.waking && i.sink.queued() > 0 {
             i.waking = true;
             self.events.at(i.busy_until_ns, Event::TxFree(End::Interface(k)));
         }
@@ -731,30 +763,30 @@ impl Network {
         }
     }
 
-    fn put_on_wire(&mut self, from: End, frame: Frame, created_ns: Option<u64>) {
+    fn put_on_wire(&mut self, from: End, frame: Frame, followed: Option<Followed>) {
         self.m.ledger.transmitted += 1;
         let Some(to) = self.peer(from) else {
             self.m.ledger.lost_no_link += 1;
-            if created_ns.is_some() {
-                self.m.ledger.drop_upstream(DropReason::NoLink, 1);
+            if let Some(f) = followed {
+                self.m.ledger.drop_upstream(DropReason::NoLink, 1, u64::from(f.sensor));
             }
             return;
         };
         let mut bytes = *frame.as_bytes();
         let corrupted = self.bit_errors.corrupt(&mut bytes) > 0;
         self.on_wires += 1;
-        self.followed_on_wires += u64::from(created_ns.is_some());
+        self.followed_on_wires += u64::from(followed.is_some());
         let processing = if matches!(to, End::Cell(..)) { self.config.timing.processing_ns } else { 0 };
         let at = self.events.now_ns() + self.frame_ns + processing;
-        self.events.at(at, Event::Arrive { from, to, bytes, corrupted, created_ns });
+        self.events.at(at, Event::Arrive { from, to, bytes, corrupted, followed });
     }
 
-    fn arrive(&mut self, from: End, to: End, bytes: [u8; FRAME_LEN], corrupted: bool, created_ns: Option<u64>) {
+    fn arrive(&mut self, from: End, to: End, bytes: [u8; FRAME_LEN], corrupted: bool, followed: Option<Followed>) {
         self.on_wires -= 1;
-        self.followed_on_wires -= u64::from(created_ns.is_some());
+        self.followed_on_wires -= u64::from(followed.is_some());
         let lost = |net: &mut Network, reason| {
-            if created_ns.is_some() {
-                net.m.ledger.drop_upstream(reason, 1);
+            if let Some(f) = followed {
+                net.m.ledger.drop_upstream(reason, 1, u64::from(f.sensor));
             }
         };
         if self.peer(from) != Some(to) {
@@ -772,10 +804,12 @@ impl Network {
                 self.m.ledger.received += 1;
                 self.count_corruption(corrupted, valid);
                 let queued_before = self.nodes[i].shadow[p.index()].len();
-                let (delivered, full) = self.touch(i, created_ns, |c, store, now| c.receive(p, &bytes, now, store));
+                let sensor = Kind::try_from(bytes[0]).is_ok_and(is_data);
+                let (delivered, full) =
+                    self.touch(i, followed, sensor, |c, store, now| c.receive(p, &bytes, now, store));
                 if !valid {
                     lost(self, DropReason::Corrupt);
-                } else if created_ns.is_some() && self.nodes[i].shadow[p.index()].len() <= queued_before {
+                } else if followed.is_some() && self.nodes[i].shadow[p.index()].len() <= queued_before {
                     // Refused by the router: full, or it came in on the master
                     // port (a transient loop while the tree changes).
                     lost(self, if full { DropReason::QueueFull } else { DropReason::Reroute });
@@ -809,7 +843,7 @@ impl Network {
                             if measuring && is_data(frame.kind()) {
                                 i.data_from_cell += 1;
                             }
-                            i.up.push_back((frame, created_ns));
+                            i.up.push_back((frame, followed));
                         }
                         if corrupted {
                             self.m.ledger.corrupt_accepted += 1;
@@ -849,7 +883,7 @@ impl Network {
         self.next_flush = (k + 1) % count;
         let i = &mut self.interfaces[k];
         let take = i.up.len().min(MAX_FRAMES);
-        let batch: Vec<(Frame, Option<u64>)> = i.up.drain(..take).collect();
+        let batch: Vec<(Frame, Option<Followed>)> = i.up.drain(..take).collect();
         let frames: Vec<Frame> = batch.iter().map(|(f, _)| *f).collect();
         let header = DatagramHeader { interface: k as u8, seq: i.seq, timestamp_us: now_ns / 1000 };
         i.seq = i.seq.wrapping_add(1);
@@ -858,11 +892,11 @@ impl Network {
         let at_ns = now_ns + self.config.timing.datagram_ns(frames.len());
         self.ethernet_busy_until_ns = at_ns;
         let mut followed = 0;
-        for (frame, created) in &batch {
-            let Some(created) = created else { continue };
+        for (frame, f) in &batch {
+            let Some(f) = f else { continue };
             followed += 1;
-            if *created >= self.measure_from_ns && is_data(frame.kind()) {
-                let us = (at_ns - created) / 1000;
+            if f.created_ns >= self.measure_from_ns && f.sensor {
+                let us = (at_ns - f.created_ns) / 1000;
                 self.m.latency.record(us);
                 if frame.kind() == Kind::Event {
                     self.m.event_latency.record(us);
@@ -871,7 +905,7 @@ impl Network {
         }
         self.followed_on_ethernet += followed;
         self.events.at(at_ns, Event::ToHost { bytes: buf[..len].to_vec(), followed });
-        if self.interfaces.iter().any(|i| !i.up.is_empty()) {
+        if !self.ethernet_waking && self.interfaces.iter().any(|i| !i.up.is_empty()) {
             self.ethernet_waking = true;
             self.events.at(at_ns, Event::EthernetFree);
         }
@@ -897,9 +931,10 @@ impl Network {
             FaultKind::InterfaceDown(k) => {
                 let i = &mut self.interfaces[usize::from(k)];
                 i.alive = false;
-                let followed = i.up.iter().filter(|(_, c)| c.is_some()).count() as u64;
+                let followed = i.up.iter().filter_map(|(_, f)| *f);
+                let (n, sensors) = followed.fold((0, 0), |(n, s), f| (n + 1, s + u64::from(f.sensor)));
                 i.up.clear();
-                self.m.ledger.drop_upstream(DropReason::DeadInterface, followed);
+                self.m.ledger.drop_upstream(DropReason::DeadInterface, n, sensors);
             }
         }
     }
@@ -911,9 +946,10 @@ impl Network {
             add(&mut n.retired, cell.router().counters());
             self.m.ledger.lost_at_power_off += cell.router().queued() as u64;
         }
-        let lost: usize = n.shadow.iter().map(VecDeque::len).sum();
+        let entries = n.shadow.iter().flatten();
+        let (lost, sensors) = entries.fold((0, 0), |(n, s), e| (n + 1, s + u64::from(e.frame.sensor)));
         n.shadow.iter_mut().for_each(VecDeque::clear);
         n.poll_ns = u64::MAX;
-        self.m.ledger.drop_upstream(DropReason::DeadCell, lost as u64);
+        self.m.ledger.drop_upstream(DropReason::DeadCell, lost, sensors);
     }
 }

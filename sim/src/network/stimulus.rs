@@ -38,10 +38,11 @@ pub enum StimulusKind {
     /// A fingertip (2 N, 12 mm contact radius) slides across the skin at
     /// 0.1 m/s, back and forth through its middle.
     Touch,
-    /// A large object is grasped with the whole arm, every 5 s: it
+    /// A large object is grasped with the whole arm, every 7 s: it
     /// approaches at 25 mm/s (2 s), is pressed in to 3 N per force cell
     /// along a 60 mm wide band across the middle of the skin (1 s), held
-    /// while it slips slightly (1 s), let go (0.5 s) and taken away.
+    /// while it slips slightly (1 s), let go (1 s) and taken back at
+    /// 25 mm/s (2 s).
     Grasp,
 }
 
@@ -132,14 +133,14 @@ impl Stimulus {
             }
             StimulusKind::Grasp => {
                 const HALF_BAND_M: f64 = 0.03;
-                let t = t_s % 5.0;
+                let t = t_s % 7.0;
                 let across = (p[1] - mid[1]).abs();
                 let (gap_m, press) = match t {
                     t if t < 2.0 => (0.025 * (2.0 - t), 0.0),
                     t if t < 3.0 => (0.0, t - 2.0),
                     t if t < 4.0 => (0.0, 1.0 - 0.1 * (std::f64::consts::PI * (t - 3.0)).sin()),
-                    t if t < 4.5 => (0.0, 1.0 - 2.0 * (t - 4.0)),
-                    _ => (f64::INFINITY, 0.0),
+                    t if t < 5.0 => (0.0, 0.9 * (5.0 - t)),
+                    t => (0.025 * (t - 5.0), 0.0),
                 };
                 let force = 3.0 * press * (1.0 - (across / HALF_BAND_M).powi(2)).max(0.0);
                 (force, gap_m + (across - HALF_BAND_M).max(0.0))
@@ -205,7 +206,14 @@ mod tests {
         assert_eq!(pressed(&mut s, 1.0), 0, "approaching");
         let holding = pressed(&mut s, 3.5);
         assert!(holding > 3 && holding < 20, "{holding} cells pressed");
-        assert_eq!(pressed(&mut s, 4.8), 0, "let go");
+        assert_eq!(pressed(&mut s, 5.5), 0, "let go");
+        // The object moves, it never jumps: proximity is continuous over a cycle.
+        let proximity = |s: &mut Stimulus, t: f64| f64::from(s.raw(14, t).proximity());
+        for k in 0..700 {
+            let t = f64::from(k) * 0.01;
+            let step = (proximity(&mut s, t + 0.004) - proximity(&mut s, t)).abs();
+            assert!(step < 5_000.0, "proximity jumps by {step} at {t} s");
+        }
         let row: Vec<[f64; 2]> = (0..30).map(|i| [i as f64 * 0.0277, 0.0]).collect();
         let mut t = Stimulus::new(StimulusKind::Touch, &row, 1);
         let touched = |t: &mut Stimulus, s: f64| (0..30).filter(|&c| t.raw(c, s).force_norm()[0] > 0.05).count();
