@@ -259,8 +259,10 @@ fn ten_thousand_cells_with_sixteen_ports_organize() {
 /// send-on-delta to 1% of full scale (the finest step of Table 3's
 /// proximity levels), serves five times the 80 cells the paper gives one
 /// interface port at 250 Hz: 400 cells on one port, every tactile event and
-/// every sensor frame within 4 ms. (Contact bursts still overflow a router
-/// queue now and then; the run counts those frames.)
+/// every sensor frame within 4 ms, none lost. With the firmware's default
+/// thresholds (about twice the sensor noise) the approach floods the port:
+/// see the report of `skin-sim network --topology hex:20x20 --interfaces 1
+/// --traffic event --stimulus grasp --duration 14`.
 #[test]
 #[ignore]
 fn event_driven_grasp_serves_five_times_the_cells_of_clock_driven() {
@@ -271,4 +273,5 @@ fn event_driven_grasp_serves_five_times_the_cells_of_clock_driven() {
     organized(&r);
     assert!(r.event_latency_us.count > 1000, "{}", r.summary());
     assert!(r.event_latency_us.max < 4_000 && r.latency_us.max < 4_000, "{}", r.summary());
+    assert!(r.meets_rate && r.sensor_dropped_while_measuring == 0, "{}", r.summary());
 }
