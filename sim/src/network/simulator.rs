@@ -953,3 +953,31 @@ impl Network {
         self.m.ledger.drop_upstream(DropReason::DeadCell, lost, sensors);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Any bytes from the host are a datagram for the skin or a typed
+        /// error, and the network runs on either way.
+        #[test]
+        fn any_bytes_from_the_host(bytes in proptest::collection::vec(any::<u8>(), 0..200), port: u8) {
+            let topology = Topology::hex(2, 2).and_then(|t| t.with_interfaces(2)).unwrap();
+            let mut net = Network::new(&topology, NetworkConfig::default()).unwrap();
+            while net.step(20_000_000).is_some() {}
+            // The same bytes shaped as a datagram of 1..=3 (corrupt) frames.
+            let mut datagram = bytes.clone();
+            datagram.resize(16 + 20 * (1 + bytes.len() % 3), 0);
+            datagram[..3].copy_from_slice(b"SK\x01");
+            datagram[3] = port % 3;
+            for b in [&bytes, &datagram] {
+                let _ = net.inject(b);
+                while net.step(30_000_000).is_some() {}
+                prop_assert!(net.balanced());
+                prop_assert_eq!(net.now_ns(), 30_000_000);
+            }
+        }
+    }
+}

@@ -77,6 +77,10 @@ impl Topology {
         if cells == 0 || cells > MAX_CELLS {
             return bad(format!("{cells} cells; a skin has 1..={MAX_CELLS}"));
         }
+        let most = usize::from(skin_protocol::Address::MAX_INTERFACES);
+        if interfaces.len() > most {
+            return bad(format!("{} interface ports; addresses name at most {most}", interfaces.len()));
+        }
         let positions_m = match positions_m {
             Some(p) if p.len() != cells => return bad(format!("{} positions for {cells} cells", p.len())),
             Some(p) if p.iter().flatten().any(|v| !v.is_finite()) => return bad("a position is not finite".into()),
@@ -168,11 +172,25 @@ impl Topology {
     /// Reads a graph from a `.toml` or `.json` file.
     pub fn from_file(path: &Path) -> Result<Topology, NetworkError> {
         let file = |why: String| NetworkError::File { path: path.display().to_string(), why };
-        let text = std::fs::read_to_string(path).map_err(|e| file(e.to_string()))?;
-        let graph: GraphFile = match path.extension().and_then(|e| e.to_str()) {
-            Some("toml") => toml::from_str(&text).map_err(|e| file(e.to_string()))?,
-            Some("json") => serde_json::from_str(&text).map_err(|e| file(e.to_string()))?,
+        let json = match path.extension().and_then(|e| e.to_str()) {
+            Some("toml") => false,
+            Some("json") => true,
             _ => return Err(file("the file name must end in .toml or .json".into())),
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| file(e.to_string()))?;
+        Topology::from_text(&text, json).map_err(|e| match e {
+            NetworkError::Topology(why) => file(why),
+            e => e,
+        })
+    }
+
+    /// Parses a graph in the file format, TOML or JSON.
+    pub fn from_text(text: &str, json: bool) -> Result<Topology, NetworkError> {
+        let file = NetworkError::Topology;
+        let graph: GraphFile = if json {
+            serde_json::from_str(text).map_err(|e| file(e.to_string()))?
+        } else {
+            toml::from_str(text).map_err(|e| file(e.to_string()))?
         };
         let port = |cell: usize, p: usize| {
             Port::from_index(p)
@@ -185,7 +203,7 @@ impl Topology {
             .map(|[a, pa, b, pb]| Ok((port(*a, *pa)?, port(*b, *pb)?)))
             .collect::<Result<Vec<_>, NetworkError>>()?;
         let interfaces = graph.interfaces.iter().map(|[c, p]| port(*c, *p)).collect::<Result<Vec<_>, _>>()?;
-        Topology::new(graph.cells, graph.positions_m, links, interfaces).map_err(|e| file(e.to_string()))
+        Topology::new(graph.cells, graph.positions_m, links, interfaces)
     }
 
     /// Parses a topology spec: `hex:ROWSxCOLS`, several joined with `+`
@@ -299,6 +317,35 @@ impl Topology {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Any text is a graph or a typed error.
+        #[test]
+        fn any_text_parses_or_is_refused(text in "\\PC{0,200}", json: bool) {
+            let _ = Topology::from_text(&text, json);
+        }
+
+        /// Graphs of any numbers are built or refused, never half-checked.
+        #[test]
+        fn any_graph_is_checked(
+            cells in 0usize..70_000,
+            links in proptest::collection::vec([0usize..12, 0usize..6, 0usize..12, 0usize..6], 0..20),
+            interfaces in proptest::collection::vec([0usize..12, 0usize..6], 0..4),
+        ) {
+            let text = serde_json::json!({ "cells": cells, "links": links, "interfaces": interfaces }).to_string();
+            if let Ok(t) = Topology::from_text(&text, true) {
+                prop_assert_eq!(t.cells(), cells);
+                let mut ends: Vec<PortRef> = t.links().iter().flat_map(|(a, b)| [*a, *b]).collect();
+                ends.extend(t.interfaces());
+                let n = ends.len();
+                ends.sort();
+                ends.dedup();
+                prop_assert_eq!(ends.len(), n, "a port wired twice");
+                prop_assert!(ends.iter().all(|e| e.cell < cells));
+            }
+        }
+    }
 
     #[test]
     fn hex_patch_links_opposite_ports_of_adjacent_cells() {
