@@ -4,6 +4,7 @@
 //! sensor traffic under a stimulus, suffers the faults asked for, and
 //! reports latency, losses and capacity (`--json` for one JSON object).
 
+use std::io::Write;
 use std::net::SocketAddr;
 use std::process::ExitCode;
 
@@ -71,6 +72,11 @@ struct NetworkArgs {
     /// (S seconds after self-organization) or ber:RATE. Repeatable.
     #[arg(long = "fault")]
     faults: Vec<FaultSpec>,
+    /// A send-on-delta threshold the host sets on every cell, as
+    /// CHANNEL=COUNTS; channels: proximity, force0, force1, force2, ax, ay,
+    /// az, temperature. Repeatable.
+    #[arg(long = "delta", value_parser = parse_delta)]
+    deltas: Vec<(u8, u16)>,
     /// Seed of everything random.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -88,6 +94,17 @@ struct NetworkArgs {
     /// Print one JSON object instead of a summary.
     #[arg(long)]
     json: bool,
+}
+
+/// Sample channels in the order of `Sample::channels`.
+const CHANNELS: [&str; 8] = ["proximity", "force0", "force1", "force2", "ax", "ay", "az", "temperature"];
+
+fn parse_delta(s: &str) -> Result<(u8, u16), String> {
+    let usage = || format!("`{s}`: write CHANNEL=COUNTS, CHANNEL one of {}", CHANNELS.join(", "));
+    let (name, counts) = s.split_once('=').ok_or_else(usage)?;
+    let channel = CHANNELS.iter().position(|c| *c == name).ok_or_else(usage)?;
+    let counts = counts.parse().map_err(|_| usage())?;
+    Ok((channel as u8, counts))
 }
 
 fn network(args: NetworkArgs) -> Result<(), NetworkError> {
@@ -114,6 +131,9 @@ fn network(args: NetworkArgs) -> Result<(), NetworkError> {
         seed: args.seed,
         ..NetworkConfig::default()
     };
+    for (channel, counts) in args.deltas {
+        config.delta_counts[usize::from(channel)] = Some(counts);
+    }
     let mut faults: Vec<Fault> = Vec::new();
     for f in args.faults {
         match f {
@@ -138,11 +158,10 @@ fn network(args: NetworkArgs) -> Result<(), NetworkError> {
     );
     let report = scenario.run(&mut transport, &mut |f| bar.set_position((f * 1000.0) as u64))?;
     bar.finish_and_clear();
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report).expect("a report serializes"));
-    } else {
-        println!("{}", report.summary());
-    }
+    let text =
+        if args.json { serde_json::to_string_pretty(&report).expect("a report serializes") } else { report.summary() };
+    // A closed pipe (`| head`) is the reader's choice, not an error.
+    let _ = writeln!(std::io::stdout().lock(), "{text}");
     Ok(())
 }
 
