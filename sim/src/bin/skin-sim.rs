@@ -49,7 +49,7 @@ enum Stimulus {
 
 #[derive(Args)]
 struct NetworkArgs {
-    /// `hex:ROWSxCOLS` (join patches with `+`), `hrp2`, or a .toml/.json graph file.
+    /// `hex:ROWSxCOLS` (join patches with `+`), `chain:CELLS`, `hrp2`, or a .toml/.json graph file.
     #[arg(long)]
     topology: String,
     /// Interface ports in all; those the topology lacks go on free boundary

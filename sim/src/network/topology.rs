@@ -155,6 +155,15 @@ impl Topology {
         Topology::new(n + other.cells(), Some(positions), links, interfaces)
     }
 
+    /// `cells` cells in a row, each one's east port (0) wired to the next
+    /// one's west port (2), with an interface port on the first one's west
+    /// port: the deepest tree `cells` cells can make.
+    pub fn chain(cells: usize) -> Result<Topology, NetworkError> {
+        let positions = (0..cells).map(|i| [i as f64 * CELL_PITCH_M, 0.0]).collect();
+        let links = (1..cells).map(|i| (PortRef::new(i - 1, Port::P0), PortRef::new(i, Port::P2))).collect();
+        Topology::new(cells, Some(positions), links, vec![PortRef::new(0, Port::P2)])
+    }
+
     /// The skin of HRP-2 in the paper: 74 cells in five patches, each arm an
     /// upper-arm patch (3x6) cabled to a forearm patch (3x4), and a chest
     /// patch (2x7), on the five ports of the interface: two per arm, one on
@@ -207,10 +216,15 @@ impl Topology {
     }
 
     /// Parses a topology spec: `hex:ROWSxCOLS`, several joined with `+`
-    /// (`hex:3x6+hex:3x4`), `hrp2`, or the path of a graph file.
+    /// (`hex:3x6+hex:3x4`), `chain:N`, `hrp2`, or the path of a graph file.
     pub fn parse(spec: &str) -> Result<Topology, NetworkError> {
         if spec == "hrp2" {
             return Ok(Topology::hrp2());
+        }
+        if let Some(n) = spec.strip_prefix("chain:") {
+            let n =
+                n.parse().map_err(|_| NetworkError::Topology(format!("`{spec}`: write chain:CELLS, e.g. chain:20")))?;
+            return Topology::chain(n);
         }
         if !spec.starts_with("hex:") {
             return Topology::from_file(Path::new(spec));
@@ -369,6 +383,10 @@ mod tests {
         assert_eq!(Topology::parse("hex:3x6+hex:3x4").unwrap().cells(), 30);
         assert_eq!(Topology::hrp2().cells(), 74);
         assert_eq!(Topology::hrp2().interfaces().len(), 5);
+        let chain = Topology::parse("chain:5").unwrap();
+        let hops = Topology::hops(&chain.peers(), chain.interfaces());
+        assert_eq!(hops, [1, 2, 3, 4, 5].map(Some));
+        assert!(Topology::parse("chain:0").is_err() && Topology::parse("chain:x").is_err());
         for bad in ["hex:0x3", "hex:3", "hex:axb", "hex:3x3+", "nofile.yaml", "missing.toml"] {
             assert!(Topology::parse(bad).is_err(), "{bad}");
         }
