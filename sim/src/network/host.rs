@@ -66,9 +66,4 @@ impl Host {
     pub fn table(&self, id: Address) -> Option<&[Option<Neighbour>; 4]> {
         self.tables.get(&id)
     }
-
-    /// Cell IDs handed out or seen.
-    pub fn ids_in_use(&self) -> usize {
-        self.allocator.used()
-    }
 }

@@ -56,6 +56,34 @@ pub struct Forwarding {
     pub any_max_us: f64,
 }
 
+/// Every frame of every kind, hop by hop, over the whole run: put on a
+/// wire, then received, lost on the wire or still on it; taken into a
+/// queue, then sent, dropped by a router or lost with its cell, or still
+/// queued.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct Frames {
+    /// Put on a wire by a cell or an interface port.
+    pub transmitted: u64,
+    /// Arrived at a live receiver.
+    pub received: u64,
+    /// Sent into a free or cut port.
+    pub lost_no_link: u64,
+    /// Sent to a dead cell or interface port.
+    pub lost_dead_receiver: u64,
+    /// On a wire at the end.
+    pub on_wires: u64,
+    /// Dropped by a router because a queue was full.
+    pub router_dropped_full: u64,
+    /// Dropped by a router because the tree changed.
+    pub router_dropped_reroute: u64,
+    /// In the queues of cells that died or rebooted.
+    pub lost_at_power_off: u64,
+    /// From the host, refused by an interface port.
+    pub host_frames_refused: u64,
+    /// In router and interface queues at the end.
+    pub queued: u64,
+}
+
 /// Sensor traffic during the measured time.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Traffic {
@@ -122,6 +150,8 @@ pub struct Report {
     pub corrupt_accepted: u64,
     /// Delivered + dropped + in the network = sent, for every frame.
     pub ledger_balanced: bool,
+    /// Every frame of every kind, hop by hop.
+    pub frames: Frames,
     /// Sensor frames, made to host, in microseconds.
     pub latency_us: Quantiles,
     /// Tactile events, made to host, in microseconds.
@@ -246,6 +276,21 @@ impl Scenario {
             corrupt_rejected: l.corrupt_rejected,
             corrupt_accepted: l.corrupt_accepted,
             ledger_balanced: net.balanced(),
+            frames: {
+                let r = net.router_counters();
+                Frames {
+                    transmitted: l.transmitted,
+                    received: l.received,
+                    lost_no_link: l.lost_no_link,
+                    lost_dead_receiver: l.lost_dead_receiver,
+                    on_wires: net.on_wires(),
+                    router_dropped_full: u64::from(r.dropped_full),
+                    router_dropped_reroute: u64::from(r.dropped_reroute),
+                    lost_at_power_off: l.lost_at_power_off,
+                    host_frames_refused: l.host_frames_refused,
+                    queued: net.queued(),
+                }
+            },
             latency_us,
             event_latency_us: m.event_latency.quantiles(),
             forwarding_delay: Forwarding {
