@@ -90,6 +90,10 @@ impl Cell {
         } else if header.kind == Kind::IdAssign && (mine || header.dst == Address::UNASSIGNED) {
             self.control(port, &frame, now_us, store);
             None
+        } else if header.dst == Address::HOST {
+            // Bound up but coming down: the tree is changing under it.
+            self.router.count_reroute();
+            None
         } else if mine {
             self.local(&frame)
         } else if header.dst == Address::BROADCAST {
@@ -145,7 +149,8 @@ impl Cell {
 
     /// Lets time pass: probes, timeouts, retries.
     pub fn poll(&mut self, now_us: u64) {
-        let outs = self.organizer.poll(now_us);
+        let busy = if now_us >= self.organizer.next_probe_us() { self.router.take_sent() } else { 0 };
+        let outs = self.organizer.poll(now_us, busy);
         self.route(outs);
     }
 
@@ -173,5 +178,45 @@ impl Cell {
     /// True when `port` has a frame waiting.
     pub fn has_pending(&self, port: Port) -> bool {
         self.router.has_pending(port)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::message::ConfigAck;
+
+    /// Sends everything queued; true for each port that sent a probe.
+    fn probes_queued(cell: &mut Cell) -> [bool; 4] {
+        Port::ALL.map(|p| {
+            let sent: std::vec::Vec<Frame> = core::iter::from_fn(|| cell.transmit(p)).collect();
+            sent.iter().any(|f| f.kind() == Kind::Probe)
+        })
+    }
+
+    #[test]
+    fn only_ports_that_sent_nothing_are_probed() {
+        let mut store = Some(Address(5));
+        let mut cell = Cell::new(Config::default(), &store, 0);
+        cell.poll(0);
+        assert_eq!(probes_queued(&mut cell), [true; 4]);
+        // A sink on port 2 makes it the master; the cell's own traffic then
+        // keeps port 2 busy, and only the other ports are probed.
+        let beacon = Frame::new(
+            Address(0xFF00),
+            Address::BROADCAST,
+            &Message::Beacon(crate::message::Beacon { interface: 0, seq: 1, hops: 0 }),
+        );
+        cell.receive(Port::P2, beacon.as_bytes(), 1_000, &mut store);
+        assert_eq!(cell.organizer().master(), Some(Port::P2));
+        let _ = probes_queued(&mut cell);
+        cell.send(&Message::ConfigAck(ConfigAck { tag: 1, accepted: true })).unwrap();
+        let sent: std::vec::Vec<Kind> = core::iter::from_fn(|| cell.transmit(Port::P2)).map(|f| f.kind()).collect();
+        assert!(sent.contains(&Kind::ConfigAck), "{sent:?}");
+        cell.poll(10_000);
+        assert_eq!(probes_queued(&mut cell), [true, true, false, true]);
+        // Nothing sent since: every port is probed again.
+        cell.poll(20_000);
+        assert_eq!(probes_queued(&mut cell), [true; 4]);
     }
 }

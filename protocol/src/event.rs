@@ -118,9 +118,11 @@ pub struct SendOnDelta {
     last: Option<[i32; 8]>,
 }
 
-/// Default send-on-delta thresholds in counts: proximity, forces, axes,
-/// temperature. About twice each sensor's noise, so a quiet cell is silent.
-pub const DEFAULT_DELTAS: [u16; 8] = [64, 12, 12, 12, 6, 6, 6, 16];
+/// Default send-on-delta thresholds in counts: proximity and forces at 1%
+/// of full scale, the finest step of Table 3's levels that the host acts
+/// on; acceleration and temperature at about twice their sensors' noise.
+/// A quiet cell is silent.
+pub const DEFAULT_DELTAS: [u16; 8] = [655, 41, 41, 41, 6, 6, 6, 16];
 
 impl Default for SendOnDelta {
     fn default() -> Self {

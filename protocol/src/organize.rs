@@ -3,8 +3,9 @@
 //! The four phases run side by side as a pure state machine: a received
 //! frame (or the passing of time) goes in, frames to send come out.
 //!
-//! 1. **Active ports.** Every cell probes each port periodically; a probe is
-//!    answered at once. A port is active while frames arrive on it.
+//! 1. **Active ports.** Every cell probes each port on which it sent nothing
+//!    for a probe period; a probe is answered at once. A port is active while
+//!    frames arrive on it, so a busy link needs no keep-alive traffic.
 //! 2. **Master-port trees.** Every interface port ([`Sink`]) starts a beacon
 //!    wave each period. A cell takes as master port the port with the fewest
 //!    hops to an interface, and relays only the waves that reach it through
@@ -34,7 +35,7 @@ use crate::message::{Beacon, IdAssign, IdRequest, Message, Neighbour, NeighbourR
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Config {
-    /// Period of the probes on every port (the link keep-alive).
+    /// Period of the probes on idle ports (the link keep-alive).
     pub probe_period_us: u64,
     /// A port with nothing received for this long is down.
     pub link_timeout_us: u64,
@@ -204,6 +205,11 @@ impl Organizer {
         t
     }
 
+    /// When the next probe round is due.
+    pub fn next_probe_us(&self) -> u64 {
+        self.next_probe_us
+    }
+
     /// The parent in the tree, once it has an address.
     fn parent(&self) -> Option<Neighbour> {
         self.master().and_then(|m| self.neighbour(m)).filter(|n| n.id != Address::UNASSIGNED)
@@ -304,6 +310,7 @@ impl Organizer {
                 Self::push(outs, Out::Link(p, self.link_frame(relay)));
             }
         }
+        self.report(outs, now_us);
         self.request_id(outs, now_us);
     }
 
@@ -381,8 +388,10 @@ impl Organizer {
     }
 
     /// Does what time demands: probes, link and route timeouts, ID retries,
-    /// the report heartbeat.
-    pub fn poll(&mut self, now_us: u64) -> Outs {
+    /// the report heartbeat. `busy` has bit `p` set for each port that sent
+    /// a frame since the last probe round: those need no probe, as the
+    /// neighbour heard from us anyway.
+    pub fn poll(&mut self, now_us: u64, busy: u8) -> Outs {
         let mut outs = Outs::new();
         for p in Port::ALL {
             let Some(l) = self.links[p.index()] else { continue };
@@ -397,7 +406,7 @@ impl Organizer {
         }
         if now_us >= self.next_probe_us {
             self.next_probe_us = now_us + self.config.probe_period_us;
-            for p in Port::ALL {
+            for p in Port::ALL.into_iter().filter(|p| busy & (1 << p.index()) == 0) {
                 Self::push(&mut outs, Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
             }
         }

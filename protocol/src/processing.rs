@@ -129,6 +129,13 @@ impl Processor {
         self.offsets
     }
 
+    /// The network refused the last sample (no ID yet, or a full queue):
+    /// forget it as the send-on-delta reference, so the next one is sent
+    /// and the host is not left with a stale value.
+    pub fn refused(&mut self) {
+        self.delta.reset();
+    }
+
     /// Starts measuring the offsets: the next [`CALIBRATION_SAMPLES`]
     /// samples are averaged, and nothing is sent meanwhile.
     pub fn calibrate(&mut self) {

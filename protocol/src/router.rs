@@ -75,6 +75,9 @@ pub struct Router {
     next: usize,
     master: Option<Port>,
     children: [bool; 4],
+    /// Bit `p`: port `p` sent a forwarded or own frame (not a link-local
+    /// one) since the last [`Router::take_sent`].
+    sent: u8,
     counters: Counters,
 }
 
@@ -94,6 +97,7 @@ impl Router {
             next: 0,
             master: None,
             children: [false; 4],
+            sent: 0,
             counters: Counters::default(),
         }
     }
@@ -178,6 +182,13 @@ impl Router {
             self.counters.sent_link += 1;
             return Some(f);
         }
+        let frame = self.next_data(port)?;
+        self.sent |= 1 << p;
+        Some(frame)
+    }
+
+    fn next_data(&mut self, port: Port) -> Option<Frame> {
+        let p = port.index();
         if self.master == Some(port) {
             for k in 0..self.up.len() {
                 let i = (self.next + k) % self.up.len();
@@ -203,6 +214,22 @@ impl Router {
         !self.link[p].is_empty()
             || !self.down[p].is_empty()
             || (self.master == Some(port) && self.up.iter().any(|q| !q.is_empty()))
+    }
+
+    /// Bit `p` set for each port with something to send.
+    pub fn pending_ports(&self) -> u8 {
+        Port::ALL.iter().filter(|p| self.has_pending(**p)).fold(0, |m, p| m | 1 << p.index())
+    }
+
+    /// The ports that sent a forwarded or own frame since the last call, as bits.
+    pub fn take_sent(&mut self) -> u8 {
+        core::mem::take(&mut self.sent)
+    }
+
+    /// Counts a frame that the tree's shape made pointless: bound for the
+    /// host but arriving from the master port (a transient loop).
+    pub fn count_reroute(&mut self) {
+        self.counters.dropped_reroute += 1;
     }
 
     /// Frames waiting in all queues.
