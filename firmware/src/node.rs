@@ -117,10 +117,14 @@ impl<F: NorFlash> Node<F> {
         accepted.then_some(write.setting)
     }
 
-    fn send(&mut self, message: &Message) {
-        if self.cell.send(message).is_err() {
+    /// Queues one of the cell's own messages; false (and counted) when the
+    /// network refused it.
+    fn send(&mut self, message: &Message) -> bool {
+        let sent = self.cell.send(message).is_ok();
+        if !sent {
             self.losses.unsent += 1;
         }
+        sent
     }
 
     /// The next time [`Node::poll`] has work.
@@ -142,7 +146,10 @@ impl<F: NorFlash> Node<F> {
     /// decides, or adds it to a running calibration and keeps the offsets.
     pub fn sample(&mut self, raw: &Sample) {
         for message in self.processor.process(raw) {
-            self.send(&message);
+            if !self.send(&message) && matches!(message, Message::Sample(_)) {
+                // Not the host's reference then: send the next sample.
+                self.processor.refused();
+            }
         }
         if let Some(offsets) = self.processor.take_calibrated() {
             if self.store.set_offsets(offsets).is_err() {
