@@ -14,26 +14,31 @@ use skin_host::explore::check::Trial;
 use skin_host::explore::{ExploreConfig, StructureConfig};
 use skin_sim::robot::hrp2;
 
-/// The swept settings: (step rad, settle s, average s, postural runs); the
-/// paper's first. Every step takes 0.15 s (`StructureConfig::move_s`).
-const SETTINGS: [(f64, f64, f64, usize); 12] = [
-    (0.1, 0.5, 1.0, 2),
-    (0.1, 0.5, 1.0, 1),
-    (0.1, 0.2, 0.5, 1),
-    (0.1, 0.1, 0.3, 1),
-    (0.1, 0.1, 0.2, 1),
-    (0.1, 0.05, 0.1, 1),
-    (0.2, 0.1, 0.2, 1),
-    (0.2, 0.05, 0.1, 1),
-    (0.2, 0.0, 0.1, 1),
-    (0.2, 0.05, 0.05, 1),
-    (0.3, 0.05, 0.1, 1),
-    (0.3, 0.0, 0.05, 1),
-];
-
-fn config(&(step_rad, settle_s, average_s, runs): &(f64, f64, f64, usize)) -> ExploreConfig {
-    let structure = StructureConfig { step_rad, settle_s, average_s, runs, ..StructureConfig::default() };
-    ExploreConfig { structure, ..ExploreConfig::default() }
+/// The paper's setting, then the sweep of (step rad, settle s, average s)
+/// with one postural run and the default 0.2 s per step.
+fn settings() -> Vec<StructureConfig> {
+    let sweep = [
+        (0.1, 0.5, 1.0),
+        (0.1, 0.2, 0.5),
+        (0.1, 0.1, 0.3),
+        (0.1, 0.1, 0.2),
+        (0.1, 0.05, 0.1),
+        (0.2, 0.1, 0.2),
+        (0.2, 0.05, 0.1),
+        (0.2, 0.0, 0.1),
+        (0.2, 0.05, 0.05),
+        (0.3, 0.05, 0.1),
+        (0.3, 0.0, 0.05),
+    ];
+    std::iter::once(StructureConfig::paper())
+        .chain(sweep.into_iter().map(|(step_rad, settle_s, average_s)| StructureConfig {
+            step_rad,
+            settle_s,
+            average_s,
+            runs: 1,
+            ..StructureConfig::default()
+        }))
+        .collect()
 }
 
 /// What `seeds` explorations with one setting gave.
@@ -68,8 +73,8 @@ fn sweep(c: &mut Criterion) {
         "diagnostic",
         "smm error"
     );
-    for setting in &SETTINGS {
-        let cfg = config(setting);
+    for structure in settings() {
+        let cfg = ExploreConfig { structure, ..ExploreConfig::default() };
         let mut t = Tally::default();
         for seed in 0..seeds {
             let trial = Trial::run(hrp2::world(seed), &cfg);
@@ -85,7 +90,7 @@ fn sweep(c: &mut Criterion) {
                 Err(_) => t.failed += 1,
             }
         }
-        let (step, settle, average, runs) = setting;
+        let StructureConfig { step_rad: step, settle_s: settle, average_s: average, runs, .. } = structure;
         let ok = f64::from(t.ok.max(1));
         println!(
             "{step:>5.2} {settle:>6.2} {average:>7.2} {runs:>4} | {:>12.2} {:>13.2} {:>8.1} | {:>4}/{seeds:<5} {:>4}/{seeds:<5} {:>9.3}",

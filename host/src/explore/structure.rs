@@ -43,14 +43,17 @@ pub struct StructureConfig {
 }
 
 impl Default for StructureConfig {
-    /// The fastest setting found error-free over 1,000 seeds (see the
-    /// `explore` benchmark).
+    /// 0.2 rad steps of 0.2 s, 0.05 s settling, 0.1 s averaging, one run:
+    /// error-free over 1,000 seeds of the HRP-2-like robot in 6.5 s of robot
+    /// time (the `explore` benchmark). The sweep's fastest error-free
+    /// setting, 0.3 rad without settling and 0.05 s averaging (5.5 s), drives
+    /// the arms at their 3 rad/s limit and leaves no settling margin.
     fn default() -> Self {
         StructureConfig {
-            step_rad: 0.1,
-            move_s: 0.15,
-            settle_s: 0.1,
-            average_s: 0.3,
+            step_rad: 0.2,
+            move_s: 0.2,
+            settle_s: 0.05,
+            average_s: 0.1,
             runs: 1,
             static_fraction: 0.1,
             lever_threshold_m: 0.01,
@@ -65,7 +68,14 @@ impl StructureConfig {
     /// The paper's HRP-2 setting: 0.1 rad steps, 0.5 s settling, 1.0 s
     /// averaging, two postural runs.
     pub fn paper() -> Self {
-        StructureConfig { move_s: 0.5, settle_s: 0.5, average_s: 1.0, runs: 2, ..StructureConfig::default() }
+        StructureConfig {
+            step_rad: 0.1,
+            move_s: 0.5,
+            settle_s: 0.5,
+            average_s: 1.0,
+            runs: 2,
+            ..StructureConfig::default()
+        }
     }
 
     /// Refuses values the method cannot work with.
