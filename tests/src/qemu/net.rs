@@ -78,8 +78,8 @@ fn stimulus_for(k: usize, round: usize) -> Sample {
     let (k16, r16) = (k as u16, round as u16);
     let b = baseline();
     Sample::saturating(
-        b.proximity() + 3_000 + 400 * k16 + 100 * r16,
-        [b.force()[0] + 200 + 30 * k16 + 10 * r16, b.force()[1] + 20 * k16, b.force()[2] + 5],
+        b.proximity() + 3_000 + 400 * k16 + 1_000 * r16,
+        [b.force()[0] + 200 + 30 * k16 + 60 * r16, b.force()[1] + 20 * k16, b.force()[2] + 5],
         [k as i16 + round as i16, -(k as i16), 256 - k as i16],
         800 + 10 * k as i16 + round as i16,
         0,
