@@ -1,21 +1,28 @@
-//! The event queue on the virtual clock: a calendar queue.
+//! The event queue on the virtual clock: fixed-delay lanes in front of a
+//! calendar queue.
 //!
-//! Almost every event of a skin network is due within a few milliseconds
-//! (a frame time, a sampling period, a probe period), so events go into a
-//! ring of buckets of about a microsecond each, found through a bitmap;
-//! the rare later ones wait in a heap until the ring reaches them. Taking
-//! and adding an event costs the same however many are pending, and
-//! events at the same time come out in the order they were scheduled, so
-//! a run depends on nothing but its inputs and its seed.
+//! Most events of a skin network are due a fixed time after they are
+//! scheduled: a frame arrives a frame time (plus processing) after it left,
+//! a cell samples again one period after it sampled. Scheduled with
+//! [`Scheduler::after`], such events go into a FIFO lane per delay: since
+//! the clock never runs back, each lane is already in time order, and
+//! adding or taking one touches only the lane's ends. Every other event
+//! goes into a ring of buckets of about a microsecond each, found through
+//! a bitmap; the rare later ones wait in a heap until the ring reaches
+//! them. The next event is the earliest of the lanes' heads and the
+//! ring's; events at the same time come out in the order they were
+//! scheduled, so a run depends on nothing but its inputs and its seed.
 
 use std::cmp::Reverse;
-use std::collections::BinaryHeap;
+use std::collections::{BinaryHeap, VecDeque};
 
 /// A bucket spans 2^10 ns.
 const SHIFT: u32 = 10;
 /// The ring holds 2^14 buckets: 16.8 ms ahead.
 const RING: usize = 1 << 14;
 const MASK: u64 = RING as u64 - 1;
+/// Fixed delays with a lane of their own; further delays share the ring.
+const LANES: usize = 8;
 
 /// An event with its time and sequence number.
 #[derive(Debug)]
@@ -52,52 +59,41 @@ impl<E> Ord for Later<E> {
     }
 }
 
-/// A queue of events of type `E`, ordered by virtual time in nanoseconds.
+/// The ring of buckets and the heap behind it: events in any order.
 #[derive(Debug)]
-pub struct Scheduler<E> {
+struct Calendar<E> {
     ring: Vec<Vec<Item<E>>>,
     /// One bit per non-empty bucket.
     full: Vec<u64>,
-    /// The absolute bucket number the ring starts at.
+    /// The absolute bucket number the ring starts at; no event is earlier.
     base: u64,
     /// The bucket kept sorted, latest first, while it is being drained.
     sorted: Option<u64>,
     later: BinaryHeap<Reverse<Later<E>>>,
-    len: usize,
-    seq: u64,
-    now_ns: u64,
+    /// The key of the earliest event, when known: `Some(None)` when empty.
+    first: Option<Option<(u64, u64)>>,
 }
 
-impl<E> Default for Scheduler<E> {
+impl<E> Default for Calendar<E> {
     fn default() -> Self {
-        Scheduler {
+        Calendar {
             ring: (0..RING).map(|_| Vec::new()).collect(),
             full: vec![0; RING / 64],
             base: 0,
             sorted: None,
             later: BinaryHeap::new(),
-            len: 0,
-            seq: 0,
-            now_ns: 0,
+            first: Some(None),
         }
     }
 }
 
-impl<E> Scheduler<E> {
-    /// The time of the event taken last.
-    pub fn now_ns(&self) -> u64 {
-        self.now_ns
-    }
-
-    /// Schedules `event` at `at_ns`; a time in the past means now.
-    pub fn at(&mut self, at_ns: u64, event: E) {
-        let item = Item { at_ns: at_ns.max(self.now_ns), seq: self.seq, event };
-        self.seq += 1;
-        self.len += 1;
-        self.place(item);
-    }
-
+impl<E> Calendar<E> {
     fn place(&mut self, item: Item<E>) {
+        if let Some(first) = self.first {
+            if first.is_none_or(|k| item.key() < k) {
+                self.first = Some(Some(item.key()));
+            }
+        }
         let bucket = item.at_ns >> SHIFT;
         if bucket >= self.base + RING as u64 {
             self.later.push(Reverse(Later(item)));
@@ -135,9 +131,12 @@ impl<E> Scheduler<E> {
         None
     }
 
-    /// Moves the ring to start at `bucket` and takes in the later events
-    /// that now fall within it.
+    /// Moves the ring to start at `bucket` (no event may be earlier) and
+    /// takes in the later events that now fall within it.
     fn move_to(&mut self, bucket: u64) {
+        if bucket == self.base {
+            return;
+        }
         self.base = bucket;
         while let Some(Reverse(Later(first))) = self.later.peek() {
             if first.at_ns >> SHIFT >= self.base + RING as u64 {
@@ -158,43 +157,124 @@ impl<E> Scheduler<E> {
         Some(bucket)
     }
 
+    /// Time and sequence number of the earliest event.
+    fn first_key(&mut self) -> Option<(u64, u64)> {
+        if let Some(first) = self.first {
+            return first;
+        }
+        let first = match self.first_sorted() {
+            Some(b) => self.ring[(b & MASK) as usize].last().map(Item::key),
+            None => self.later.peek().map(|x| x.0 .0.key()),
+        };
+        self.first = Some(first);
+        first
+    }
+
+    /// Takes the earliest event.
+    fn pop(&mut self) -> Option<Item<E>> {
+        self.first = None;
+        let Some(bucket) = self.first_sorted() else {
+            return self.later.pop().map(|x| x.0 .0);
+        };
+        let slot = (bucket & MASK) as usize;
+        let item = self.ring[slot].pop()?;
+        if self.ring[slot].is_empty() {
+            self.full[slot / 64] &= !(1 << (slot % 64));
+        }
+        Some(item)
+    }
+}
+
+/// Events due a fixed delay after they were scheduled, in time order.
+#[derive(Debug)]
+struct Lane<E> {
+    delay_ns: u64,
+    items: VecDeque<Item<E>>,
+}
+
+/// A queue of events of type `E`, ordered by virtual time in nanoseconds.
+#[derive(Debug)]
+pub struct Scheduler<E> {
+    lanes: Vec<Lane<E>>,
+    calendar: Calendar<E>,
+    len: usize,
+    seq: u64,
+    now_ns: u64,
+}
+
+impl<E> Default for Scheduler<E> {
+    fn default() -> Self {
+        Scheduler { lanes: Vec::new(), calendar: Calendar::default(), len: 0, seq: 0, now_ns: 0 }
+    }
+}
+
+impl<E> Scheduler<E> {
+    /// The time of the event taken last.
+    pub fn now_ns(&self) -> u64 {
+        self.now_ns
+    }
+
+    fn item(&mut self, at_ns: u64, event: E) -> Item<E> {
+        let item = Item { at_ns: at_ns.max(self.now_ns), seq: self.seq, event };
+        self.seq += 1;
+        self.len += 1;
+        item
+    }
+
+    /// Schedules `event` at `at_ns`; a time in the past means now.
+    pub fn at(&mut self, at_ns: u64, event: E) {
+        let item = self.item(at_ns, event);
+        self.calendar.place(item);
+    }
+
+    /// Schedules `event` `delay_ns` from now. Use it for the delays that
+    /// recur (the first few get a lane); it orders events as [`Scheduler::at`].
+    pub fn after(&mut self, delay_ns: u64, event: E) {
+        let item = self.item(self.now_ns.saturating_add(delay_ns), event);
+        let lane = match self.lanes.iter().position(|l| l.delay_ns == delay_ns) {
+            Some(k) => k,
+            None if self.lanes.len() < LANES => {
+                self.lanes.push(Lane { delay_ns, items: VecDeque::new() });
+                self.lanes.len() - 1
+            }
+            None => return self.calendar.place(item),
+        };
+        self.lanes[lane].items.push_back(item);
+    }
+
+    /// Where the next event is: `Some(lane)` or `None` for the calendar,
+    /// and its time.
+    fn next(&mut self) -> Option<(Option<usize>, u64)> {
+        let mut best = self.calendar.first_key().map(|k| (None, k));
+        for (k, lane) in self.lanes.iter().enumerate() {
+            if let Some(head) = lane.items.front() {
+                if best.is_none_or(|(_, b)| head.key() < b) {
+                    best = Some((Some(k), head.key()));
+                }
+            }
+        }
+        best.map(|(at, (t, _))| (at, t))
+    }
+
     /// The time of the next event.
     pub fn next_ns(&mut self) -> Option<u64> {
-        match self.first_sorted() {
-            Some(b) => self.ring[(b & MASK) as usize].last().map(|x| x.at_ns),
-            None => self.later.peek().map(|x| x.0 .0.at_ns),
-        }
+        self.next().map(|(_, t)| t)
     }
 
     /// Takes the next event if it is due at or before `until_ns`, and
     /// moves the clock to it.
     pub fn pop_until(&mut self, until_ns: u64) -> Option<E> {
-        let item = match self.first_sorted() {
-            Some(bucket) => {
-                let slot = (bucket & MASK) as usize;
-                if self.ring[slot].last()?.at_ns > until_ns {
-                    return None;
-                }
-                let item = self.ring[slot].pop()?;
-                if self.ring[slot].is_empty() {
-                    self.full[slot / 64] &= !(1 << (slot % 64));
-                }
-                item
-            }
-            // Nothing in the ring: the next event is the heap's first.
-            None => {
-                if self.later.peek()?.0 .0.at_ns > until_ns {
-                    return None;
-                }
-                self.later.pop()?.0 .0
-            }
+        let (at, t) = self.next()?;
+        if t > until_ns {
+            return None;
+        }
+        let item = match at {
+            Some(lane) => self.lanes[lane].items.pop_front()?,
+            None => self.calendar.pop()?,
         };
         self.len -= 1;
         self.now_ns = item.at_ns;
-        let bucket = item.at_ns >> SHIFT;
-        if bucket != self.base {
-            self.move_to(bucket);
-        }
+        self.calendar.move_to(item.at_ns >> SHIFT);
         Some(item.event)
     }
 
@@ -243,11 +323,12 @@ mod tests {
     }
 
     proptest! {
-        /// The calendar queue gives the events of a plain sorted list, in
-        /// the same order, for delays from nanoseconds to many ring turns.
+        /// Lanes and calendar give the events of a plain sorted list, in
+        /// the same order, for delays from nanoseconds to many ring turns,
+        /// recurring delays (lanes) and more distinct delays than lanes.
         #[test]
         fn same_order_as_a_sorted_list(
-            ops in proptest::collection::vec((0u64..4, 0u64..60_000_000, 0u64..3_000_000), 1..400)
+            ops in proptest::collection::vec((0u64..6, 0u64..60_000_000, 0u64..3_000_000), 1..400)
         ) {
             let mut s = Scheduler::default();
             let mut model: Vec<(u64, u64)> = Vec::new();
@@ -264,8 +345,17 @@ mod tests {
                     s.advance(until);
                 } else {
                     // Mostly short delays, some long ones.
-                    let at = s.now_ns() + if op == 1 { delay } else { delay % 5_000 };
-                    s.at(at, seq);
+                    let delay = match op {
+                        1 => delay,
+                        4 => [0, 50_000, 75_000, 4_000_000][(delay % 4) as usize],
+                        _ => delay % 5_000,
+                    };
+                    let at = s.now_ns() + delay;
+                    if op >= 4 {
+                        s.after(delay, seq);
+                    } else {
+                        s.at(at, seq);
+                    }
                     model.push((at, seq));
                     seq += 1;
                 }

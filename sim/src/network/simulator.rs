@@ -124,18 +124,27 @@ enum Power {
     Dead,
 }
 
-/// A simulated cell: the firmware's network stack and processing, its
-/// transmitters and its ID store.
+/// What the simulator checks of a cell on every event: its power, its
+/// transmitters and its pending wake-up, in one cache line apart from the
+/// firmware's state (a few kilobytes per cell), so that a stale wake-up or
+/// a sample that sends nothing does not reach for it.
 #[derive(Debug)]
 struct Node {
-    cell: Option<Cell>,
-    store: Option<Address>,
-    processor: Processor,
     power: Power,
+    /// The cell has an ID (as of the last time it was touched).
+    has_id: bool,
+    waking: [bool; 4],
     epoch: u32,
     busy_until_ns: [u64; 4],
-    waking: [bool; 4],
     poll_ns: u64,
+}
+
+/// A simulated cell's firmware network stack, its ID store and the
+/// simulator's view of its upstream queues.
+#[derive(Debug, Default)]
+struct Stack {
+    cell: Option<Cell>,
+    store: Option<Address>,
     shadow: [VecDeque<Entry>; 5],
     /// Router counters of earlier lives (before reboots).
     retired: Counters,
@@ -157,13 +166,39 @@ struct Interface {
     data_from_cell: u64,
 }
 
+/// What reaches the far end of a wire.
+#[derive(Clone, Copy, Debug)]
+enum Signal {
+    /// The frame as sent: its CRC was computed when it was made, and no
+    /// bit changed since, so the receiver takes it without parsing again.
+    Intact(Frame),
+    /// Bytes with flipped bits: the receiver parses them and checks the CRC.
+    Corrupted([u8; FRAME_LEN]),
+}
+
+impl Signal {
+    fn kind_byte(&self) -> u8 {
+        match self {
+            Signal::Intact(f) => f.kind() as u8,
+            Signal::Corrupted(b) => b[0],
+        }
+    }
+
+    fn bytes(&self) -> &[u8; FRAME_LEN] {
+        match self {
+            Signal::Intact(f) => f.as_bytes(),
+            Signal::Corrupted(b) => b,
+        }
+    }
+}
+
 #[derive(Debug)]
 enum Event {
     PowerOn(usize),
     Poll(usize, u32),
     Sample(usize, u32),
     TxFree(End),
-    Arrive { from: End, to: End, bytes: [u8; FRAME_LEN], corrupted: bool, followed: Option<Followed> },
+    Arrive { from: End, to: End, signal: Signal, followed: Option<Followed> },
     SinkPoll(u8),
     EthernetFree,
     ToHost { bytes: Vec<u8>, followed: u64 },
@@ -211,6 +246,8 @@ pub struct Network {
     frame_ns: u64,
     period_ns: u64,
     nodes: Vec<Node>,
+    stacks: Vec<Stack>,
+    processors: Vec<Processor>,
     peers: Vec<[Option<End>; 4]>,
     interfaces: Vec<Interface>,
     ethernet_busy_until_ns: u64,
@@ -282,16 +319,12 @@ impl Network {
             .map(|i| {
                 events.at(boot.random_range(0..BOOT_SPREAD_NS), Event::PowerOn(i));
                 Node {
-                    cell: None,
-                    store: None,
-                    processor: processor.clone(),
                     power: Power::Off,
+                    has_id: false,
+                    waking: [false; 4],
                     epoch: 0,
                     busy_until_ns: [0; 4],
-                    waking: [false; 4],
                     poll_ns: u64::MAX,
-                    shadow: Default::default(),
-                    retired: Counters::default(),
                 }
             })
             .collect();
@@ -302,6 +335,8 @@ impl Network {
         Ok(Network {
             frame_ns: config.timing.frame_ns(),
             period_ns: processor.period_us() * 1000,
+            stacks: (0..topology.cells()).map(|_| Stack::default()).collect(),
+            processors: vec![processor; topology.cells()],
             nodes,
             peers,
             interfaces,
@@ -365,7 +400,7 @@ impl Network {
 
     /// The network stack of cell `i` while it is powered.
     pub fn cell(&self, i: usize) -> Option<&Cell> {
-        self.nodes.get(i).and_then(|n| n.cell.as_ref())
+        self.stacks.get(i).and_then(|s| s.cell.as_ref())
     }
 
     /// Starts measuring latency and traffic now; the ledger keeps counting
@@ -398,7 +433,7 @@ impl Network {
     /// Upstream frames in queues, on wires, at interface ports or on the
     /// Ethernet, as followed by the simulator.
     pub fn upstream_in_network(&self) -> u64 {
-        let queued: usize = self.nodes.iter().flat_map(|n| n.shadow.iter()).map(VecDeque::len).sum();
+        let queued: usize = self.stacks.iter().flat_map(|s| s.shadow.iter()).map(VecDeque::len).sum();
         let at_interfaces: usize =
             self.interfaces.iter().map(|i| i.up.iter().filter(|(_, c)| c.is_some()).count()).sum();
         (queued + at_interfaces) as u64 + self.followed_on_wires + self.followed_on_ethernet
@@ -407,9 +442,9 @@ impl Network {
     /// True when both books of the ledger add up, and the simulator's view
     /// of every router's upstream queues matches the router.
     pub fn balanced(&self) -> bool {
-        let queues_agree = self.nodes.iter().all(|n| match &n.cell {
-            Some(c) => c.router().upstream_lens().iter().zip(&n.shadow).all(|(l, s)| *l == s.len()),
-            None => n.shadow.iter().all(VecDeque::is_empty),
+        let queues_agree = self.stacks.iter().all(|s| match &s.cell {
+            Some(c) => c.router().upstream_lens().iter().zip(&s.shadow).all(|(l, q)| *l == q.len()),
+            None => s.shadow.iter().all(VecDeque::is_empty),
         });
         queues_agree && self.m.ledger.balanced(self.upstream_in_network(), self.on_wires)
     }
@@ -417,9 +452,9 @@ impl Network {
     /// Router counters of all cells over all their lives.
     pub fn router_counters(&self) -> Counters {
         let mut sum = Counters::default();
-        for n in &self.nodes {
-            add(&mut sum, &n.retired);
-            if let Some(c) = &n.cell {
+        for s in &self.stacks {
+            add(&mut sum, &s.retired);
+            if let Some(c) = &s.cell {
                 add(&mut sum, c.router().counters());
             }
         }
@@ -428,7 +463,7 @@ impl Network {
 
     /// Frames waiting in routers (all kinds) and interface ports.
     pub fn queued(&self) -> u64 {
-        let cells: usize = self.nodes.iter().filter_map(|n| n.cell.as_ref()).map(|c| c.router().queued()).sum();
+        let cells: usize = self.stacks.iter().filter_map(|s| s.cell.as_ref()).map(|c| c.router().queued()).sum();
         let ifs: usize = self.interfaces.iter().map(|i| i.up.len() + i.sink.queued()).sum();
         (cells + ifs) as u64
     }
@@ -499,7 +534,7 @@ impl Network {
     pub fn true_neighbours(&self, i: usize) -> [Option<Neighbour>; 4] {
         self.peers[i].map(|end| match end? {
             End::Cell(j, q) => {
-                let id = self.nodes[j as usize].cell.as_ref()?.id();
+                let id = self.stacks[j as usize].cell.as_ref()?.id();
                 id.is_cell().then_some(Neighbour { id, port: q })
             }
             End::Interface(k) => self.interfaces[usize::from(k)]
@@ -536,7 +571,7 @@ impl Network {
                     return;
                 }
                 n.poll_ns = u64::MAX;
-                if n.cell.as_ref().is_some_and(|c| c.poll_at() <= now_us) {
+                if self.stacks[i].cell.as_ref().is_some_and(|c| c.poll_at() <= now_us) {
                     self.touch(i, None, false, |c, _, now| c.poll(now));
                 }
                 self.settle(i);
@@ -556,7 +591,7 @@ impl Network {
                     self.kick_interface(k);
                 }
             },
-            Event::Arrive { from, to, bytes, corrupted, followed } => self.arrive(from, to, bytes, corrupted, followed),
+            Event::Arrive { from, to, signal, followed } => self.arrive(from, to, signal, followed),
             Event::SinkPoll(k) => {
                 let now_us = self.now_us();
                 let i = &mut self.interfaces[usize::from(k)];
@@ -591,9 +626,10 @@ impl Network {
         }
         n.power = Power::On;
         n.epoch += 1;
-        n.cell = Some(Cell::new(self.config.organize, &n.store, now_us));
-        n.processor = Self::processor(&self.config).expect("checked when the network was built");
         self.events.at(self.events.now_ns() + phase_ns, Event::Sample(i, n.epoch));
+        let s = &mut self.stacks[i];
+        s.cell = Some(Cell::new(self.config.organize, &s.store, now_us));
+        self.processors[i] = Self::processor(&self.config).expect("checked when the network was built");
         self.settle(i);
     }
 
@@ -609,9 +645,11 @@ impl Network {
         f: impl FnOnce(&mut Cell, &mut Option<Address>, u64) -> R,
     ) -> (R, bool) {
         let now_ns = self.events.now_ns();
-        let n = &mut self.nodes[i];
+        let n = &mut self.stacks[i];
         let cell = n.cell.as_mut().expect("only powered cells are touched");
-        let before = cell.router().upstream_lens();
+        // The shadow queues have the router's upstream lengths.
+        let before = n.shadow.each_ref().map(VecDeque::len);
+        debug_assert_eq!(before, cell.router().upstream_lens());
         let full_before = cell.router().counters().dropped_full;
         let r = f(cell, &mut n.store, now_ns / 1000);
         let after = cell.router().upstream_lens();
@@ -648,7 +686,8 @@ impl Network {
             self.kick_cell(i, p);
         }
         let n = &mut self.nodes[i];
-        let Some(cell) = &n.cell else { return };
+        let Some(cell) = &self.stacks[i].cell else { return };
+        n.has_id = cell.id().is_cell();
         let at = cell.poll_at().saturating_mul(1000).max(self.events.now_ns());
         if at < n.poll_ns {
             n.poll_ns = at;
@@ -659,19 +698,21 @@ impl Network {
     fn sample(&mut self, i: usize) {
         let now_ns = self.events.now_ns();
         let raw = self.stimulus.raw(i, now_ns as f64 * 1e-9);
-        let n = &mut self.nodes[i];
-        let outs = n.processor.process(&raw);
-        let next = now_ns + n.processor.period_us() * 1000;
-        self.events.at(next, Event::Sample(i, n.epoch));
+        let n = &self.nodes[i];
+        let processor = &mut self.processors[i];
+        let outs = processor.process(&raw);
+        self.events.after(processor.period_us() * 1000, Event::Sample(i, n.epoch));
         let measuring = now_ns >= self.measure_from_ns;
-        let has_id = n.cell.as_ref().is_some_and(|c| c.id().is_cell());
-        if measuring && has_id {
+        if measuring && n.has_id {
             self.m.samples += 1;
         }
         for message in &outs {
             self.send_own(i, message, measuring);
         }
-        self.settle(i);
+        // A sample that sends nothing leaves the cell as it was.
+        if !outs.is_empty() {
+            self.settle(i);
+        }
     }
 
     /// A cell sends one of its own messages upstream.
@@ -701,7 +742,8 @@ impl Network {
     fn kick_cell(&mut self, i: usize, p: Port) {
         let now_ns = self.events.now_ns();
         let n = &mut self.nodes[i];
-        let Some(cell) = n.cell.as_mut() else { return };
+        let s = &mut self.stacks[i];
+        let Some(cell) = s.cell.as_mut() else { return };
         let busy = n.busy_until_ns[p.index()];
         // A busy transmitter that will be woken asks for its frame then.
         if busy > now_ns && n.waking[p.index()] || !cell.has_pending(p) {
@@ -712,12 +754,14 @@ impl Network {
             self.events.at(busy, Event::TxFree(End::Cell(i as u32, p)));
             return;
         }
-        let before = cell.router().upstream_lens();
         let Some(frame) = cell.transmit(p) else { return };
-        let after = cell.router().upstream_lens();
         let end_ns = now_ns + self.frame_ns;
-        let followed = (0..5).find(|q| after[*q] < before[*q]).and_then(|q| {
-            let e = n.shadow[q].pop_front()?;
+        // Only the master port serves the upstream queues; which one it
+        // served shows against the shadow queues.
+        let upstream = !frame.kind().is_link_local() && cell.router().master() == Some(p);
+        let after = if upstream { cell.router().upstream_lens() } else { [usize::MAX; 5] };
+        let followed = (0..5).find(|q| after[*q] < s.shadow[*q].len()).and_then(|q| {
+            let e = s.shadow[q].pop_front()?;
             let stay = end_ns - e.since_ns;
             self.m.forwarding_any_ns = self.m.forwarding_any_ns.max(stay);
             if e.head {
@@ -729,7 +773,7 @@ impl Network {
         // At most one wake-up per transmitter: one may be due right now.
         if !n.waking[p.index()] && cell.has_pending(p) {
             n.waking[p.index()] = true;
-            self.events.at(end_ns, Event::TxFree(End::Cell(i as u32, p)));
+            self.events.after(self.frame_ns, Event::TxFree(End::Cell(i as u32, p)));
         }
         self.put_on_wire(End::Cell(i as u32, p), frame, followed);
     }
@@ -751,7 +795,7 @@ impl Network {
         i.busy_until_ns = now_ns + self.frame_ns;
         if !i.waking && i.sink.queued() > 0 {
             i.waking = true;
-            self.events.at(i.busy_until_ns, Event::TxFree(End::Interface(k)));
+            self.events.after(self.frame_ns, Event::TxFree(End::Interface(k)));
         }
         self.put_on_wire(End::Interface(k), frame, None);
     }
@@ -773,15 +817,15 @@ impl Network {
             return;
         };
         let mut bytes = *frame.as_bytes();
-        let corrupted = self.bit_errors.corrupt(&mut bytes) > 0;
+        let signal =
+            if self.bit_errors.corrupt(&mut bytes) > 0 { Signal::Corrupted(bytes) } else { Signal::Intact(frame) };
         self.on_wires += 1;
         self.followed_on_wires += u64::from(followed.is_some());
         let processing = if matches!(to, End::Cell(..)) { self.config.timing.processing_ns } else { 0 };
-        let at = self.events.now_ns() + self.frame_ns + processing;
-        self.events.at(at, Event::Arrive { from, to, bytes, corrupted, followed });
+        self.events.after(self.frame_ns + processing, Event::Arrive { from, to, signal, followed });
     }
 
-    fn arrive(&mut self, from: End, to: End, bytes: [u8; FRAME_LEN], corrupted: bool, followed: Option<Followed>) {
+    fn arrive(&mut self, from: End, to: End, signal: Signal, followed: Option<Followed>) {
         self.on_wires -= 1;
         self.followed_on_wires -= u64::from(followed.is_some());
         let lost = |net: &mut Network, reason| {
@@ -793,7 +837,11 @@ impl Network {
             self.m.ledger.lost_no_link += 1;
             return lost(self, DropReason::NoLink);
         }
-        let valid = !corrupted || Frame::parse(&bytes).is_ok_and(|f| f.message().is_ok());
+        let corrupted = matches!(signal, Signal::Corrupted(_));
+        let valid = match &signal {
+            Signal::Intact(_) => true,
+            Signal::Corrupted(bytes) => Frame::parse(bytes).is_ok_and(|f| f.message().is_ok()),
+        };
         match to {
             End::Cell(i, p) => {
                 let i = i as usize;
@@ -803,19 +851,21 @@ impl Network {
                 }
                 self.m.ledger.received += 1;
                 self.count_corruption(corrupted, valid);
-                let queued_before = self.nodes[i].shadow[p.index()].len();
-                let sensor = Kind::try_from(bytes[0]).is_ok_and(is_data);
-                let (delivered, full) =
-                    self.touch(i, followed, sensor, |c, store, now| c.receive(p, &bytes, now, store));
+                let queued_before = self.stacks[i].shadow[p.index()].len();
+                let sensor = Kind::try_from(signal.kind_byte()).is_ok_and(is_data);
+                let (delivered, full) = self.touch(i, followed, sensor, |c, store, now| match signal {
+                    Signal::Intact(frame) => c.receive_frame(p, frame, now, store),
+                    Signal::Corrupted(bytes) => c.receive(p, &bytes, now, store),
+                });
                 if !valid {
                     lost(self, DropReason::Corrupt);
-                } else if followed.is_some() && self.nodes[i].shadow[p.index()].len() <= queued_before {
+                } else if followed.is_some() && self.stacks[i].shadow[p.index()].len() <= queued_before {
                     // Refused by the router: full, or it came in on the master
                     // port (a transient loop while the tree changes).
                     lost(self, if full { DropReason::QueueFull } else { DropReason::Reroute });
                 }
                 if let Some((_, Message::ConfigWrite(w))) = delivered {
-                    let accepted = self.nodes[i].processor.apply(&w.setting);
+                    let accepted = self.processors[i].apply(&w.setting);
                     let ack = Message::ConfigAck(ConfigAck { tag: w.tag, accepted });
                     self.send_own(i, &ack, false);
                 }
@@ -830,7 +880,7 @@ impl Network {
                     return lost(self, DropReason::DeadInterface);
                 }
                 self.m.ledger.received += 1;
-                match i.sink.receive(&bytes, now_us) {
+                match i.sink.receive(signal.bytes(), now_us) {
                     Err(_) => {
                         self.m.ledger.corrupt_rejected += 1;
                         lost(self, DropReason::Corrupt);
@@ -940,8 +990,9 @@ impl Network {
     }
 
     fn power_off(&mut self, c: usize, power: Power) {
-        let n = &mut self.nodes[c];
-        n.power = power;
+        self.nodes[c].power = power;
+        self.nodes[c].poll_ns = u64::MAX;
+        let n = &mut self.stacks[c];
         if let Some(cell) = n.cell.take() {
             add(&mut n.retired, cell.router().counters());
             self.m.ledger.lost_at_power_off += cell.router().queued() as u64;
@@ -949,7 +1000,6 @@ impl Network {
         let entries = n.shadow.iter().flatten();
         let (lost, sensors) = entries.fold((0, 0), |(n, s), e| (n + 1, s + u64::from(e.frame.sensor)));
         n.shadow.iter_mut().for_each(VecDeque::clear);
-        n.poll_ns = u64::MAX;
         self.m.ledger.drop_upstream(DropReason::DeadCell, lost, sensors);
     }
 }
