@@ -11,19 +11,34 @@ use skin_protocol::message::{Message, Neighbour};
 use skin_protocol::organize::Allocator;
 
 /// The host side of phase 3 and 4.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct Host {
     allocator: Allocator,
     tables: BTreeMap<Address, [Option<Neighbour>; 4]>,
     seq: BTreeMap<u8, u32>,
+    /// One bit per address the allocator has observed (observing one
+    /// again changes nothing, and most frames come from known cells).
+    observed: Vec<u64>,
     /// Datagrams or frames from the skin that did not parse.
     pub rejected: u64,
+}
+
+impl Default for Host {
+    fn default() -> Self {
+        Host::new()
+    }
 }
 
 impl Host {
     /// A host that knows no cell yet.
     pub fn new() -> Host {
-        Host::default()
+        Host {
+            allocator: Allocator::new(),
+            tables: BTreeMap::new(),
+            seq: BTreeMap::new(),
+            observed: vec![0; (1 << 16) / 64],
+            rejected: 0,
+        }
     }
 
     /// Takes a datagram from the skin; returns the datagrams to send back
@@ -39,7 +54,12 @@ impl Host {
                 self.rejected += 1;
                 continue;
             };
-            self.allocator.observe(frame.src());
+            let src = usize::from(frame.src().0);
+            let word = self.observed.get_mut(src / 64).expect("the bitmap covers every address");
+            if *word & 1 << (src % 64) == 0 {
+                *word |= 1 << (src % 64);
+                self.allocator.observe(frame.src());
+            }
             match message {
                 Message::IdRequest(r) => replies.extend(self.allocator.request(r)),
                 Message::NeighbourReport(r) => {

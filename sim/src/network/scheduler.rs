@@ -185,17 +185,17 @@ impl<E> Calendar<E> {
     }
 }
 
-/// Events due a fixed delay after they were scheduled, in time order.
-#[derive(Debug)]
-struct Lane<E> {
-    delay_ns: u64,
-    items: VecDeque<Item<E>>,
-}
+/// The key of an empty lane's head: later than any event.
+const NONE: (u64, u64) = (u64::MAX, u64::MAX);
 
 /// A queue of events of type `E`, ordered by virtual time in nanoseconds.
 #[derive(Debug)]
 pub struct Scheduler<E> {
-    lanes: Vec<Lane<E>>,
+    /// Events due a fixed delay after they were scheduled, in time order:
+    /// the delays, the events, and the key of each lane's first event.
+    delays: Vec<u64>,
+    lanes: Vec<VecDeque<Item<E>>>,
+    heads: [(u64, u64); LANES],
     calendar: Calendar<E>,
     len: usize,
     seq: u64,
@@ -204,7 +204,15 @@ pub struct Scheduler<E> {
 
 impl<E> Default for Scheduler<E> {
     fn default() -> Self {
-        Scheduler { lanes: Vec::new(), calendar: Calendar::default(), len: 0, seq: 0, now_ns: 0 }
+        Scheduler {
+            delays: Vec::new(),
+            lanes: Vec::new(),
+            heads: [NONE; LANES],
+            calendar: Calendar::default(),
+            len: 0,
+            seq: 0,
+            now_ns: 0,
+        }
     }
 }
 
@@ -231,29 +239,31 @@ impl<E> Scheduler<E> {
     /// recur (the first few get a lane); it orders events as [`Scheduler::at`].
     pub fn after(&mut self, delay_ns: u64, event: E) {
         let item = self.item(self.now_ns.saturating_add(delay_ns), event);
-        let lane = match self.lanes.iter().position(|l| l.delay_ns == delay_ns) {
+        let k = match self.delays.iter().position(|d| *d == delay_ns) {
             Some(k) => k,
             None if self.lanes.len() < LANES => {
-                self.lanes.push(Lane { delay_ns, items: VecDeque::new() });
+                self.delays.push(delay_ns);
+                self.lanes.push(VecDeque::new());
                 self.lanes.len() - 1
             }
             None => return self.calendar.place(item),
         };
-        self.lanes[lane].items.push_back(item);
+        if self.lanes[k].is_empty() {
+            self.heads[k] = item.key();
+        }
+        self.lanes[k].push_back(item);
     }
 
     /// Where the next event is: `Some(lane)` or `None` for the calendar,
     /// and its time.
     fn next(&mut self) -> Option<(Option<usize>, u64)> {
-        let mut best = self.calendar.first_key().map(|k| (None, k));
-        for (k, lane) in self.lanes.iter().enumerate() {
-            if let Some(head) = lane.items.front() {
-                if best.is_none_or(|(_, b)| head.key() < b) {
-                    best = Some((Some(k), head.key()));
-                }
+        let mut best = (None, self.calendar.first_key().unwrap_or(NONE));
+        for (k, head) in self.heads.iter().enumerate() {
+            if *head < best.1 {
+                best = (Some(k), *head);
             }
         }
-        best.map(|(at, (t, _))| (at, t))
+        (best.1 != NONE).then_some((best.0, best.1 .0))
     }
 
     /// The time of the next event.
@@ -269,7 +279,11 @@ impl<E> Scheduler<E> {
             return None;
         }
         let item = match at {
-            Some(lane) => self.lanes[lane].items.pop_front()?,
+            Some(k) => {
+                let item = self.lanes[k].pop_front()?;
+                self.heads[k] = self.lanes[k].front().map_or(NONE, Item::key);
+                item
+            }
             None => self.calendar.pop()?,
         };
         self.len -= 1;

@@ -38,6 +38,8 @@ use super::NetworkError;
 const BOOT_SPREAD_NS: u64 = 5_000_000;
 /// The own queue's index in `Router::upstream_lens`.
 const OWN: usize = 4;
+/// Every port, as port bits.
+const ALL_PORTS: u8 = 0b1111;
 
 /// What a network is made of, besides its wiring.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -89,13 +91,18 @@ pub struct HostDatagram {
 /// One end of a wire.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum End {
-    Cell(u32, Port),
+    /// A cell and its port.
+    Cell(u16, Port),
+    /// An interface port.
     Interface(u8),
 }
 
+// Every cell index fits an `End`.
+const _: () = assert!(super::topology::MAX_CELLS <= 1 << 16);
+
 impl End {
     fn cell(p: PortRef) -> End {
-        End::Cell(p.cell as u32, p.port)
+        End::Cell(p.cell as u16, p.port)
     }
 }
 
@@ -253,6 +260,8 @@ pub struct Network {
     ethernet_busy_until_ns: u64,
     ethernet_waking: bool,
     next_flush: usize,
+    /// The frames of the datagram being sent (kept to reuse its memory).
+    datagram: Vec<Frame>,
     events: Scheduler<Event>,
     stimulus: Stimulus,
     bit_errors: BitErrors,
@@ -343,6 +352,7 @@ impl Network {
             ethernet_busy_until_ns: 0,
             ethernet_waking: false,
             next_flush: 0,
+            datagram: Vec::with_capacity(MAX_FRAMES),
             events,
             stimulus: Stimulus::new(config.stimulus, topology.positions_m(), config.seed ^ 0x5717_0001),
             bit_errors: BitErrors::new(config.bit_error_rate, config.seed ^ 0xB17E_0002),
@@ -574,7 +584,7 @@ impl Network {
                 if self.stacks[i].cell.as_ref().is_some_and(|c| c.poll_at() <= now_us) {
                     self.touch(i, None, false, |c, _, now| c.poll(now));
                 }
-                self.settle(i);
+                self.settle(i, ALL_PORTS);
             }
             Event::Sample(i, epoch) => {
                 if self.nodes[i].epoch == epoch && self.nodes[i].power == Power::On {
@@ -630,7 +640,7 @@ impl Network {
         let s = &mut self.stacks[i];
         s.cell = Some(Cell::new(self.config.organize, &s.store, now_us));
         self.processors[i] = Self::processor(&self.config).expect("checked when the network was built");
-        self.settle(i);
+        self.settle(i, ALL_PORTS);
     }
 
     /// Runs `f` on cell `i` and books what it did to the upstream queues:
@@ -680,19 +690,30 @@ impl Network {
     }
 
     /// After a cell was touched: start idle transmitters that have frames,
-    /// and wake the cell at its next deadline.
-    fn settle(&mut self, i: usize) {
-        for p in Port::ALL {
+    /// and wake the cell at its next deadline. Only the transmitters in
+    /// `ports` (bit `p` for port `p`) can have been given a frame.
+    fn settle(&mut self, i: usize, ports: u8) {
+        for p in Port::ALL.into_iter().filter(|p| ports & 1 << p.index() != 0) {
             self.kick_cell(i, p);
         }
         let n = &mut self.nodes[i];
         let Some(cell) = &self.stacks[i].cell else { return };
+        debug_assert!(
+            Port::ALL.iter().all(|p| !cell.has_pending(*p) || n.waking[p.index()]),
+            "cell {i}: a transmitter with a frame will not be woken"
+        );
         n.has_id = cell.id().is_cell();
         let at = cell.poll_at().saturating_mul(1000).max(self.events.now_ns());
         if at < n.poll_ns {
             n.poll_ns = at;
             self.events.at(at, Event::Poll(i, n.epoch));
         }
+    }
+
+    /// Cell `i`'s master port as a port bit (none when it has no master).
+    fn master_port(&self, i: usize) -> u8 {
+        let master = self.stacks[i].cell.as_ref().and_then(|c| c.router().master());
+        master.map_or(0, |p| 1 << p.index())
     }
 
     fn sample(&mut self, i: usize) {
@@ -709,9 +730,10 @@ impl Network {
         for message in &outs {
             self.send_own(i, message, measuring);
         }
-        // A sample that sends nothing leaves the cell as it was.
+        // A sample that sends nothing leaves the cell as it was; what it
+        // sends waits on the master port.
         if !outs.is_empty() {
-            self.settle(i);
+            self.settle(i, self.master_port(i));
         }
     }
 
@@ -751,7 +773,7 @@ impl Network {
         }
         if busy > now_ns {
             n.waking[p.index()] = true;
-            self.events.at(busy, Event::TxFree(End::Cell(i as u32, p)));
+            self.events.at(busy, Event::TxFree(End::Cell(i as u16, p)));
             return;
         }
         let Some(frame) = cell.transmit(p) else { return };
@@ -773,9 +795,9 @@ impl Network {
         // At most one wake-up per transmitter: one may be due right now.
         if !n.waking[p.index()] && cell.has_pending(p) {
             n.waking[p.index()] = true;
-            self.events.after(self.frame_ns, Event::TxFree(End::Cell(i as u32, p)));
+            self.events.after(self.frame_ns, Event::TxFree(End::Cell(i as u16, p)));
         }
-        self.put_on_wire(End::Cell(i as u32, p), frame, followed);
+        self.put_on_wire(End::Cell(i as u16, p), frame, followed);
     }
 
     fn kick_interface(&mut self, k: u8) {
@@ -853,6 +875,10 @@ impl Network {
                 self.count_corruption(corrupted, valid);
                 let queued_before = self.stacks[i].shadow[p.index()].len();
                 let sensor = Kind::try_from(signal.kind_byte()).is_ok_and(is_data);
+                let upstream = match signal {
+                    Signal::Intact(f) => !f.kind().is_link_local() && self.master_port(i) & 1 << p.index() == 0,
+                    Signal::Corrupted(_) => false,
+                };
                 let (delivered, full) = self.touch(i, followed, sensor, |c, store, now| match signal {
                     Signal::Intact(frame) => c.receive_frame(p, frame, now, store),
                     Signal::Corrupted(bytes) => c.receive(p, &bytes, now, store),
@@ -869,7 +895,10 @@ impl Network {
                     let ack = Message::ConfigAck(ConfigAck { tag: w.tag, accepted });
                     self.send_own(i, &ack, false);
                 }
-                self.settle(i);
+                // A frame from below only ever waits for the master port
+                // (which it cannot change); anything else may go anywhere.
+                let ports = if upstream { self.master_port(i) } else { ALL_PORTS };
+                self.settle(i, ports);
             }
             End::Interface(k) => {
                 let now_us = self.now_us();
@@ -933,16 +962,13 @@ impl Network {
         self.next_flush = (k + 1) % count;
         let i = &mut self.interfaces[k];
         let take = i.up.len().min(MAX_FRAMES);
-        let batch: Vec<(Frame, Option<Followed>)> = i.up.drain(..take).collect();
-        let frames: Vec<Frame> = batch.iter().map(|(f, _)| *f).collect();
-        let header = DatagramHeader { interface: k as u8, seq: i.seq, timestamp_us: now_ns / 1000 };
-        i.seq = i.seq.wrapping_add(1);
-        let mut buf = [0u8; MAX_DATAGRAM];
-        let len = interface::encode(header, &frames, &mut buf).expect("1..=72 frames fit a datagram");
-        let at_ns = now_ns + self.config.timing.datagram_ns(frames.len());
-        self.ethernet_busy_until_ns = at_ns;
+        let delay_ns = self.config.timing.datagram_ns(take);
+        let at_ns = now_ns + delay_ns;
+        let frames = &mut self.datagram;
+        frames.clear();
         let mut followed = 0;
-        for (frame, f) in &batch {
+        for (frame, f) in i.up.drain(..take) {
+            frames.push(frame);
             let Some(f) = f else { continue };
             followed += 1;
             if f.created_ns >= self.measure_from_ns && f.sensor {
@@ -953,11 +979,16 @@ impl Network {
                 }
             }
         }
+        let header = DatagramHeader { interface: k as u8, seq: i.seq, timestamp_us: now_ns / 1000 };
+        i.seq = i.seq.wrapping_add(1);
+        let mut buf = [0u8; MAX_DATAGRAM];
+        let len = interface::encode(header, frames, &mut buf).expect("1..=72 frames fit a datagram");
+        self.ethernet_busy_until_ns = at_ns;
         self.followed_on_ethernet += followed;
-        self.events.at(at_ns, Event::ToHost { bytes: buf[..len].to_vec(), followed });
+        self.events.after(delay_ns, Event::ToHost { bytes: buf[..len].to_vec(), followed });
         if !self.ethernet_waking && self.interfaces.iter().any(|i| !i.up.is_empty()) {
             self.ethernet_waking = true;
-            self.events.at(at_ns, Event::EthernetFree);
+            self.events.after(delay_ns, Event::EthernetFree);
         }
     }
 

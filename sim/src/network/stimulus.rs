@@ -29,6 +29,12 @@ const PROXIMITY_AT_TOUCH: f64 = 0.85;
 /// Where the force cells sit: on a circle of 7 mm radius around the cell
 /// centre, 120 degrees apart.
 const FORCE_CELLS_M: [[f64; 2]; 3] = [[0.007, 0.0], [-0.0035, 0.006_062], [-0.0035, -0.006_062]];
+/// Radius of the circle the force cells sit on.
+const FORCE_CELL_RADIUS_M: f64 = 0.007;
+/// Contact radius of the fingertip.
+const FINGER_RADIUS_M: f64 = 0.012;
+/// Half the width of the band a grasped object presses.
+const HALF_BAND_M: f64 = 0.03;
 
 /// A stimulus the skin is exposed to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -128,11 +134,10 @@ impl Stimulus {
                 let phase = (t_s * 0.1 / span) % 2.0;
                 let x = self.lo[0] + span * if phase < 1.0 { phase } else { 2.0 - phase };
                 let d = ((p[0] - x).powi(2) + (p[1] - mid[1]).powi(2)).sqrt();
-                let force = 2.0 * (1.0 - (d / 0.012).powi(2)).max(0.0);
+                let force = 2.0 * (1.0 - (d / FINGER_RADIUS_M).powi(2)).max(0.0);
                 (force, d)
             }
             StimulusKind::Grasp => {
-                const HALF_BAND_M: f64 = 0.03;
                 let t = t_s % 7.0;
                 let across = (p[1] - mid[1]).abs();
                 let (gap_m, press) = match t {
@@ -148,6 +153,19 @@ impl Stimulus {
         }
     }
 
+    /// True when a cell whose centre is `distance_m` from the object (as
+    /// [`Stimulus::contact`] measures it) cannot feel force at any of its
+    /// force cells.
+    fn out_of_reach(&self, distance_m: f64) -> bool {
+        // A margin keeps rounding from deciding.
+        let reach_m = match self.kind {
+            StimulusKind::Quiet => return true,
+            StimulusKind::Touch => FINGER_RADIUS_M + FORCE_CELL_RADIUS_M,
+            StimulusKind::Grasp => FORCE_CELL_RADIUS_M,
+        };
+        distance_m > reach_m + 1e-6
+    }
+
     /// The raw sample of cell `cell` at time `t_s`.
     pub fn raw(&mut self, cell: usize, t_s: f64) -> Sample {
         let b = self.baselines[cell];
@@ -158,7 +176,7 @@ impl Stimulus {
         } else {
             0.0
         };
-        let force: [f64; 3] = if self.kind == StimulusKind::Quiet {
+        let force: [f64; 3] = if self.out_of_reach(distance_m) {
             [0.0; 3]
         } else {
             FORCE_CELLS_M
