@@ -1,7 +1,7 @@
-//! A scene of objects and a hand that touch the skin (sections 5 and 6).
+//! A scene of objects and hands that touch the skin (sections 5 and 6).
 //!
 //! Objects of given shape, weight, stiffness and reflectance stand on a
-//! support between the robot's arms (Figure 16); a person's hand can be put
+//! support between the robot's arms (Figure 16); a person's hands can be put
 //! anywhere. Given the world pose of every skin cell, the scene computes
 //! what the cell feels: the force on each of its three force cells (a
 //! series of springs: the foam under the skin and the object's surface) and
@@ -11,15 +11,19 @@
 //! forces exceeds the support's friction, the object slides in that
 //! direction (viscously, never past the point where the forces balance
 //! friction again), so arms can push and pull it. It does not tip or turn.
-//! The scene knows only the skin's cells: insensitive parts of the robot
-//! neither push objects nor are seen by the skin, and the skin does not see
-//! the robot's own body.
+//! The robot's surface without skin, when given as points, pushes objects
+//! too but feels nothing; the skin does not see the robot's own body.
 
+pub mod experiment;
 pub mod force;
 pub mod hand;
 pub mod object;
+pub mod person;
 pub mod proximity;
 pub mod shape;
+mod shared;
+
+pub use shared::SharedScene;
 
 use nalgebra::{Isometry3, Point3, Vector3};
 use rand::Rng;
@@ -45,6 +49,17 @@ pub struct SkinModel {
     /// Height of the outer skin surface above the cell's mounting point
     /// (foam, cell and cover), m.
     pub surface_offset_m: f64,
+    /// Coulomb friction of the elastomer cover on objects.
+    pub friction: f64,
+}
+
+impl SkinModel {
+    /// Raw counts (proximity, three forces) of a sense, with sensor noise.
+    pub fn counts(&self, sense: &CellSense, rng: &mut impl Rng) -> (u16, [u16; 3]) {
+        let p = self.proximity.counts(sense.proximity, rng);
+        let f = sense.force_n.map(|f| self.force.counts(f, rng));
+        (p, f)
+    }
 }
 
 impl Default for SkinModel {
@@ -54,6 +69,7 @@ impl Default for SkinModel {
             force: ForceCells::default(),
             proximity: Vcnl4010::default(),
             surface_offset_m: 0.008,
+            friction: 1.0,
         }
     }
 }
@@ -76,7 +92,7 @@ pub struct Placed {
     pub pose: Isometry3<f64>,
 }
 
-/// Something that can be touched: an object or the hand.
+/// Something that can be touched: an object or a hand.
 struct Touchable<'a> {
     shape: &'a Shape,
     pose: Isometry3<f64>,
@@ -84,14 +100,25 @@ struct Touchable<'a> {
     reflectance: f64,
 }
 
-/// Objects, a hand and the physics between them and the skin.
+/// Robot surface without skin: it pushes objects but feels nothing.
+#[derive(Clone, Debug)]
+struct Bare {
+    /// The cell whose frame carries the points (a cell on the same body).
+    cell: usize,
+    /// Surface points in that cell's frame, m.
+    points: Vec<Point3<f64>>,
+}
+
+/// Objects, hands and the physics between them and the skin.
 #[derive(Clone, Debug)]
 pub struct Scene {
     skin: SkinModel,
     objects: Vec<Placed>,
-    hand: Option<Hand>,
+    bare: Vec<Bare>,
+    hands: Vec<Hand>,
     damping_n_s_per_m: f64,
     last_time_s: Option<f64>,
+    last_windows: Vec<Point3<f64>>,
     sensed: Vec<CellSense>,
     max_force_n: f64,
 }
@@ -102,9 +129,11 @@ impl Scene {
         Scene {
             skin,
             objects: Vec::new(),
-            hand: None,
+            bare: Vec::new(),
+            hands: Vec::new(),
             damping_n_s_per_m: 40.0,
             last_time_s: None,
+            last_windows: Vec::new(),
             sensed: Vec::new(),
             max_force_n: 0.0,
         }
@@ -126,14 +155,22 @@ impl Scene {
         &self.objects
     }
 
-    /// Puts the hand somewhere, or takes it away.
-    pub fn set_hand(&mut self, hand: Option<Hand>) {
-        self.hand = hand;
+    /// Adds robot surface without skin, as points in the frame of cell
+    /// `cell` (skin order), which sits on the same rigid body: objects are
+    /// pushed by it (grounded on insensitive spots, as the paper puts it)
+    /// but no cell feels that.
+    pub fn add_bare_surface(&mut self, cell: usize, points: Vec<Point3<f64>>) {
+        self.bare.push(Bare { cell, points });
     }
 
-    /// The hand, if present.
-    pub fn hand(&self) -> Option<&Hand> {
-        self.hand.as_ref()
+    /// Puts a person's hands somewhere (none: taken away).
+    pub fn set_hands(&mut self, hands: Vec<Hand>) {
+        self.hands = hands;
+    }
+
+    /// The hands present.
+    pub fn hands(&self) -> &[Hand] {
+        &self.hands
     }
 
     /// The largest force on any force cell since the start (or the last
@@ -155,24 +192,26 @@ impl Scene {
         self.last_time_s = Some(time_s);
         self.sensed.clear();
         self.sensed.resize(poses.len(), CellSense::default());
-        // Horizontal push and its stiffness, per object.
-        let mut push = vec![(Vector3::zeros(), 0.0); self.objects.len()];
-        let hand = self.hand;
-        let hand_shape = hand.map(|h| h.shape());
-        for (cell, sense) in poses.iter().zip(self.sensed.iter_mut()) {
-            for (placed, push) in self.objects.iter().zip(push.iter_mut()) {
+        let mut loads = vec![Load::default(); self.objects.len()];
+        let windows: Vec<Point3<f64>> =
+            poses.iter().map(|p| p * Point3::new(0.0, 0.0, self.skin.surface_offset_m)).collect();
+        let moved = dt > 0.0 && self.last_windows.len() == windows.len();
+        for (u, (cell, sense)) in poses.iter().zip(self.sensed.iter_mut()).enumerate() {
+            let velocity = if moved { (windows[u] - self.last_windows[u]) / dt } else { Vector3::zeros() };
+            for (placed, load) in self.objects.iter().zip(loads.iter_mut()) {
                 let body = Touchable {
                     shape: &placed.object.shape,
                     pose: placed.pose,
                     stiffness_n_per_m: placed.object.stiffness_n_per_m,
                     reflectance: placed.object.reflectance,
                 };
-                touch(&self.skin, cell, &body, sense, Some(push));
+                touch(&self.skin, cell, &body, sense, Some((load, velocity)));
             }
-            if let (Some(h), Some(shape)) = (hand, hand_shape.as_ref()) {
+            for h in &self.hands {
                 // The proximity curve is calibrated on skin: reflectance 1.
+                let shape = h.shape();
                 let body = Touchable {
-                    shape,
+                    shape: &shape,
                     pose: Isometry3::translation(h.centre.x, h.centre.y, h.centre.z),
                     stiffness_n_per_m: h.stiffness_n_per_m,
                     reflectance: 1.0,
@@ -182,28 +221,62 @@ impl Scene {
             sense.proximity = sense.proximity.min(1.0);
             self.max_force_n = sense.force_n.iter().fold(self.max_force_n, |m, f| m.max(*f));
         }
-        for (placed, (force, stiffness)) in self.objects.iter_mut().zip(push) {
-            slide(placed, force, stiffness, self.damping_n_s_per_m, dt);
+        for bare in &self.bare {
+            let Some(pose) = poses.get(bare.cell) else { continue };
+            for (placed, load) in self.objects.iter().zip(loads.iter_mut()) {
+                for p in &bare.points {
+                    let local = placed.pose.inverse_transform_point(&(pose * p));
+                    let depth = -placed.object.shape.distance(&local);
+                    if depth > 0.0 {
+                        // A rigid robot surface against the object's own compliance.
+                        let into_body = -(placed.pose.rotation * placed.object.shape.normal(&local));
+                        load.push += depth * placed.object.stiffness_n_per_m * horizontal(&into_body);
+                        load.stiffness += placed.object.stiffness_n_per_m;
+                    }
+                }
+            }
         }
+        for (placed, load) in self.objects.iter_mut().zip(loads) {
+            slide(placed, &load, self.damping_n_s_per_m, dt);
+        }
+        self.last_windows = windows;
         &self.sensed
     }
 
-    /// Raw counts (proximity, three forces) of a sense, with sensor noise.
-    pub fn counts(&self, sense: &CellSense, rng: &mut impl Rng) -> (u16, [u16; 3]) {
-        let p = self.skin.proximity.counts(sense.proximity, rng);
-        let f = sense.force_n.map(|f| self.skin.force.counts(f, rng));
-        (p, f)
+    /// What every cell sensed at the last [`Scene::sense`].
+    pub fn sensed(&self) -> &[CellSense] {
+        &self.sensed
     }
 }
 
-/// Adds what `body` does to the cell at `cell`; accumulates the horizontal
-/// push on the body and its stiffness.
+/// What the skin does to one object in one tick.
+#[derive(Clone, Copy, Debug, Default)]
+struct Load {
+    /// Horizontal sum of the contact forces, N.
+    push: Vector3<f64>,
+    /// Their stiffness against a displacement of the object, N/m.
+    stiffness: f64,
+    /// Largest friction force the gripping cells can exert, N.
+    grip_n: f64,
+    /// Sum of contact force times the cell's horizontal sliding velocity.
+    drag: Vector3<f64>,
+    /// Sum of the gripping cells' contact forces, N.
+    gripping_n: f64,
+}
+
+fn horizontal(v: &Vector3<f64>) -> Vector3<f64> {
+    Vector3::new(v.x, v.y, 0.0)
+}
+
+/// Adds what `body` does to the cell at `cell`; when the body is an object,
+/// accumulates the cell's push, stiffness and grip on it (`velocity`: the
+/// cell window's velocity).
 fn touch(
     skin: &SkinModel,
     cell: &Isometry3<f64>,
     body: &Touchable<'_>,
     sense: &mut CellSense,
-    push: Option<&mut (Vector3<f64>, f64)>,
+    load: Option<(&mut Load, Vector3<f64>)>,
 ) {
     let axis = cell.rotation * Vector3::z();
     let window = cell * Point3::new(0.0, 0.0, skin.surface_offset_m);
@@ -217,7 +290,7 @@ fn touch(
     if distance > skin.force.radius_m {
         return;
     }
-    let mut push = push;
+    let mut load = load;
     for (i, [x, y]) in skin.force.positions().into_iter().enumerate() {
         let p = body.pose.inverse_transform_point(&(cell * Point3::new(x, y, skin.surface_offset_m)));
         let depth = -body.shape.distance(&p);
@@ -228,29 +301,48 @@ fn touch(
         let f = skin.foam.contact_force(depth, body.stiffness_n_per_m);
         // The force cell measures the part along its normal.
         sense.force_n[i] += f * into_body.dot(&axis).max(0.0);
-        if let Some((force, stiffness)) = push.as_deref_mut() {
-            *force += f * Vector3::new(into_body.x, into_body.y, 0.0);
+        if let Some((load, velocity)) = load.as_mut() {
+            load.push += f * horizontal(&into_body);
             let k = skin.foam.contact_force(depth + 1e-6, body.stiffness_n_per_m) - f;
-            *stiffness += k / 1e-6;
+            load.stiffness += k / 1e-6;
+            // The cover grips: its motion along the surface drags the object.
+            let sliding = *velocity - into_body * velocity.dot(&into_body);
+            load.grip_n += skin.friction * f;
+            load.drag += f * horizontal(&sliding);
+            load.gripping_n += f;
         }
     }
 }
 
-/// Quasi-static sliding on the support: beyond static friction the object
-/// moves with the excess force over a viscous damping, but never further
-/// than where the contact forces would fall back to the friction limit.
-fn slide(placed: &mut Placed, force: Vector3<f64>, stiffness: f64, damping: f64, dt: f64) {
-    let limit = placed.object.friction * placed.object.mass_kg * G;
-    let magnitude = force.norm();
-    if magnitude <= limit || dt <= 0.0 {
+/// Quasi-static motion on the support. The gripping skin carries the
+/// object along with its own sliding velocity when its grip, with the
+/// push, beats the support's friction; beyond that friction the push makes
+/// it slide, viscously, but never further than where the contact forces
+/// would fall back to the limit.
+fn slide(placed: &mut Placed, load: &Load, damping: f64, dt: f64) {
+    if dt <= 0.0 {
+        return;
+    }
+    let mut limit = placed.object.friction * placed.object.mass_kg * G;
+    if load.gripping_n > 0.0 {
+        let carried = load.drag / load.gripping_n;
+        let along = carried.try_normalize(1e-9).map_or(0.0, |d| load.grip_n + load.push.dot(&d));
+        if along > limit {
+            placed.pose.translation.vector += carried * dt;
+            // Already moving: the support holds no longer.
+            limit = 0.0;
+        }
+    }
+    let magnitude = load.push.norm();
+    if magnitude <= limit {
         return;
     }
     let excess = magnitude - limit;
     let mut step = excess / damping * dt;
-    if stiffness > 0.0 {
-        step = step.min(excess / stiffness);
+    if load.stiffness > 0.0 {
+        step = step.min(excess / load.stiffness);
     }
-    placed.pose.translation.vector += force / magnitude * step;
+    placed.pose.translation.vector += load.push / magnitude * step;
 }
 
 #[cfg(test)]
@@ -275,7 +367,7 @@ mod tests {
         // The hand approaches from 10 cm in 0.5 mm steps.
         for k in 0..=200 {
             let gap = 0.1 - 0.0005 * f64::from(k);
-            scene.set_hand(Some(Hand::facing(&cell, offset, gap)));
+            scene.set_hands(vec![Hand::facing(&cell, offset, gap)]);
             let p = scene.sense(f64::from(k) * 0.004, &[cell])[0].proximity;
             if p > 0.01 && first_seen.is_none() {
                 first_seen = Some(gap);
@@ -293,7 +385,7 @@ mod tests {
         let mut scene = Scene::new(SkinModel::default());
         let cell = cell_at(0.0);
         let offset = scene.skin().surface_offset_m;
-        scene.set_hand(Some(Hand::facing(&cell, offset, -0.001)));
+        scene.set_hands(vec![Hand::facing(&cell, offset, -0.001)]);
         let s = scene.sense(0.0, &[cell])[0];
         // The palm is 1 mm into the skin on the axis; at the force cells, 7 mm
         // off the axis, the round palm is less deep. Foam (1500 N/m) and hand
@@ -310,10 +402,52 @@ mod tests {
     }
 
     #[test]
+    fn bare_surface_pushes_unfelt() {
+        let mut scene = Scene::new(SkinModel::default());
+        scene.place(Object::box_lid(), Isometry3::translation(0.1, 0.0, 0.0));
+        // A bare patch of points 1 cm into the lid's -x face (at x = 0.065),
+        // carried by a cell far away.
+        let points = (-2..=2).map(|k| Point3::new(0.075, f64::from(k) * 0.01, 0.0)).collect();
+        scene.add_bare_surface(0, points);
+        let far = Isometry3::identity();
+        let start = scene.objects()[0].pose.translation.x;
+        for k in 0..50 {
+            let s = scene.sense(f64::from(k) * 0.004, &[far]);
+            assert_eq!(s[0].force_n, [0.0; 3], "nothing is felt");
+        }
+        assert!(scene.objects()[0].pose.translation.x > start + 0.005, "the lid was pushed away");
+    }
+
+    #[test]
+    fn gripping_skin_carries_an_object_along() {
+        let mut scene = Scene::new(SkinModel::default());
+        let lid = Object::box_lid();
+        let Shape::Box { half, .. } = lid.shape else { panic!("the lid is a box") };
+        scene.place(lid, Isometry3::identity());
+        // Two cells squeeze the lid's long faces 2 mm deep, one from each side...
+        let offset = scene.skin().surface_offset_m;
+        let squeeze = |x: f64| {
+            let facing = |y: f64, normal: Vector3<f64>| {
+                let rot = UnitQuaternion::rotation_between(&Vector3::z(), &normal).unwrap();
+                Isometry3::from_parts(nalgebra::Translation3::new(x, y, 0.0), rot)
+            };
+            [facing(-half.y - offset + 0.002, Vector3::y()), facing(half.y + offset - 0.002, -Vector3::y())]
+        };
+        let start = scene.objects()[0].pose.translation;
+        // ...and slide along it at 5 cm/s for 0.4 s: the lid goes with them.
+        for k in 0..=100 {
+            scene.sense(f64::from(k) * 0.004, &squeeze(-0.0002 * f64::from(k)));
+        }
+        let moved = scene.objects()[0].pose.translation.vector - start.vector;
+        assert!((moved.x + 0.02).abs() < 0.001 && moved.y.abs() < 1e-9, "carried {moved:?}");
+    }
+
+    #[test]
     fn objects_slide_when_pushed_harder_than_friction() {
         let mut scene = Scene::new(SkinModel::default());
         let object = Object::delivery_box();
-        let half_x = 0.09;
+        let Shape::Box { half, .. } = object.shape else { panic!("the delivery box is a box") };
+        let half_x = half.x;
         scene.place(object.clone(), Isometry3::translation(0.1 + half_x + 0.008, 0.0, 0.0));
         // Four cells facing +x press 2 mm into the box's -x face.
         let cells: Vec<_> =

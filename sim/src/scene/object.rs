@@ -2,7 +2,9 @@
 //!
 //! The paper grasped five objects of different weight, size, shape and
 //! hardness with one parameter set. Their sizes here are scaled to the
-//! simulated HRP-2-like arms (0.25 m upper arm and forearm); weights,
+//! simulated HRP-2-like arms (0.25 m upper arm and forearm, whose elbows
+//! reach only 0.13 m past the chest), their weights to what those arms
+//! can pull over a table with the force Table 4 allows (a few newtons);
 //! stiffness and reflectance are estimates of the real things. Stiffness is
 //! per force-cell contact (a 1.5 cm^2 patch): a packed computer box barely
 //! gives, a sponge gives a lot.
@@ -33,11 +35,11 @@ impl Object {
     pub fn trash_bin() -> Object {
         Object {
             name: "trash_bin",
-            shape: Shape::Cylinder { radius: 0.13, half_height: 0.17 },
-            mass_kg: 0.6,
+            shape: Shape::Cylinder { radius: 0.14, half_height: 0.17 },
+            mass_kg: 0.5,
             stiffness_n_per_m: 4000.0,
             reflectance: 0.7,
-            friction: 0.4,
+            friction: 0.3,
         }
     }
 
@@ -45,11 +47,11 @@ impl Object {
     pub fn sponge_rock() -> Object {
         Object {
             name: "sponge_rock",
-            shape: Shape::Blob { semi: Vector3::new(0.11, 0.14, 0.12), bump_m: 0.012, bump_rad_per_m: 25.0 },
-            mass_kg: 0.25,
+            shape: Shape::Blob { semi: Vector3::new(0.11, 0.15, 0.12), bump_m: 0.012, bump_rad_per_m: 25.0 },
+            mass_kg: 0.2,
             stiffness_n_per_m: 350.0,
             reflectance: 0.5,
-            friction: 0.6,
+            friction: 0.5,
         }
     }
 
@@ -57,11 +59,11 @@ impl Object {
     pub fn moving_box() -> Object {
         Object {
             name: "moving_box",
-            shape: Shape::Box { half: Vector3::new(0.11, 0.17, 0.2) },
-            mass_kg: 1.0,
+            shape: Shape::Box { half: Vector3::new(0.09, 0.16, 0.16), round_m: 0.02 },
+            mass_kg: 0.6,
             stiffness_n_per_m: 2500.0,
             reflectance: 0.8,
-            friction: 0.4,
+            friction: 0.3,
         }
     }
 
@@ -70,11 +72,11 @@ impl Object {
     pub fn box_lid() -> Object {
         Object {
             name: "box_lid",
-            shape: Shape::Box { half: Vector3::new(0.035, 0.15, 0.11) },
+            shape: Shape::Box { half: Vector3::new(0.06, 0.19, 0.11), round_m: 0.015 },
             mass_kg: 0.15,
             stiffness_n_per_m: 900.0,
             reflectance: 0.9,
-            friction: 0.4,
+            friction: 0.3,
         }
     }
 
@@ -82,11 +84,11 @@ impl Object {
     pub fn delivery_box() -> Object {
         Object {
             name: "delivery_box",
-            shape: Shape::Box { half: Vector3::new(0.09, 0.14, 0.14) },
-            mass_kg: 2.0,
+            shape: Shape::Box { half: Vector3::new(0.07, 0.15, 0.13), round_m: 0.01 },
+            mass_kg: 0.8,
             stiffness_n_per_m: 20_000.0,
             reflectance: 0.9,
-            friction: 0.35,
+            friction: 0.3,
         }
     }
 

@@ -2,13 +2,14 @@
 //! distance.
 //!
 //! The intensity falls with the square of the distance far away and
-//! saturates near contact: `I(d) = R cos^2(a) / (1 + (d / d0)^2)` for a
-//! target of reflectance `R` (1 for skin) seen at angle `a` off the sensor
-//! axis. `d0` is set so that the Table 3/4 threshold of 0.01 is crossed
-//! 5 cm from a hand, where the paper's proximity guidance starts to react;
-//! close contact (0.80) is then 2.5 mm, low proximity (0.10) 15 mm. The
-//! range is 1-200 mm (16 bit); at 200 mm a hand reads about 40 counts,
-//! well above the noise.
+//! saturates at contact: `I(d) = r / (r + (d / d0)^2)` with `r = R cos^2(a)`
+//! for a target of reflectance `R` (1 for skin) seen at angle `a` off the
+//! sensor axis. So a dark target reads less from afar but any target
+//! saturates the sensor when it touches the window. `d0` is set so that the
+//! Table 3/4 threshold of 0.01 is crossed 5 cm from a hand, where the
+//! paper's proximity guidance starts to react; for skin close contact
+//! (0.80) is then 2.5 mm, low proximity (0.10) 15 mm. The range is 1-200 mm
+//! (16 bit); at 200 mm a hand reads about 40 counts, well above the noise.
 
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
@@ -39,7 +40,11 @@ impl Vcnl4010 {
             return 0.0;
         }
         let x = distance_m.max(0.0) / self.half_distance_m;
-        (reflectance * cos_axis * cos_axis / (1.0 + x * x)).clamp(0.0, 1.0)
+        let r = (reflectance * cos_axis * cos_axis).max(0.0);
+        if r == 0.0 {
+            return 0.0;
+        }
+        (r / (r + x * x)).clamp(0.0, 1.0)
     }
 
     /// Distance at which a skin-like target straight ahead reads
@@ -69,9 +74,12 @@ mod tests {
         assert!(s.intensity(0.001, 1.0, 1.0) > 0.95);
         assert_eq!(s.intensity(0.25, 1.0, 1.0), 0.0, "out of range");
         assert_eq!(s.intensity(0.01, -0.2, 1.0), 0.0, "behind the sensor");
-        let on_axis = s.intensity(0.01, 1.0, 1.0);
-        assert!((s.intensity(0.01, 0.5, 1.0) - on_axis / 4.0).abs() < 1e-12, "60 degrees off axis: a quarter");
-        assert!((s.intensity(0.01, 1.0, 0.5) - on_axis / 2.0).abs() < 1e-12, "a darker target");
+        // From afar, a target 60 degrees off the axis reads a quarter, a
+        // target of half the reflectance half; at contact both saturate.
+        let far = s.intensity(0.1, 1.0, 1.0);
+        assert!((s.intensity(0.1, 0.5, 1.0) / far - 0.25).abs() < 0.01);
+        assert!((s.intensity(0.1, 1.0, 0.5) / far - 0.5).abs() < 0.01);
+        assert!(s.intensity(0.0, 1.0, 0.3) > 0.99 && s.intensity(0.001, 1.0, 0.5) > 0.9);
         let counts_at_200mm = s.intensity(0.2, 1.0, 1.0) * 65535.0;
         assert!(counts_at_200mm > 30.0 && counts_at_200mm < 60.0, "{counts_at_200mm}");
     }

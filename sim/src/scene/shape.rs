@@ -11,10 +11,12 @@ use nalgebra::{Point3, Vector3};
 /// A shape in its own frame, centred on the origin, z up.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Shape {
-    /// A box with half edge lengths, m.
+    /// A box with half edge lengths and rounded edges, m.
     Box {
         /// Half extents along x, y, z, m.
         half: Vector3<f64>,
+        /// Radius of its edges and corners (the give of cardboard), m.
+        round_m: f64,
     },
     /// An upright cylinder.
     Cylinder {
@@ -43,9 +45,9 @@ impl Shape {
     /// Signed distance from `p` (shape frame) to the surface, m.
     pub fn distance(&self, p: &Point3<f64>) -> f64 {
         match *self {
-            Shape::Box { half } => {
-                let q = p.coords.abs() - half;
-                q.sup(&Vector3::zeros()).norm() + q.max().min(0.0)
+            Shape::Box { half, round_m } => {
+                let q = p.coords.abs() - half.add_scalar(-round_m);
+                q.sup(&Vector3::zeros()).norm() + q.max().min(0.0) - round_m
             }
             Shape::Cylinder { radius, half_height } => {
                 let d = [p.coords.xy().norm() - radius, p.z.abs() - half_height];
@@ -79,7 +81,7 @@ impl Shape {
     /// Radius of a sphere around the origin that holds the whole shape, m.
     pub fn bounding_radius(&self) -> f64 {
         match *self {
-            Shape::Box { half } => half.norm(),
+            Shape::Box { half, .. } => half.norm(),
             Shape::Cylinder { radius, half_height } => radius.hypot(half_height),
             Shape::Sphere { radius } => radius,
             Shape::Blob { semi, bump_m, .. } => semi.max() + bump_m,
@@ -93,10 +95,14 @@ mod tests {
 
     #[test]
     fn distances_of_the_primitives() {
-        let b = Shape::Box { half: Vector3::new(0.1, 0.2, 0.3) };
+        let b = Shape::Box { half: Vector3::new(0.1, 0.2, 0.3), round_m: 0.0 };
         assert!((b.distance(&Point3::new(0.15, 0.0, 0.0)) - 0.05).abs() < 1e-12);
         assert!((b.distance(&Point3::origin()) + 0.1).abs() < 1e-12);
         assert!((b.distance(&Point3::new(0.13, 0.24, 0.0)) - 0.05).abs() < 1e-12, "outside a corner");
+        let rounded = Shape::Box { half: Vector3::new(0.1, 0.2, 0.3), round_m: 0.02 };
+        assert!((rounded.distance(&Point3::new(0.15, 0.0, 0.0)) - 0.05).abs() < 1e-12, "faces stay");
+        let corner = Point3::new(0.1, 0.2, 0.0);
+        assert!((rounded.distance(&corner) - 0.02 * (2f64.sqrt() - 1.0)).abs() < 1e-12, "edges are round");
         let c = Shape::Cylinder { radius: 0.1, half_height: 0.2 };
         assert!((c.distance(&Point3::new(0.0, 0.3, 0.0)) - 0.2).abs() < 1e-12);
         assert!((c.distance(&Point3::new(0.0, 0.0, 0.25)) - 0.05).abs() < 1e-12);

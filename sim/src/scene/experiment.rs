@@ -1,0 +1,394 @@
+//! The grasping experiment of section 6.5 on the built-in HRP-2-like robot.
+//!
+//! Everything here is the experimenters' knowledge, not the robot's: where
+//! the skin was glued (74 cells as in the paper: the chest front, patches
+//! on the inner side of each upper arm and forearm where objects are held,
+//! and cells on their outer sides so a hand can guide the arm inwards),
+//! which cells the operator assigned to which touch area (written as the
+//! host's area file, by cell ID), the key poses the person means to teach,
+//! and where an object is put between the arms.
+
+use std::fmt::Write;
+
+use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use super::object::Object;
+use super::Placed;
+use crate::robot::kinematics::{self, BodyState, DofMotion};
+use crate::robot::{Robot, Shape as RobotShape, Surface};
+use crate::skin::{Skin, SkinError};
+
+/// Where the object stands: centre height above the chest frame origin, m.
+pub const OBJECT_HEIGHT_M: f64 = 0.15;
+/// Front of the chest (its box is 0.26 m deep, centred on the chest frame), m.
+pub const CHEST_FRONT_M: f64 = 0.13;
+/// Gap between the object and the chest's skin when it is put down, m.
+pub const OBJECT_GAP_M: f64 = 0.02;
+
+/// One arm's intended key poses (right arm; the left is its mirror image):
+/// shoulder pitch, roll, yaw, elbow, wrist yaw, wrist pitch, gripper.
+const OPEN: [f64; 7] = [-1.3, -0.7, 1.4, -0.5, 0.0, 0.0, 0.17];
+const CLOSED: [f64; 7] = [-1.5, 0.1, 1.57, -0.8, 0.0, 0.0, 0.17];
+const PULLED: [f64; 7] = [-1.5, 0.17, 1.57, -1.6, 0.0, 0.0, 0.17];
+
+/// Touch-area role of a skin cell, as the operator assigns it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Role {
+    Pat,
+    Contact,
+    Chest,
+    Other,
+}
+
+/// One planned cell: link, position and outward normal in the link frame.
+struct Planned {
+    link: String,
+    xyz: Vector3<f64>,
+    normal: Vector3<f64>,
+    role: Role,
+    side: &'static str,
+}
+
+/// The built-in robot with the experiment's skin, and the operator's
+/// touch areas.
+#[derive(Clone, Debug)]
+pub struct Setup {
+    /// The skin.
+    pub skin: Skin,
+    /// The host's area file (TOML `[[area]]` tables) for this skin.
+    pub areas_toml: String,
+    /// Skin indices of the cells a person guides each arm by (upper arm,
+    /// upper arm and forearm; wrist and hand are left as they are), right
+    /// then left.
+    pub guided_cells: [Vec<usize>; 2],
+    /// Skin index of the cell the person pats (top of the right shoulder).
+    pub pat_cell: usize,
+    /// The robot's surface, as points every 1.5 cm on its links' shapes,
+    /// each link's points in the frame of one of its cells (skin index).
+    pub surface: Vec<(usize, Vec<Point3<f64>>)>,
+}
+
+/// The mirror image of a right-arm pose for the left arm: roll, yaw and
+/// the gripper turn the other way.
+fn mirrored(right: &[f64; 7]) -> [f64; 7] {
+    let mut left = *right;
+    for i in [1, 2, 4, 6] {
+        left[i] = -left[i];
+    }
+    left
+}
+
+/// A whole-robot pose (right arm, then left) from a right-arm pose.
+fn both(right: &[f64; 7]) -> Vec<f64> {
+    right.iter().chain(mirrored(right).iter()).copied().collect()
+}
+
+/// The key poses the person means to teach, by name; home is where the
+/// robot starts.
+pub fn intended_pose(robot: &Robot, name: &str) -> Option<Vec<f64>> {
+    match name {
+        "home" => Some(robot.home().to_vec()),
+        "open" => Some(both(&OPEN)),
+        "closed" => Some(both(&CLOSED)),
+        "pulled" => Some(both(&PULLED)),
+        _ => None,
+    }
+}
+
+/// Body poses of `robot` at rest in `pose`, chest frame.
+pub fn body_poses(robot: &Robot, pose: &[f64]) -> Vec<Isometry3<f64>> {
+    let zero = vec![0.0; pose.len()];
+    let mut states = Vec::new();
+    let base = BodyState::at_rest(Isometry3::identity());
+    kinematics::forward(robot, &base, DofMotion { q: pose, qd: &zero, qdd: &zero }, &mut states);
+    states.into_iter().map(|s| s.pose).collect()
+}
+
+/// How far an object reaches behind its origin, towards the chest, m.
+fn back_extent(object: &Object) -> f64 {
+    // March the shape's distance: exact for boxes and cylinders, a bound
+    // (so a march) for the blob.
+    let mut back = 0.0;
+    while object.shape.distance(&Point3::new(-back, 0.0, 0.0)) < 0.0 {
+        back += 1e-4;
+    }
+    back
+}
+
+/// The pose of an object put down between the arms, its back `OBJECT_GAP_M`
+/// in front of the chest's skin.
+pub fn object_pose(object: &Object, skin_offset_m: f64) -> Isometry3<f64> {
+    Isometry3::translation(CHEST_FRONT_M + skin_offset_m + OBJECT_GAP_M + back_extent(object), 0.0, OBJECT_HEIGHT_M)
+}
+
+/// Ground truth: how far a placed object's back is from the chest's skin, m.
+pub fn gap_to_chest_m(placed: &Placed, skin_offset_m: f64) -> f64 {
+    placed.pose.translation.x - back_extent(&placed.object) - CHEST_FRONT_M - skin_offset_m
+}
+
+impl Setup {
+    /// The experiment's skin on `robot` (the built-in one), cell IDs a
+    /// seeded shuffle.
+    pub fn new(robot: &Robot, seed: u64) -> Result<Setup, SkinError> {
+        let closed = body_poses(robot, &both(&CLOSED));
+        let mut plan = Vec::new();
+        for y in [-0.09, -0.045, 0.0, 0.045, 0.09, -0.0675, 0.0675] {
+            for z in [0.08, 0.17] {
+                plan.push(Planned {
+                    link: "CHEST".into(),
+                    xyz: Vector3::new(CHEST_FRONT_M, y, z),
+                    normal: Vector3::x(),
+                    role: Role::Chest,
+                    side: "",
+                });
+            }
+        }
+        let quarter = std::f64::consts::FRAC_PI_2;
+        for side in ["RARM", "LARM"] {
+            let link = |i: usize| format!("{side}_LINK{i}");
+            // The ring angle (about the link's z axis) facing the body's
+            // midline, where the object is held, in the closed pose.
+            let towards_midline = if side == "RARM" { Vector3::y() } else { -Vector3::y() };
+            let inward = |i: usize| {
+                let b = robot.link(&link(i)).expect("the built-in robot has its arm links").body;
+                let v = closed[b].inverse_transform_vector(&towards_midline);
+                v.y.atan2(v.x)
+            };
+            // Shoulder housing (a cylinder along y): two cells on top, the
+            // right arm's first is patted.
+            for (k, y) in [0.02, -0.02].into_iter().enumerate() {
+                let role = if side == "RARM" && k == 0 { Role::Pat } else { Role::Other };
+                plan_top(&mut plan, link(0), y, role, side);
+            }
+            // Two cells on the shoulder's roll housing, front and back.
+            ring(&mut plan, link(1), side, 0.05, &[-0.06], &[0.0, 2.0 * quarter], |_| Role::Other);
+            // Upper arm (two rings) and forearm (three): per ring two cells
+            // side by side facing the midline (the contact area) and two
+            // facing away, for a hand to push the arm inwards.
+            let spread = 0.35;
+            for (i, radius, zs) in [(2, 0.05, vec![-0.035, -0.115]), (3, 0.045, vec![-0.04, -0.09, -0.14])] {
+                let a0 = inward(i);
+                let angles =
+                    [a0 - spread, a0 + spread, a0 + 2.0 * quarter - 1.5 * spread, a0 + 2.0 * quarter + 1.5 * spread];
+                let near = move |a: f64| if (a - a0).cos() > 0.0 { Role::Contact } else { Role::Other };
+                ring(&mut plan, link(i), side, radius, &zs, &angles, near);
+            }
+            // The wrist's cells sit above and below it, off the object's way.
+            let a4 = inward(4) + quarter;
+            ring(&mut plan, link(4), side, 0.04, &[-0.035], &[a4, a4 + 2.0 * quarter], |_| Role::Other);
+            // The hand (a box) has three cells and the finger one, none on
+            // the side facing the object.
+            let a5 = inward(5);
+            for a in [a5 + quarter, a5 + 2.0 * quarter, a5 - quarter] {
+                plan.push(on_box(link(5), side, [0.04, 0.025], -0.08, a));
+            }
+            plan.push(on_box(link(6), side, [0.01, 0.015], -0.04, inward(6) + 2.0 * quarter));
+        }
+        let mut ids: Vec<u16> = (1..=plan.len() as u16).collect();
+        ids.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
+        let mut toml = String::new();
+        for (p, id) in plan.iter().zip(&ids) {
+            let rot = UnitQuaternion::rotation_between(&Vector3::z(), &p.normal)
+                .unwrap_or_else(|| UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI));
+            let (r, pitch, yaw) = rot.euler_angles();
+            let [x, y, z] = [p.xyz.x, p.xyz.y, p.xyz.z];
+            writeln!(
+                toml,
+                "[[link]]\nname = \"{}\"\n[[link.cell]]\nid = {id}\nxyz = [{x}, {y}, {z}]\nrpy = [{r}, {pitch}, {yaw}]",
+                p.link
+            )
+            .expect("writing to a String cannot fail");
+        }
+        let skin = Skin::from_toml_str(robot, &toml)?;
+        let cells = |role: Role, side: &str| -> Vec<u16> {
+            plan.iter()
+                .zip(&ids)
+                .filter(|(p, _)| p.role == role && (side.is_empty() || p.side == side))
+                .map(|(_, id)| *id)
+                .collect()
+        };
+        let mut areas_toml = String::new();
+        for (name, kind, list) in [
+            ("shoulder pat", "pat", cells(Role::Pat, "")),
+            ("right arm", "contact", cells(Role::Contact, "RARM")),
+            ("left arm", "contact", cells(Role::Contact, "LARM")),
+            ("chest", "chest", cells(Role::Chest, "")),
+        ] {
+            writeln!(areas_toml, "[[area]]\nname = \"{name}\"\nkind = \"{kind}\"\ncells = {list:?}\n")
+                .expect("to a String");
+        }
+        let index_of =
+            |id: u16| skin.cells().iter().position(|c| c.id.0 == id).expect("every planned cell is in the skin");
+        let guided = ["_LINK1", "_LINK2", "_LINK3"];
+        let arm = |side: &str| {
+            plan.iter()
+                .zip(&ids)
+                .filter(|(p, _)| p.side == side && guided.iter().any(|g| p.link.ends_with(g)))
+                .map(|(_, id)| index_of(*id))
+                .collect()
+        };
+        let pat_cell = index_of(cells(Role::Pat, "")[0]);
+        let surface = robot
+            .links()
+            .iter()
+            .filter_map(|link| {
+                let u = skin.cells().iter().position(|c| c.link == link.name)?;
+                let to_cell = skin.cells()[u].pose.inverse() * link.in_body;
+                Some((u, surface_points(&link.surface).into_iter().map(|p| to_cell * p).collect()))
+            })
+            .collect();
+        Ok(Setup { guided_cells: [arm("RARM"), arm("LARM")], pat_cell, areas_toml, surface, skin })
+    }
+}
+
+/// Cells around a link's z axis: at each height, one per angle, facing out.
+fn ring(
+    plan: &mut Vec<Planned>,
+    link: String,
+    side: &'static str,
+    radius: f64,
+    heights: &[f64],
+    angles: &[f64],
+    role: impl Fn(f64) -> Role,
+) {
+    for &z in heights {
+        for &a in angles {
+            let n = Vector3::new(a.cos(), a.sin(), 0.0);
+            plan.push(Planned {
+                link: link.clone(),
+                xyz: n * radius + Vector3::z() * z,
+                normal: n,
+                role: role(a),
+                side,
+            });
+        }
+    }
+}
+
+/// Points about 1.5 cm apart on a link's collision shapes, link frame.
+fn surface_points(surface: &Surface) -> Vec<Point3<f64>> {
+    const STEP: f64 = 0.015;
+    let steps = |length: f64| (length / STEP).ceil().max(1.0) as usize;
+    let spread = |length: f64| {
+        let n = steps(length);
+        (0..=n).map(move |k| length * (k as f64 / n as f64 - 0.5))
+    };
+    let Surface::Shapes(shapes) = surface else { return Vec::new() };
+    let mut points = Vec::new();
+    for (pose, shape) in shapes {
+        let local: Vec<Point3<f64>> = match *shape {
+            RobotShape::Box(size) => {
+                let mut v = Vec::new();
+                for axis in 0..3 {
+                    let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+                    for sign in [-0.5, 0.5] {
+                        for u in spread(size[a]) {
+                            for w in spread(size[b]) {
+                                let mut p = Vector3::zeros();
+                                p[axis] = sign * size[axis];
+                                p[a] = u;
+                                p[b] = w;
+                                v.push(Point3::from(p));
+                            }
+                        }
+                    }
+                }
+                v
+            }
+            RobotShape::Cylinder { radius, length } => {
+                let around = steps(std::f64::consts::TAU * radius);
+                spread(length)
+                    .flat_map(|z| {
+                        (0..around).map(move |k| {
+                            let a = std::f64::consts::TAU * k as f64 / around as f64;
+                            Point3::new(radius * a.cos(), radius * a.sin(), z)
+                        })
+                    })
+                    .collect()
+            }
+            RobotShape::Sphere(r) => {
+                let n = steps(std::f64::consts::PI * r);
+                (0..=n)
+                    .flat_map(|i| {
+                        let polar = std::f64::consts::PI * i as f64 / n as f64;
+                        let around = steps(std::f64::consts::TAU * r * polar.sin()).max(1);
+                        (0..around).map(move |k| {
+                            let a = std::f64::consts::TAU * k as f64 / around as f64;
+                            Point3::new(r * polar.sin() * a.cos(), r * polar.sin() * a.sin(), r * polar.cos())
+                        })
+                    })
+                    .collect()
+            }
+        };
+        points.extend(local.into_iter().map(|p| pose * p));
+    }
+    points
+}
+
+/// A cell on the side of a box (half extents x, y about the link's z axis,
+/// at height z) met by the direction at `angle`, facing out of that side.
+fn on_box(link: String, side: &'static str, half: [f64; 2], z: f64, angle: f64) -> Planned {
+    let (c, s) = (angle.cos(), angle.sin());
+    let (xyz, normal) = if c.abs() * half[1] >= s.abs() * half[0] {
+        (Vector3::new(half[0] * c.signum(), half[0] * s / c.abs(), z), Vector3::x() * c.signum())
+    } else {
+        (Vector3::new(half[1] * c / s.abs(), half[1] * s.signum(), z), Vector3::y() * s.signum())
+    };
+    Planned { link, xyz, normal, role: Role::Other, side }
+}
+
+/// A cell on top of the shoulder housing (a cylinder along the link's y).
+fn plan_top(plan: &mut Vec<Planned>, link: String, y: f64, role: Role, side: &'static str) {
+    plan.push(Planned { link, xyz: Vector3::new(0.0, y, 0.055), normal: Vector3::z(), role, side });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::robot::hrp2;
+
+    #[test]
+    fn seventy_four_cells_in_the_papers_layout() {
+        let robot = hrp2::robot();
+        let s = Setup::new(&robot, 3).unwrap();
+        assert_eq!(s.skin.cells().len(), 74);
+        assert_eq!(s.guided_cells[0].len(), 22, "2 + 8 + 12 cells from shoulder to elbow");
+        assert_eq!(s.guided_cells[1].len(), 22);
+        assert_eq!(s.skin.cells()[s.pat_cell].link, "RARM_LINK0");
+        // Every link with cells has its surface sampled; the forearm's
+        // points lie on its cylinder (radius 0.045) in the link frame.
+        assert_eq!(s.surface.len(), 15, "the chest and seven links per arm carry cells");
+        let (u, points) = s.surface.iter().find(|(u, _)| s.skin.cells()[*u].link == "RARM_LINK3").unwrap();
+        let cell = &s.skin.cells()[*u];
+        for p in points {
+            let in_link = cell.pose * p;
+            assert!((in_link.coords.xy().norm() - 0.045).abs() < 1e-9, "{in_link}");
+        }
+        assert!(points.len() > 50);
+        // At the closed pose the contact cells of the upper arms and forearms
+        // face the midline, where the object is, and the others face away.
+        let bodies = body_poses(&robot, &intended_pose(&robot, "closed").unwrap());
+        let contact: Vec<u16> = s
+            .areas_toml
+            .lines()
+            .filter(|l| l.starts_with("cells"))
+            .skip(1)
+            .take(2)
+            .flat_map(|l| {
+                l[l.find('[').unwrap() + 1..l.find(']').unwrap()]
+                    .split(", ")
+                    .map(|x| x.parse::<u16>().unwrap())
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        assert_eq!(contact.len(), 20);
+        for c in s.skin.cells().iter().filter(|c| c.link.ends_with("LINK2") || c.link.ends_with("LINK3")) {
+            let pose = bodies[c.body] * c.pose;
+            let to_midline = -(pose * Point3::origin()).y.signum() * (pose.rotation * Vector3::z()).y;
+            assert_eq!(to_midline > 0.0, contact.contains(&c.id.0), "cell {} on {}", c.id, c.link);
+        }
+    }
+}
