@@ -11,6 +11,7 @@
 //! - [`registry`]: the cells heard: IDs, neighbours, patches, health; the ID authority.
 //! - [`config`]: the TOML configuration of the `skin` program.
 //! - [`control`]: whole-body tactile reactions, events, touch areas, key poses and the grasp.
+//! - [`grasping`]: the simulated experiment: exploration, teaching by proximity, grasps of Figure 16 objects.
 // Denied, not forbidden: the batched receive of `interface::socket` calls
 // `recvmmsg`/`sendmmsg` and is the one module allowed to.
 #![deny(unsafe_code)]
@@ -19,6 +20,7 @@
 pub mod config;
 pub mod control;
 pub mod explore;
+pub mod grasping;
 pub mod interface;
 pub mod registry;
 pub mod robot;

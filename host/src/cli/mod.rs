@@ -2,6 +2,7 @@
 
 mod config;
 mod explore;
+mod grasp;
 mod loadgen;
 mod monitor;
 
@@ -21,6 +22,8 @@ struct Cli {
 enum Command {
     /// Learn the robot's kinematic tree and sensory-motor map from its skin (section 4).
     Explore(explore::Args),
+    /// Teach key poses by touch and grasp the objects of Figure 16 in simulation (sections 5 and 6).
+    Grasp(grasp::Args),
     /// Watch the skin live: cells, rates, tactile events, drops.
     Monitor(monitor::Args),
     /// Write the default configuration file, or check one.
@@ -38,6 +41,7 @@ pub fn main() -> ExitCode {
         .init();
     let result = match Cli::parse().command {
         Command::Explore(args) => explore::run(args),
+        Command::Grasp(args) => grasp::run(args),
         Command::Monitor(args) => monitor::run(args),
         Command::Config(args) => config::run(args),
         Command::Loadgen(args) => loadgen::run(args),

@@ -462,10 +462,10 @@ mod tests {
         let mut reacted_at = None;
         for k in 0..=200u32 {
             let gap = 0.1 - 0.0005 * f64::from(k);
-            scene.set_hand(Some(Hand::facing(&cell, offset, gap)));
+            scene.set_hands(vec![Hand::facing(&cell, offset, gap)]);
             let time = f64::from(k) * 0.004;
             let sense = scene.sense(time, &[cell])[0];
-            let (p, f) = scene.counts(&sense, &mut rng);
+            let (p, f) = scene.skin().counts(&sense, &mut rng);
             c.receive(Address(2), &Input::Sample(Sample::new(p, f, [0; 3], 0, 0).unwrap()));
             let w = c.step(&m, &[0.0; DOFS], time).unwrap();
             if w[0] > 0.0 && reacted_at.is_none() {

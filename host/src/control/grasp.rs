@@ -33,7 +33,7 @@ pub enum State {
     Approach,
     /// Closing slowly into pre-contact on every contact area.
     Contact,
-    /// Pressing until every contact area feels force.
+    /// Pressing until a contact area feels force.
     Load,
     /// Pulling the object to the chest.
     Pull,
@@ -67,6 +67,24 @@ impl State {
         State::Cancelled,
         State::Done,
     ];
+
+    /// The state's name, as in JSON and traces.
+    pub fn name(self) -> &'static str {
+        match self {
+            State::Home => "home",
+            State::Open => "open",
+            State::Approach => "approach",
+            State::Contact => "contact",
+            State::Load => "load",
+            State::Pull => "pull",
+            State::Hold => "hold",
+            State::Release => "release",
+            State::Cancel => "cancel",
+            State::Evade => "evade",
+            State::Cancelled => "cancelled",
+            State::Done => "done",
+        }
+    }
 
     /// At rest: a pat launches a grasp.
     pub fn is_rest(self) -> bool {
@@ -115,7 +133,7 @@ pub enum Cause {
     Pain,
     /// Force on a non-contact area.
     NonContactForce,
-    /// The contact areas lost the object.
+    /// The contact areas no longer see the object.
     ContactLost,
     /// Every contact is gone.
     Clear,
@@ -213,7 +231,9 @@ impl Grasp {
                 }
             }
             State::Contact => {
-                if every(Contact, Force, 1) {
+                // The first touch ends the contact phase: from here force,
+                // not the pre-contact sensor, is what matters.
+                if any(Contact, Force, 1) {
                     Some((Load, Cause::Force))
                 } else if every(Contact, Proximity, t.contact_proximity) {
                     Some((Load, Cause::Proximity))
@@ -224,7 +244,9 @@ impl Grasp {
                 }
             }
             Load => {
-                if every(Contact, Force, t.load_force) {
+                // One arm's force is enough: the pull's force reactions keep
+                // it moderate while the trajectory brings the other arm in.
+                if any(Contact, Force, t.load_force) {
                     Some((Pull, Cause::Force))
                 } else {
                     // Pressing harder is the point here: only reaching the
@@ -235,13 +257,15 @@ impl Grasp {
             Pull => {
                 if any(Chest, Proximity, t.chest_proximity) {
                     Some((Hold, Cause::Chest))
-                } else if !any(Contact, Force, 1) {
+                } else if !any(Contact, Proximity, t.approach_proximity) {
                     Some((Cancel, Cause::ContactLost))
                 } else {
                     fail(trajectory)
                 }
             }
-            Hold => (!any(Contact, Force, 1)).then_some((Cancel, Cause::ContactLost)),
+            // Held against the chest the arms may relax to no force at all;
+            // the object is lost only when the contact areas no longer see it.
+            Hold => (!any(Contact, Proximity, t.approach_proximity)).then_some((Cancel, Cause::ContactLost)),
             Release => (!any(Contact, Force, 1) && !any(Contact, Proximity, t.release_proximity))
                 .then_some((Done, Cause::Clear)),
             Cancel => trajectory.map(|e| (Cancelled, if e == Reached { Cause::Reached } else { Cause::Stalled })),
@@ -303,6 +327,13 @@ mod tests {
     }
 
     #[test]
+    fn names_match_the_json() {
+        for s in State::ALL {
+            assert_eq!(serde_json::to_value(s).unwrap(), s.name());
+        }
+    }
+
+    #[test]
     fn a_successful_grasp_and_release() {
         let mut r = Run::new();
         use TrajectoryEvent::*;
@@ -313,10 +344,10 @@ mod tests {
         set(&mut r.ev, 3, 0.03, 0.0);
         assert_eq!(r.step(None), State::Contact, "pre-contact on both arms, still closing");
         assert_eq!(r.step(Some(Stalled)), State::Load, "held off by the proximity reactions: in pre-contact");
-        set(&mut r.ev, 2, 0.9, 0.12);
-        assert_eq!(r.step(None), State::Load);
+        set(&mut r.ev, 2, 0.9, 0.05);
+        assert_eq!(r.step(None), State::Load, "a low force is not enough");
         set(&mut r.ev, 3, 0.9, 0.15);
-        assert_eq!(r.step(None), State::Pull);
+        assert_eq!(r.step(None), State::Pull, "medium force on one arm");
         set(&mut r.ev, 4, 0.5, 0.0);
         assert_eq!(r.step(None), State::Pull);
         set(&mut r.ev, 4, 0.85, 0.0);

@@ -130,6 +130,26 @@ pub enum ControlError {
     MissingPose(String),
 }
 
+impl MotorMap for crate::explore::SensoryMotorMap {
+    fn dofs(&self) -> usize {
+        self.tiles().first().map_or(0, |t| t.pose().len())
+    }
+
+    fn cells(&self) -> &[Address] {
+        crate::explore::SensoryMotorMap::cells(self)
+    }
+
+    fn nearest_tile(&self, pose: &[f64]) -> Option<usize> {
+        let distance = |p: &[f64]| p.iter().zip(pose).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
+        let tiles = self.tiles();
+        (0..tiles.len()).min_by(|a, b| distance(tiles[*a].pose()).total_cmp(&distance(tiles[*b].pose())))
+    }
+
+    fn weights(&self, tile: usize, row: usize) -> &[f32] {
+        self.tiles()[tile].weights(row)
+    }
+}
+
 #[cfg(test)]
 pub(crate) mod testing {
     //! A map given by its tiles, for tests.

@@ -51,7 +51,7 @@ pub struct Transitions {
     pub approach_proximity: u8,
     /// Proximity on every contact area that ends the contact phase.
     pub contact_proximity: u8,
-    /// Force on every contact area that ends loading.
+    /// Force on a contact area that ends loading.
     pub load_force: u8,
     /// Proximity on the chest that ends the pull.
     pub chest_proximity: u8,

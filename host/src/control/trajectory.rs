@@ -143,6 +143,7 @@ impl Trajectory {
             return Err(ControlError::Dimension { expected: self.target.len(), got: pose.len().min(out.len()) });
         }
         let far = pose.iter().zip(&self.target).map(|(q, t)| (t - q).abs()).fold(0.0, f64::max);
+        let distance = pose.iter().zip(&self.target).map(|(q, t)| (t - q) * (t - q)).sum::<f64>().sqrt();
         let mut event = None;
         if far <= self.motion.accuracy && !self.reached {
             self.reached = true;
@@ -157,18 +158,20 @@ impl Trajectory {
             *o = (t - q) * scale;
         }
         if !self.reached {
-            event = event.or(self.watch_progress(far, time_s));
+            event = event.or(self.watch_progress(distance, time_s));
         }
         Ok(event)
     }
 
-    fn watch_progress(&mut self, far: f64, time_s: f64) -> Option<TrajectoryEvent> {
-        let (start_s, start_far) = *self.window.get_or_insert((time_s, far));
+    /// Progress is judged on the whole pose (Euclidean distance to the
+    /// target): some joints may be held back while others still move.
+    fn watch_progress(&mut self, distance: f64, time_s: f64) -> Option<TrajectoryEvent> {
+        let (start_s, start) = *self.window.get_or_insert((time_s, distance));
         if time_s - start_s < self.timing.stall_window_s {
             return None;
         }
-        self.window = Some((time_s, far));
-        let stalled = start_far - far < self.timing.stall_rad;
+        self.window = Some((time_s, distance));
+        let stalled = start - distance < self.timing.stall_rad;
         let new = stalled && !self.stalled;
         self.stalled = stalled;
         new.then_some(TrajectoryEvent::Stalled)
