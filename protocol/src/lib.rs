@@ -16,6 +16,7 @@
 //! - [`event`]: Table 3 tactile levels with hysteresis, and send-on-delta.
 //! - [`processing`]: a cell's local filtering, offsets, events and send decision.
 //! - [`interface`]: the UDP datagram between an interface port and the host.
+//! - [`robot_link`]: the UDP datagram between the host and a robot (section 3.2).
 #![cfg_attr(not(feature = "std"), no_std)]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -28,6 +29,7 @@ pub mod interface;
 pub mod message;
 pub mod organize;
 pub mod processing;
+pub mod robot_link;
 pub mod router;
 pub mod sample;
 
