@@ -439,6 +439,7 @@ fn plot(run: &GraspRun, path: &Path) -> Result<(), Box<dyn std::error::Error>> {
         chart.configure_mesh().x_desc("time after the launching pat (s)").light_line_style(WHITE).draw()?;
         for l in &run.state_log {
             chart.draw_series(LineSeries::new([(l.time_s, lo), (l.time_s, hi)], &RGBColor(180, 180, 180)))?;
+            chart.draw_series([Text::new(l.state.name(), (l.time_s, hi), ("sans-serif", 11).into_font())])?;
         }
         for (name, colour, points) in lines {
             let colour = *colour;
