@@ -272,6 +272,30 @@ mod tests {
         assert_eq!(s.release.gains(AreaKind::Contact).proximity, Primitive::new(0.01, 0.2));
     }
 
+    proptest::proptest! {
+        /// Any text, or the default file with any value in place of one
+        /// number, gives parameters or an error, never a panic; what is
+        /// accepted passes the checks.
+        #[test]
+        fn any_file_gives_parameters_or_an_error(
+            text in "\\PC{0,200}",
+            at in 0usize..60,
+            value in proptest::num::f64::ANY,
+        ) {
+            let _ = Params::from_toml_str(&text);
+            let _ = crate::control::areas::parse_specs(&text);
+            let _ = crate::control::teach::KeyPoses::from_toml_str(&text);
+            let mut numbers = DEFAULT_TOML.match_indices(|c: char| c.is_ascii_digit()).map(|(i, _)| i);
+            if let Some(i) = numbers.nth(at) {
+                let end = DEFAULT_TOML[i..].find(|c: char| !(c.is_ascii_digit() || c == '.')).map_or(DEFAULT_TOML.len(), |e| i + e);
+                let edited = format!("{}{value:?}{}", &DEFAULT_TOML[..i], &DEFAULT_TOML[end..]);
+                if let Ok(p) = Params::from_toml_str(&edited) {
+                    proptest::prop_assert!(p.check().is_ok());
+                }
+            }
+        }
+    }
+
     #[test]
     fn the_file_round_trips() {
         let p = Params::default();
