@@ -255,20 +255,15 @@ fn ten_thousand_cells_with_sixteen_ports_organize() {
     assert_eq!(r.cells_reachable, 10_000);
 }
 
-/// Event-driven traffic on the grasp, with the host setting the proximity
-/// send-on-delta to 1% of full scale (the finest step of Table 3's
-/// proximity levels), serves five times the 80 cells the paper gives one
-/// interface port at 250 Hz: 400 cells on one port, every tactile event and
-/// every sensor frame within 4 ms, none lost. With the firmware's default
-/// thresholds (about twice the sensor noise) the approach floods the port:
-/// see the report of `skin-sim network --topology hex:20x20 --interfaces 1
-/// --traffic event --stimulus grasp --duration 14`.
+/// Event-driven traffic on the grasp, with the firmware's default
+/// send-on-delta thresholds (1% of full scale for proximity and force,
+/// Table 3's finest step), serves five times the 80 cells the paper gives
+/// one interface port at 250 Hz: 400 cells on one port, every tactile event
+/// and every sensor frame within 4 ms, none lost.
 #[test]
 #[ignore]
 fn event_driven_grasp_serves_five_times_the_cells_of_clock_driven() {
-    let mut c = config(TrafficMode::Event, StimulusKind::Grasp, 0);
-    c.delta_counts[0] = Some(655);
-    let r = run(&Scenario::new(patch(20, 20, 1), c, 14.0));
+    let r = run(&Scenario::new(patch(20, 20, 1), config(TrafficMode::Event, StimulusKind::Grasp, 0), 14.0));
     println!("{}", r.summary());
     organized(&r);
     assert!(r.event_latency_us.count > 1000, "{}", r.summary());

@@ -77,6 +77,15 @@ struct NetworkArgs {
     /// az, temperature. Repeatable.
     #[arg(long = "delta", value_parser = parse_delta)]
     deltas: Vec<(u8, u16)>,
+    /// Period of the keep-alive probes on idle links, in ms; a link is
+    /// given up after 3.5 periods of silence. Longer periods suit large
+    /// skins: less control traffic, slower detection of a broken link.
+    #[arg(long, default_value_t = 10.0)]
+    probe_ms: f64,
+    /// Period of the beacon waves of the interface ports, in ms; a route
+    /// is given up after 3.5 periods without a wave.
+    #[arg(long, default_value_t = 10.0)]
+    beacon_ms: f64,
     /// Seed of everything random.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -107,6 +116,14 @@ fn parse_delta(s: &str) -> Result<(u8, u16), String> {
     Ok((channel as u8, counts))
 }
 
+/// A period flag in ms as whole microseconds.
+fn period_us(flag: &str, ms: f64) -> Result<u64, NetworkError> {
+    if !(ms.is_finite() && ms > 0.0) {
+        return Err(NetworkError::Flag(format!("{flag} {ms}: give a period in ms, e.g. {flag} 100")));
+    }
+    Ok((ms * 1e3).round() as u64)
+}
+
 fn network(args: NetworkArgs) -> Result<(), NetworkError> {
     let mut topology = Topology::parse(&args.topology)?;
     let have = topology.interfaces().len();
@@ -130,7 +147,8 @@ fn network(args: NetworkArgs) -> Result<(), NetworkError> {
         },
         seed: args.seed,
         ..NetworkConfig::default()
-    };
+    }
+    .with_periods(period_us("--probe-ms", args.probe_ms)?, period_us("--beacon-ms", args.beacon_ms)?)?;
     for (channel, counts) in args.deltas {
         config.delta_counts[usize::from(channel)] = Some(counts);
     }

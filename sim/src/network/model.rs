@@ -9,9 +9,14 @@
 //! one sampling period, and one interface link carries one frame time's
 //! worth of cells per period. Our router also sends link-local frames
 //! (keep-alive probe and its answer) first, which the paper's figure leaves
-//! out; the `_with_control` figures include them.
+//! out, and every cell reports its neighbours upstream now and then; the
+//! `_with_control` figures include them. A link busy with data needs no
+//! keep-alive, so the interface link of a clock-driven tree carries only
+//! the reports.
 
 use serde::Serialize;
+
+use skin_protocol::organize::Config;
 
 use super::link::LinkTiming;
 
@@ -35,22 +40,22 @@ pub struct Model {
     pub max_depth_with_control: u64,
     /// Cells one interface link carries, clock-driven (paper: 80).
     pub cells_per_interface: u64,
-    /// The same less the keep-alive probes on the interface link.
+    /// The same less the neighbour-report heartbeat of every cell.
     pub cells_per_interface_with_control: u64,
     /// One frame in its own datagram on the 1 Gbit/s interface (paper: 688 ns).
     pub datagram_ns: u64,
 }
 
 impl Model {
-    /// The figures for `timing`, sampling at `rate_hz`, with keep-alive
-    /// probes every `probe_period_us`.
-    pub fn new(timing: &LinkTiming, rate_hz: f64, probe_period_us: u64) -> Model {
+    /// The figures for `timing`, sampling at `rate_hz`, with the cells'
+    /// self-organization timing `organize`.
+    pub fn new(timing: &LinkTiming, rate_hz: f64, organize: &Config) -> Model {
         let frame = timing.frame_ns();
         let forwarding = timing.processing_ns + frame * (1 + OTHER_INPUTS + 1);
         let with_control = forwarding + frame * LINK_LOCAL_AHEAD;
         let period_ns = 1e9 / rate_hz;
         let per_link = timing.frames_per_s();
-        let probes = 1e6 / probe_period_us as f64;
+        let reports_hz = 1e6 / organize.report_period_us as f64;
         Model {
             frame_us: frame as f64 / 1e3,
             forwarding_us: forwarding as f64 / 1e3,
@@ -58,7 +63,7 @@ impl Model {
             max_depth: (period_ns / forwarding as f64).floor() as u64,
             max_depth_with_control: (period_ns / with_control as f64).floor() as u64,
             cells_per_interface: (per_link / rate_hz).floor() as u64,
-            cells_per_interface_with_control: ((per_link - probes) / rate_hz).floor() as u64,
+            cells_per_interface_with_control: (per_link / (rate_hz + reports_hz)).floor() as u64,
             datagram_ns: timing.datagram_ns(1),
         }
     }
@@ -70,7 +75,7 @@ mod tests {
 
     #[test]
     fn the_papers_figures_follow_from_table_2() {
-        let m = Model::new(&LinkTiming::default(), 250.0, 10_000);
+        let m = Model::new(&LinkTiming::default(), 250.0, &Config::default());
         assert_eq!((m.frame_us, m.forwarding_us, m.max_depth, m.cells_per_interface), (50.0, 275.0, 14, 80));
         assert_eq!((m.forwarding_with_control_us, m.max_depth_with_control), (375.0, 10));
         assert_eq!(m.cells_per_interface_with_control, 79);

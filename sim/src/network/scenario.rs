@@ -165,6 +165,12 @@ pub struct Report {
     /// traffic, over the busiest per-cell sensor rate (`null` when no
     /// cell sent any).
     pub max_cells_per_interface_at_rate: Option<u64>,
+    /// The same before rounding down to whole cells.
+    pub cells_per_interface: Option<f64>,
+    /// Keep-alive probe period of idle links.
+    pub probe_period_ms: f64,
+    /// Beacon wave period of the interface ports.
+    pub beacon_period_ms: f64,
     /// The worst sensor latency stayed within one sampling period and no
     /// sensor frame was lost while measuring.
     pub meets_rate: bool,
@@ -242,9 +248,9 @@ impl Scenario {
         let peak_per_cell_hz = m.peak_data_frames_per_period as f64 / live as f64 / period_s;
         let control_hz =
             m.interface_frames.iter().map(|(all, data)| (all - data) as f64 / measured_s).fold(0.0, f64::max);
-        let model = Model::new(&c.timing, f64::from(c.rate_hz), c.organize.probe_period_us);
+        let model = Model::new(&c.timing, f64::from(c.rate_hz), &c.organize);
         let capacity = (c.timing.frames_per_s() - control_hz).max(0.0);
-        let max_cells = (peak_per_cell_hz > 0.0).then(|| (capacity / peak_per_cell_hz).floor() as u64);
+        let cells_per_interface = (peak_per_cell_hz > 0.0).then(|| capacity / peak_per_cell_hz);
         let latency_us = m.latency.quantiles();
         Report {
             cells: net.cells(),
@@ -304,7 +310,10 @@ impl Scenario {
                 peak_per_cell_hz,
                 control_per_interface_hz: control_hz,
             },
-            max_cells_per_interface_at_rate: max_cells,
+            max_cells_per_interface_at_rate: cells_per_interface.map(|n| n.floor() as u64),
+            cells_per_interface,
+            probe_period_ms: c.organize.probe_period_us as f64 / 1e3,
+            beacon_period_ms: c.organize.beacon_period_us as f64 / 1e3,
             meets_rate: (latency_us.max as f64) < period_s * 1e6 && l.sensor_dropped == m.sensor_dropped_before,
             model,
             events: m.events,
@@ -372,7 +381,8 @@ impl Report {
             None => "not checked (external host)",
         };
         format!(
-            "{cells} cells, {ifs} interface ports, {rate} Hz {mode} traffic, {stim} skin, seed {seed}\n\
+            "{cells} cells, {ifs} interface ports, {rate} Hz {mode} traffic, {stim} skin, seed {seed}; \
+             probes every {probe} ms, beacons every {beacon} ms\n\
              {org}; tree depth {depth}; IDs unique: {ids}; neighbour table correct: {neighbours}; \
              attached {att}/{reach}; IDs kept: {kept}\n\
              delivered {del}, dropped {drop} ({after} after organizing, {sensors} of them sensor frames; {reasons:?}), \
@@ -415,8 +425,11 @@ impl Report {
             fwc = self.model.forwarding_with_control_us,
             frac = 100.0 * self.traffic.fraction_of_clock,
             peak = self.traffic.peak_per_cell_hz,
-            maxc =
-                self.max_cells_per_interface_at_rate.map_or("unbounded (no sensor traffic)".into(), |n| n.to_string()),
+            maxc = self
+                .cells_per_interface
+                .map_or("unbounded (no sensor traffic)".into(), |n| format!("{} ({n:.2})", n.floor())),
+            probe = self.probe_period_ms,
+            beacon = self.beacon_period_ms,
             meets = yes(self.meets_rate),
             sim = self.sim_time_s,
             wall = self.wall_time_s,

@@ -327,10 +327,12 @@ mod tests {
         assert_eq!(order, ['a', 'b', 'c', 'd']);
         assert_eq!(s.now_ns(), 30);
         s.at(0, 'e');
+        s.after(0, 'f');
         assert_eq!(s.next_ns(), Some(30), "the past is now");
         s.advance(50);
         assert_eq!(s.now_ns(), 30, "the clock does not skip a due event");
         s.pop_until(100);
+        assert_eq!(s.pop_until(100), Some('f'));
         s.advance(50);
         assert_eq!(s.now_ns(), 50);
         assert!(s.is_empty());

@@ -79,6 +79,36 @@ impl Default for NetworkConfig {
     }
 }
 
+/// Shortest and longest keep-alive or beacon period the simulator takes.
+const PERIOD_RANGE_US: std::ops::RangeInclusive<u64> = 1_000..=10_000_000;
+
+impl NetworkConfig {
+    /// The same network with keep-alive probes on idle links every
+    /// `probe_us` and beacon waves every `beacon_us`; a link (a route) is
+    /// given up after 3.5 periods without a frame (a wave), as with the
+    /// defaults of 10 ms. Longer periods cost a large skin less control
+    /// traffic (every idle link carries two frames per probe period, every
+    /// cell relays a wave per beacon period) and detect a broken link or
+    /// route later, after 3.5 periods.
+    pub fn with_periods(mut self, probe_us: u64, beacon_us: u64) -> Result<NetworkConfig, NetworkError> {
+        for (what, us) in [("probe", probe_us), ("beacon", beacon_us)] {
+            if !PERIOD_RANGE_US.contains(&us) {
+                return Err(NetworkError::Flag(format!(
+                    "{what} period {} ms: use {} ms to {} ms",
+                    us as f64 / 1e3,
+                    *PERIOD_RANGE_US.start() as f64 / 1e3,
+                    *PERIOD_RANGE_US.end() as f64 / 1e3
+                )));
+            }
+        }
+        self.organize.probe_period_us = probe_us;
+        self.organize.link_timeout_us = probe_us * 7 / 2;
+        self.organize.beacon_period_us = beacon_us;
+        self.organize.route_timeout_us = beacon_us * 7 / 2;
+        Ok(self)
+    }
+}
+
 /// A datagram an interface port sent to the host, and when it arrived.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct HostDatagram {
