@@ -12,10 +12,12 @@
 //! - [`accel`]: the BMA250 accelerometer model.
 //! - [`world`]: robot, base and skin stepped together at 250 Hz.
 //! - [`network`]: the cell network, every cell running the firmware's protocol code.
+//! - [`endpoint`]: the simulated robot and skin served over UDP, as a real one is reached.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod accel;
+pub mod endpoint;
 pub mod network;
 pub mod robot;
 pub mod scene;

@@ -173,6 +173,13 @@ impl Histogram {
         self.max_us
     }
 
+    /// Every latency recorded and how often, in microseconds, smallest
+    /// first, leaving out those never seen (values of 100 ms and more
+    /// count as 100 ms less 1 us).
+    pub fn counts(&self) -> impl Iterator<Item = (u64, u64)> + '_ {
+        (0u64..).zip(self.counts.iter().copied()).filter(|(_, c)| *c > 0)
+    }
+
     /// Median, 99th percentile, maximum and count (all 0 when empty).
     pub fn quantiles(&self) -> Quantiles {
         if self.n == 0 {
@@ -196,6 +203,8 @@ mod tests {
         h.record(250_000);
         let q = h.quantiles();
         assert_eq!((q.p50, q.p99, q.max, q.count), (51, 100, 250_000, 101));
+        let counts: Vec<(u64, u64)> = h.counts().collect();
+        assert_eq!((counts.len(), counts[0], counts[100]), (101, (1, 1), (99_999, 1)));
     }
 
     #[test]

@@ -25,6 +25,7 @@ use skin_protocol::message::{ConfigAck, Message, Neighbour, Port, Setting, Traff
 use skin_protocol::organize::{Config, FromCell, Sink};
 use skin_protocol::processing::Processor;
 use skin_protocol::router::Counters;
+use skin_protocol::Sample;
 
 use super::fault::{FaultKind, REBOOT_DOWN_NS};
 use super::ledger::{DropReason, Drops, Histogram, Ledger};
@@ -566,6 +567,13 @@ impl Network {
         }
         self.kick_interface(k);
         Ok(())
+    }
+
+    /// Raw readings from outside, one per cell, that every cell samples
+    /// from now on (until the next call) instead of the stimulus: what a
+    /// simulated robot feels, carried by the network as the skin would.
+    pub fn feed(&mut self, raw: &[Sample]) -> Result<(), NetworkError> {
+        self.stimulus.feed(raw)
     }
 
     /// Who is on each port of cell `i` on the live wiring, as the cell

@@ -82,6 +82,9 @@ pub struct Stimulus {
     lo: [f64; 2],
     hi: [f64; 2],
     rng: ChaCha8Rng,
+    /// Readings fed from outside (a world model), one per cell, replacing
+    /// the stimulus once given.
+    fed: Option<Vec<Sample>>,
 }
 
 impl Stimulus {
@@ -114,6 +117,7 @@ impl Stimulus {
             lo: [fold(f64::min, f64::MAX, 0), fold(f64::min, f64::MAX, 1)],
             hi: [fold(f64::max, f64::MIN, 0), fold(f64::max, f64::MIN, 1)],
             rng,
+            fed: None,
         }
     }
 
@@ -166,8 +170,29 @@ impl Stimulus {
         distance_m > reach_m + 1e-6
     }
 
+    /// From now on every cell reads `raw[cell]` (until the next call)
+    /// instead of the stimulus: the readings of a simulated world, so the
+    /// network carries what the robot feels.
+    pub fn feed(&mut self, raw: &[Sample]) -> Result<(), NetworkError> {
+        if raw.len() != self.positions_m.len() {
+            return Err(NetworkError::Flag(format!(
+                "{} readings fed to a skin of {} cells",
+                raw.len(),
+                self.positions_m.len()
+            )));
+        }
+        match &mut self.fed {
+            Some(fed) => fed.copy_from_slice(raw),
+            None => self.fed = Some(raw.to_vec()),
+        }
+        Ok(())
+    }
+
     /// The raw sample of cell `cell` at time `t_s`.
     pub fn raw(&mut self, cell: usize, t_s: f64) -> Sample {
+        if let Some(fed) = &self.fed {
+            return fed[cell];
+        }
         let b = self.baselines[cell];
         let p = self.positions_m[cell];
         let (_, distance_m) = self.contact(p, t_s);
@@ -239,5 +264,14 @@ mod tests {
         assert!(times.all(|s| touched(&mut t, s) <= 3), "a fingertip presses a few cells at most");
         assert!((0..20).any(|k| touched(&mut t, f64::from(k) * 0.1) > 0), "the finger touches somewhere");
         assert!("poke".parse::<StimulusKind>().is_err());
+    }
+
+    #[test]
+    fn fed_readings_replace_the_stimulus() {
+        let mut s = Stimulus::new(StimulusKind::Touch, &line(3), 1);
+        let fed: Vec<Sample> = (0..3).map(|k| Sample::saturating(k, [k; 3], [0, 0, 256], 800, 0)).collect();
+        assert!(s.feed(&fed[..2]).is_err(), "one reading per cell");
+        s.feed(&fed).unwrap();
+        assert_eq!((0..3).map(|c| s.raw(c, 1.0)).collect::<Vec<_>>(), fed);
     }
 }

@@ -1,0 +1,425 @@
+//! The simulated robot and its skin served over UDP, exactly as a real
+//! robot and skin are reached: the robot on the robot link
+//! ([`skin_protocol::robot_link`]), each interface port of the skin
+//! network on a socket of its own speaking interface datagrams. A host
+//! cannot tell it from the real thing.
+//!
+//! The [`World`] moves the robot and feels gravity and motion in every
+//! cell's accelerometer; its readings are the raw samples of the cells of
+//! a [`Network`], which process, route and deliver them as the firmware
+//! does. With [`Pacing::Lockstep`] the endpoint advances one control period
+//! per new velocity command, world and network together, so simulated time
+//! runs as fast as the host can go; with [`Pacing::RealTime`] it advances
+//! on the wall clock, answering commands at once and stopping the arms when
+//! commands cease, as a real robot does.
+
+use std::io::ErrorKind;
+use std::net::{SocketAddr, UdpSocket};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Arc};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use skin_protocol::interface::MAX_DATAGRAM;
+use skin_protocol::message::Neighbour;
+use skin_protocol::robot_link::{self, FromRobot, Refusal, ToRobot, MAX_DOFS, MAX_NAME};
+use skin_protocol::{Address, Sample};
+
+use crate::network::{Network, NetworkConfig, NetworkError, Topology};
+use crate::robot::hrp2;
+use crate::world::World;
+
+/// How long one wait for a request lasts before the stop flag is looked at.
+const STOP_CHECK: Duration = Duration::from_millis(50);
+/// A real-time robot stops when no command came for this long (a host
+/// that died must not leave the arms moving).
+const WATCHDOG: Duration = Duration::from_millis(200);
+
+/// How simulated time advances.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pacing {
+    /// One control period per new velocity command: as fast as the host goes.
+    Lockstep,
+    /// On the wall clock: commands are answered at once and held.
+    RealTime,
+}
+
+/// Where the endpoint listens and whom it talks to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EndpointConfig {
+    /// The robot-link socket (port 0 picks one).
+    pub robot: SocketAddr,
+    /// The host's interface socket, where every interface port sends.
+    pub host: SocketAddr,
+    /// How time advances.
+    pub pacing: Pacing,
+    /// The skin network's settings (its stimulus is replaced by the world).
+    pub network: NetworkConfig,
+}
+
+/// What was served.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Served {
+    /// Control periods simulated.
+    pub ticks: u64,
+    /// Robot-link datagrams that were not requests, or came from elsewhere
+    /// than the host's first robot-link address.
+    pub rejected: u64,
+    /// Commands refused (wrong length, not finite).
+    pub refused: u64,
+    /// Datagrams sent to the host's interface socket.
+    pub datagrams_up: u64,
+    /// Datagrams from the host the skin network refused.
+    pub datagrams_refused: u64,
+}
+
+/// What only the simulator knows after a run, for checking the host.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Truth {
+    /// What was served.
+    pub served: Served,
+    /// The ID of each of the world's skin cells ([`Address::UNASSIGNED`]
+    /// where it has none), in the world's skin order.
+    pub ids: Vec<Address>,
+    /// Every cell's true neighbour table on the live wiring, by cell ID.
+    pub neighbours: Vec<(Address, [Option<Neighbour>; 4])>,
+    /// Latency of every sensor frame from its making to the host's
+    /// socket: (microseconds, frames), smallest first.
+    pub latency_us: Vec<(u64, u64)>,
+    /// Sensor frames lost in the network.
+    pub sensor_frames_lost: u64,
+}
+
+/// The simulated robot and skin behind their sockets.
+pub struct Endpoint {
+    world: World,
+    network: Network,
+    /// `world_cell[n]`: the world's skin index of network cell `n`.
+    world_cell: Vec<usize>,
+    robot_socket: UdpSocket,
+    ports: Vec<UdpSocket>,
+    host: SocketAddr,
+    /// The host's robot-link address, bound to the first one that asks.
+    commander: Option<SocketAddr>,
+    pacing: Pacing,
+    command: Vec<f64>,
+    /// When the last command came.
+    commanded_at: Option<Instant>,
+    /// The last command's `seq` and the answer sent, for retries.
+    last: Option<(u32, FromRobot)>,
+    samples: Vec<(Address, Sample)>,
+    raw: Vec<Sample>,
+    served: Served,
+}
+
+impl Endpoint {
+    /// The paper's robot and skin: the built-in HRP-2-like upper body
+    /// (seeded as [`hrp2::world`]) wired as [`Topology::hrp2`], each arm's
+    /// two patches on that arm's links from shoulder to gripper and the
+    /// chest patch on the chest.
+    pub fn hrp2(seed: u64, config: EndpointConfig) -> Result<Endpoint, NetworkError> {
+        let world = hrp2::world(seed);
+        let by_link = |prefix: &str| -> Vec<usize> {
+            (0..world.skin().cells().len()).filter(|&i| world.skin().cells()[i].link.starts_with(prefix)).collect()
+        };
+        let world_cell: Vec<usize> = ["RARM", "LARM", "CHEST"].iter().flat_map(|p| by_link(p)).collect();
+        Endpoint::new(world, &Topology::hrp2(), world_cell, config)
+    }
+
+    /// `world` with its skin wired as `topology`; network cell `n` is the
+    /// world's skin cell `world_cell[n]`, and every skin cell is one
+    /// network cell.
+    pub fn new(
+        world: World,
+        topology: &Topology,
+        world_cell: Vec<usize>,
+        config: EndpointConfig,
+    ) -> Result<Endpoint, NetworkError> {
+        for (what, addr) in [("robot link", config.robot), ("host", config.host)] {
+            if !addr.ip().is_loopback() {
+                return Err(NetworkError::Flag(format!(
+                    "{what} address {addr}: the simulated robot only talks to this machine; use 127.0.0.1:PORT"
+                )));
+            }
+        }
+        let cells = world.skin().cells().len();
+        let mut seen = vec![false; cells];
+        let one_to_one = world_cell.len() == cells
+            && topology.cells() == cells
+            && world_cell.iter().all(|&i| i < cells && !std::mem::replace(&mut seen[i], true));
+        if !one_to_one {
+            return Err(NetworkError::Topology(format!(
+                "the wiring must map the {} network cells one to one onto the {cells} skin cells",
+                topology.cells()
+            )));
+        }
+        if world.robot().dofs().len() > MAX_DOFS {
+            return Err(NetworkError::Flag(format!("the robot link carries at most {MAX_DOFS} DoFs")));
+        }
+        let network = Network::new(topology, config.network)?;
+        let local = SocketAddr::new(config.robot.ip(), 0);
+        let ports = (0..network.interfaces()).map(|_| bind(local)).collect::<Result<Vec<_>, _>>()?;
+        let robot_socket = UdpSocket::bind(config.robot)?;
+        robot_socket.set_read_timeout(Some(STOP_CHECK))?;
+        Ok(Endpoint {
+            command: vec![0.0; world.robot().dofs().len()],
+            raw: vec![Sample::default(); cells],
+            world,
+            network,
+            world_cell,
+            robot_socket,
+            ports,
+            host: config.host,
+            commander: None,
+            commanded_at: None,
+            pacing: config.pacing,
+            last: None,
+            samples: Vec::new(),
+            served: Served::default(),
+        })
+    }
+
+    /// The robot-link address.
+    pub fn robot_addr(&self) -> Result<SocketAddr, NetworkError> {
+        Ok(self.robot_socket.local_addr()?)
+    }
+
+    /// The address each interface port sends from, by port number.
+    pub fn interface_addrs(&self) -> Result<Vec<SocketAddr>, NetworkError> {
+        Ok(self.ports.iter().map(UdpSocket::local_addr).collect::<Result<_, _>>()?)
+    }
+
+    /// The world: ground truth, for checking what the host learned.
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+
+    /// The skin network: ground truth of the wiring and its measurements.
+    pub fn network(&self) -> &Network {
+        &self.network
+    }
+
+    /// The ID each of the world's skin cells has in the network now
+    /// ([`Address::UNASSIGNED`] before it got one), in the world's skin order.
+    pub fn assigned_ids(&self) -> Vec<Address> {
+        let mut ids = vec![Address::UNASSIGNED; self.world_cell.len()];
+        for (n, &w) in self.world_cell.iter().enumerate() {
+            ids[w] = self.network.cell(n).map_or(Address::UNASSIGNED, |c| c.id());
+        }
+        ids
+    }
+
+    /// What was served so far.
+    pub fn served(&self) -> Served {
+        self.served
+    }
+
+    /// What only the simulator knows, now.
+    pub fn truth(&self) -> Truth {
+        let m = self.network.measurements();
+        Truth {
+            served: self.served,
+            ids: self.assigned_ids(),
+            neighbours: (0..self.network.cells())
+                .filter_map(|n| Some((self.network.cell(n)?.id(), self.network.true_neighbours(n))))
+                .filter(|(id, _)| id.is_cell())
+                .collect(),
+            latency_us: m.latency.counts().collect(),
+            sensor_frames_lost: m.ledger.sensor_dropped,
+        }
+    }
+
+    /// Serves the host until `stop` is set.
+    pub fn serve(&mut self, stop: &AtomicBool) -> Result<Served, NetworkError> {
+        let period = Duration::from_secs_f64(self.world.config().tick_s);
+        let start = Instant::now();
+        let mut buf = [0u8; robot_link::MAX_DATAGRAM + 1];
+        while !stop.load(Ordering::Relaxed) {
+            if self.pacing == Pacing::RealTime {
+                let due = start + period * (self.served.ticks as u32 + 1);
+                match due.checked_duration_since(Instant::now()) {
+                    None => {
+                        self.advance()?;
+                        continue;
+                    }
+                    Some(wait) => self.robot_socket.set_read_timeout(Some(wait.clamp(MIN_WAIT, STOP_CHECK)))?,
+                }
+            }
+            let (n, from) = match self.robot_socket.recv_from(&mut buf) {
+                Ok(got) => got,
+                Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => continue,
+                // An ICMP error from an earlier answer to a host that went away.
+                Err(e) if e.kind() == ErrorKind::ConnectionRefused => continue,
+                Err(e) => return Err(e.into()),
+            };
+            if *self.commander.get_or_insert(from) != from {
+                self.served.rejected += 1;
+                continue;
+            }
+            let Ok(request) = robot_link::decode::<ToRobot>(&buf[..n]) else {
+                self.served.rejected += 1;
+                continue;
+            };
+            let answer = self.answer(request)?;
+            let mut out = [0u8; robot_link::MAX_DATAGRAM];
+            let len = robot_link::encode(&answer, &mut out).expect("answers fit a robot-link datagram");
+            self.robot_socket.send_to(&out[..len], from)?;
+        }
+        Ok(self.served)
+    }
+
+    fn answer(&mut self, request: ToRobot) -> Result<FromRobot, NetworkError> {
+        let dofs = self.world.robot().dofs();
+        Ok(match request {
+            ToRobot::Hello => FromRobot::Info {
+                dofs: dofs.len() as u8,
+                period_us: (self.world.config().tick_s * 1e6).round() as u32,
+                lockstep: self.pacing == Pacing::Lockstep,
+            },
+            ToRobot::DofName { index } => match dofs.get(usize::from(index)) {
+                Some(d) => {
+                    let name = d.name.char_indices().take_while(|(i, c)| i + c.len_utf8() <= MAX_NAME);
+                    FromRobot::DofName { index, name: name.map(|(_, c)| c).collect() }
+                }
+                None => FromRobot::Refused { seq: 0, reason: Refusal::NoSuchDof },
+            },
+            ToRobot::Command { seq, velocities } => {
+                if let Some((last, answer)) = &self.last {
+                    if *last == seq {
+                        return Ok(answer.clone());
+                    }
+                }
+                let refusal = if velocities.len() != dofs.len() {
+                    Some(Refusal::WrongLength)
+                } else if velocities.iter().any(|v| !v.is_finite()) {
+                    Some(Refusal::NotFinite)
+                } else {
+                    None
+                };
+                if let Some(reason) = refusal {
+                    self.served.refused += 1;
+                    return Ok(FromRobot::Refused { seq, reason });
+                }
+                self.command.clear();
+                self.command.extend_from_slice(&velocities);
+                self.commanded_at = Some(Instant::now());
+                if self.pacing == Pacing::Lockstep {
+                    self.advance()?;
+                }
+                let answer = FromRobot::State {
+                    seq,
+                    time_us: (self.world.time_s() * 1e6).round() as u64,
+                    positions: self.world.positions().iter().copied().collect(),
+                };
+                self.last = Some((seq, answer.clone()));
+                answer
+            }
+        })
+    }
+
+    /// One control period: what the host sent down goes into the skin, the
+    /// world moves under the held command, and the network runs to the
+    /// period's end, every datagram it delivers going up to the host.
+    fn advance(&mut self) -> Result<(), NetworkError> {
+        self.take_from_host()?;
+        if self.pacing == Pacing::RealTime && self.commanded_at.is_none_or(|t| t.elapsed() > WATCHDOG) {
+            self.command.iter_mut().for_each(|w| *w = 0.0);
+        }
+        // Checked when it arrived: the right length, finite.
+        self.world.command(&self.command).map_err(|e| NetworkError::Flag(e.to_string()))?;
+        self.samples.clear();
+        self.world.step(&mut self.samples);
+        for (n, &w) in self.world_cell.iter().enumerate() {
+            self.raw[n] = self.samples[w].1;
+        }
+        self.network.feed(&self.raw)?;
+        let until_ns = (self.world.time_s() * 1e9).round() as u64;
+        while let Some(d) = self.network.step(until_ns) {
+            let port = usize::from(d.bytes[3]);
+            self.ports[port].send_to(&d.bytes, self.host)?;
+            self.served.datagrams_up += 1;
+        }
+        self.served.ticks += 1;
+        Ok(())
+    }
+
+    /// Hands every datagram the host sent to an interface port to the network.
+    fn take_from_host(&mut self) -> Result<(), NetworkError> {
+        let mut buf = [0u8; MAX_DATAGRAM + 1];
+        for k in 0..self.ports.len() {
+            loop {
+                match self.ports[k].recv_from(&mut buf) {
+                    // Only the host's datagrams for this very port.
+                    Ok((n, from)) if from == self.host && n > 3 && usize::from(buf[3]) == k => {
+                        if self.network.inject(&buf[..n]).is_err() {
+                            self.served.datagrams_refused += 1;
+                        }
+                    }
+                    Ok(_) => self.served.datagrams_refused += 1,
+                    Err(e) if e.kind() == ErrorKind::WouldBlock => break,
+                    Err(e) if e.kind() == ErrorKind::ConnectionRefused => {}
+                    Err(e) => return Err(e.into()),
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Shortest wait on the robot socket (a zero timeout would block forever).
+const MIN_WAIT: Duration = Duration::from_micros(100);
+
+fn bind(addr: SocketAddr) -> Result<UdpSocket, NetworkError> {
+    let socket = UdpSocket::bind(addr)?;
+    socket.set_nonblocking(true)?;
+    Ok(socket)
+}
+
+/// An endpoint serving on a thread of its own (the world is not `Send`, so
+/// it is built there).
+#[derive(Debug)]
+pub struct Running {
+    /// The robot-link address.
+    pub robot: SocketAddr,
+    /// Each interface port's address, by port number.
+    pub interfaces: Vec<SocketAddr>,
+    stop: Arc<AtomicBool>,
+    thread: JoinHandle<Result<Truth, NetworkError>>,
+}
+
+impl Running {
+    /// Builds an endpoint with `build` on a new thread and serves until
+    /// [`Running::stop`].
+    pub fn spawn(
+        build: impl FnOnce() -> Result<Endpoint, NetworkError> + Send + 'static,
+    ) -> Result<Running, NetworkError> {
+        let stop = Arc::new(AtomicBool::new(false));
+        let (tx, rx) = mpsc::channel();
+        let flag = stop.clone();
+        let thread = std::thread::Builder::new().name("simulated robot".into()).spawn(move || {
+            let mut endpoint = match build().and_then(|e| Ok((e.robot_addr()?, e.interface_addrs()?, e))) {
+                Ok((robot, interfaces, e)) => {
+                    let _ = tx.send(Ok((robot, interfaces)));
+                    e
+                }
+                Err(e) => {
+                    let _ = tx.send(Err(e));
+                    return Err(NetworkError::Flag("the endpoint could not be built".into()));
+                }
+            };
+            endpoint.serve(&flag)?;
+            Ok(endpoint.truth())
+        })?;
+        match rx.recv() {
+            Ok(Ok((robot, interfaces))) => Ok(Running { robot, interfaces, stop, thread }),
+            Ok(Err(e)) => Err(e),
+            Err(_) => Err(NetworkError::Flag("the endpoint thread ended before it was ready".into())),
+        }
+    }
+
+    /// Stops serving and returns what the simulator knows.
+    pub fn stop(self) -> Result<Truth, NetworkError> {
+        self.stop.store(true, Ordering::Relaxed);
+        self.thread.join().map_err(|_| NetworkError::Flag("the simulated robot's thread panicked".into()))?
+    }
+}
