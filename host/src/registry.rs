@@ -350,7 +350,10 @@ mod tests {
     use skin_protocol::message::{Neighbour, Port};
 
     fn report(neighbours: [Option<(u16, Port)>; 4]) -> NeighbourReport {
-        NeighbourReport { neighbours: neighbours.map(|n| n.map(|(id, port)| Neighbour { id: Address(id), port })), master: None }
+        NeighbourReport {
+            neighbours: neighbours.map(|n| n.map(|(id, port)| Neighbour { id: Address(id), port })),
+            master: None,
+        }
     }
 
     #[test]
