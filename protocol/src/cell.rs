@@ -9,7 +9,7 @@
 use crate::address::Address;
 use crate::frame::{Frame, Header, Kind};
 use crate::message::{Message, Port};
-use crate::organize::{Config, IdStore, Organizer, Out, Outs};
+use crate::organize::{Config, IdStore, Organizer};
 use crate::router::{Drop, Router, Source};
 
 /// Why [`Cell::send`] refused a message.
@@ -119,23 +119,8 @@ impl Cell {
 
     fn control(&mut self, port: Port, frame: &Frame, now_us: u64, store: &mut impl IdStore) {
         match frame.message() {
-            Ok(m) => {
-                let outs = self.organizer.handle(port, frame.header(), &m, now_us, store);
-                self.route(outs);
-            }
+            Ok(m) => self.organizer.handle(port, frame.header(), &m, now_us, store, &mut self.router),
             Err(_) => self.router.count_corrupt(),
-        }
-    }
-
-    fn route(&mut self, outs: Outs) {
-        self.sync();
-        for out in outs {
-            // Full queues are counted by the router; the organizer repeats
-            // everything that matters.
-            let _ = match out {
-                Out::Link(p, f) => self.router.link(p, f),
-                Out::Up(f) => self.router.upstream(Source::Own, f),
-            };
         }
     }
 
@@ -150,8 +135,8 @@ impl Cell {
     /// Lets time pass: probes, timeouts, retries.
     pub fn poll(&mut self, now_us: u64) {
         let busy = if now_us >= self.organizer.next_probe_us() { self.router.take_sent() } else { 0 };
-        let outs = self.organizer.poll(now_us, busy);
-        self.route(outs);
+        self.organizer.poll(now_us, busy, &mut self.router);
+        self.sync();
     }
 
     /// The next time [`Cell::poll`] has work to do.

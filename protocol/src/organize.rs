@@ -91,9 +91,21 @@ pub enum Out {
     Up(Frame),
 }
 
-/// Frames to send after one step; enough for the busiest step (a probe and
-/// a report for every port, an ID request, relayed beacons).
-pub type Outs = Vec<Out, 16>;
+/// Where the organizer puts the frames it wants sent: the cell's router,
+/// or a plain vector in tests.
+pub trait Outbox {
+    /// Takes one frame to send.
+    fn send(&mut self, out: Out);
+}
+
+impl<const N: usize> Outbox for Vec<Out, N> {
+    fn send(&mut self, out: Out) {
+        // Sized by the caller; a push past it is a bug in the test, not a
+        // network condition.
+        debug_assert!(self.len() < N, "outbox of {N} overflows");
+        let _ = self.push(out);
+    }
+}
 
 #[derive(Clone, Copy, Debug)]
 struct Link {
@@ -223,13 +235,6 @@ impl Organizer {
         Frame::new(self.id, Address::BROADCAST, &message)
     }
 
-    fn push(outs: &mut Outs, out: Out) {
-        // `Outs` is sized for the busiest step; a push past it is a bug, not
-        // a network condition, and losing a control frame is recoverable.
-        debug_assert!(outs.len() < outs.capacity());
-        let _ = outs.push(out);
-    }
-
     /// Notes that a valid frame arrived on `port`: the link is up.
     pub fn heard(&mut self, port: Port, now_us: u64) {
         match &mut self.links[port.index()] {
@@ -248,29 +253,28 @@ impl Organizer {
         message: &Message,
         now_us: u64,
         store: &mut impl IdStore,
-    ) -> Outs {
-        let mut outs = Outs::new();
+        outs: &mut impl Outbox,
+    ) {
         match *message {
             Message::Probe(p) | Message::ProbeAck(p) => {
                 if matches!(message, Message::Probe(_)) {
                     let ack = self.link_frame(Message::ProbeAck(self.probe(port)));
-                    Self::push(&mut outs, Out::Link(port, ack));
+                    outs.send(Out::Link(port, ack));
                 }
                 if let Some(link) = &mut self.links[port.index()] {
                     link.neighbour = Some(Neighbour { id: p.id, port: p.port });
                     link.child = p.master;
                 }
-                self.report(&mut outs, now_us);
-                self.request_id(&mut outs, now_us);
+                self.report(outs, now_us);
+                self.request_id(outs, now_us);
             }
-            Message::Beacon(b) => self.beacon(port, b, now_us, &mut outs),
-            Message::IdAssign(a) => self.assign(port, header, a, now_us, store, &mut outs),
+            Message::Beacon(b) => self.beacon(port, b, now_us, outs),
+            Message::IdAssign(a) => self.assign(port, header, a, now_us, store, outs),
             _ => {}
         }
-        outs
     }
 
-    fn beacon(&mut self, port: Port, b: Beacon, now_us: u64, outs: &mut Outs) {
+    fn beacon(&mut self, port: Port, b: Beacon, now_us: u64, outs: &mut impl Outbox) {
         if self.is_child(port) {
             return; // a child never leads toward the interface
         }
@@ -300,14 +304,14 @@ impl Organizer {
             // follows the tree without waiting for the next probe.
             for p in [old, Some(port)].into_iter().flatten() {
                 if self.is_active(p) {
-                    Self::push(outs, Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
+                    outs.send(Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
                 }
             }
         }
         let relay = Message::Beacon(Beacon { hops, ..b });
         for p in Port::ALL {
             if p != port && self.is_active(p) {
-                Self::push(outs, Out::Link(p, self.link_frame(relay)));
+                outs.send(Out::Link(p, self.link_frame(relay)));
             }
         }
         self.report(outs, now_us);
@@ -321,7 +325,7 @@ impl Organizer {
         a: IdAssign,
         now_us: u64,
         store: &mut impl IdStore,
-        outs: &mut Outs,
+        outs: &mut impl Outbox,
     ) {
         if header.dst == Address::UNASSIGNED {
             // For us, handed on by our parent.
@@ -330,7 +334,7 @@ impl Organizer {
                 store.store(a.id);
                 for p in Port::ALL {
                     if self.is_active(p) {
-                        Self::push(outs, Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
+                        outs.send(Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
                     }
                 }
                 self.report(outs, now_us);
@@ -338,19 +342,19 @@ impl Organizer {
         } else if header.dst == self.id && self.id != Address::UNASSIGNED {
             // For our child on `a.port`.
             let frame = Frame::new(header.src, Address::UNASSIGNED, &Message::IdAssign(a));
-            Self::push(outs, Out::Link(a.port, frame));
+            outs.send(Out::Link(a.port, frame));
         }
     }
 
     /// Phase 3: ask for an ID once the parent has one.
-    fn request_id(&mut self, outs: &mut Outs, now_us: u64) {
+    fn request_id(&mut self, outs: &mut impl Outbox, now_us: u64) {
         if self.id != Address::UNASSIGNED || now_us < self.next_id_request_us {
             return;
         }
         let Some(parent) = self.parent() else { return };
         self.next_id_request_us = now_us + self.config.id_retry_us;
         let request = Message::IdRequest(IdRequest { parent: parent.id, port: parent.port });
-        Self::push(outs, Out::Up(Frame::new(Address::UNASSIGNED, Address::HOST, &request)));
+        outs.send(Out::Up(Frame::new(Address::UNASSIGNED, Address::HOST, &request)));
     }
 
     /// The neighbour table and master port as they are now; neighbours
@@ -364,7 +368,7 @@ impl Organizer {
 
     /// Phase 4: reports the table when it changed, when a repeat of the last
     /// change is due, and as a heartbeat.
-    fn report(&mut self, outs: &mut Outs, now_us: u64) {
+    fn report(&mut self, outs: &mut impl Outbox, now_us: u64) {
         if self.id == Address::UNASSIGNED {
             return;
         }
@@ -384,15 +388,14 @@ impl Organizer {
             }
             None => now_us + self.config.report_period_us,
         };
-        Self::push(outs, Out::Up(Frame::new(self.id, Address::HOST, &Message::NeighbourReport(table))));
+        outs.send(Out::Up(Frame::new(self.id, Address::HOST, &Message::NeighbourReport(table))));
     }
 
     /// Does what time demands: probes, link and route timeouts, ID retries,
     /// the report heartbeat. `busy` has bit `p` set for each port that sent
     /// a frame since the last probe round: those need no probe, as the
     /// neighbour heard from us anyway.
-    pub fn poll(&mut self, now_us: u64, busy: u8) -> Outs {
-        let mut outs = Outs::new();
+    pub fn poll(&mut self, now_us: u64, busy: u8, outs: &mut impl Outbox) {
         for p in Port::ALL {
             let Some(l) = self.links[p.index()] else { continue };
             if now_us > l.last_rx_us + self.config.link_timeout_us {
@@ -407,12 +410,11 @@ impl Organizer {
         if now_us >= self.next_probe_us {
             self.next_probe_us = now_us + self.config.probe_period_us;
             for p in Port::ALL.into_iter().filter(|p| busy & (1 << p.index()) == 0) {
-                Self::push(&mut outs, Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
+                outs.send(Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
             }
         }
-        self.report(&mut outs, now_us);
-        self.request_id(&mut outs, now_us);
-        outs
+        self.report(outs, now_us);
+        self.request_id(outs, now_us);
     }
 }
 
@@ -467,7 +469,11 @@ impl Sink {
 
     /// Takes the bytes the cell sent.
     pub fn receive(&mut self, bytes: &[u8], now_us: u64) -> Result<FromCell, crate::frame::FrameError> {
-        let frame = Frame::parse(bytes)?;
+        self.receive_frame(Frame::parse(bytes)?, now_us)
+    }
+
+    /// [`Sink::receive`] for a frame the caller has already checked.
+    pub fn receive_frame(&mut self, frame: Frame, now_us: u64) -> Result<FromCell, crate::frame::FrameError> {
         self.last_rx_us = Some(now_us);
         if !frame.kind().is_link_local() {
             return Ok(FromCell::Host(frame));

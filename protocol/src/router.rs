@@ -15,6 +15,7 @@ use heapless::Deque;
 
 use crate::frame::Frame;
 use crate::message::Port;
+use crate::organize::{Out, Outbox};
 
 /// Capacity of each upstream input queue (4 ports + own), in frames.
 pub const UP_QUEUE: usize = 16;
@@ -70,6 +71,8 @@ pub struct Counters {
 #[derive(Debug)]
 pub struct Router {
     up: [Deque<Frame, UP_QUEUE>; 5],
+    /// Frames in all of `up`, so the master port's check is one compare.
+    up_total: usize,
     down: [Deque<Frame, DOWN_QUEUE>; 4],
     link: [Deque<Frame, LINK_QUEUE>; 4],
     next: usize,
@@ -92,6 +95,7 @@ impl Router {
     pub fn new() -> Router {
         Router {
             up: Default::default(),
+            up_total: 0,
             down: Default::default(),
             link: Default::default(),
             next: 0,
@@ -117,6 +121,7 @@ impl Router {
         if let Some(m) = master {
             let q = &mut self.up[m.index()];
             self.counters.dropped_reroute += q.len() as u32;
+            self.up_total -= q.len();
             q.clear();
         }
     }
@@ -143,10 +148,16 @@ impl Router {
             Source::Port(p) => p.index(),
             Source::Own => OWN,
         };
-        self.up[i].push_back(frame).map_err(|_| {
-            self.counters.dropped_full += 1;
-            Drop::QueueFull
-        })
+        match self.up[i].push_back(frame) {
+            Ok(()) => {
+                self.up_total += 1;
+                Ok(())
+            }
+            Err(_) => {
+                self.counters.dropped_full += 1;
+                Err(Drop::QueueFull)
+            }
+        }
     }
 
     /// Copies a downstream frame to every child port. Returns how many copies
@@ -189,10 +200,11 @@ impl Router {
 
     fn next_data(&mut self, port: Port) -> Option<Frame> {
         let p = port.index();
-        if self.master == Some(port) {
+        if self.master == Some(port) && self.up_total > 0 {
             for k in 0..self.up.len() {
                 let i = (self.next + k) % self.up.len();
                 if let Some(f) = self.up[i].pop_front() {
+                    self.up_total -= 1;
                     self.next = (i + 1) % self.up.len();
                     if i == OWN {
                         self.counters.sent_own += 1;
@@ -211,9 +223,7 @@ impl Router {
     /// True when `port` has something to send.
     pub fn has_pending(&self, port: Port) -> bool {
         let p = port.index();
-        !self.link[p].is_empty()
-            || !self.down[p].is_empty()
-            || (self.master == Some(port) && self.up.iter().any(|q| !q.is_empty()))
+        !self.link[p].is_empty() || !self.down[p].is_empty() || (self.master == Some(port) && self.up_total > 0)
     }
 
     /// Bit `p` set for each port with something to send.
@@ -251,6 +261,17 @@ impl Router {
     /// Frame counts since start.
     pub fn counters(&self) -> &Counters {
         &self.counters
+    }
+}
+
+/// The organizer's frames go straight into the queues; a full queue drops
+/// and counts, and the organizer repeats everything that matters.
+impl Outbox for Router {
+    fn send(&mut self, out: Out) {
+        let _ = match out {
+            Out::Link(p, f) => self.link(p, f),
+            Out::Up(f) => self.upstream(Source::Own, f),
+        };
     }
 }
 
@@ -322,6 +343,7 @@ mod tests {
                     }
                 }
                 prop_assert!(r.upstream_lens().iter().all(|n| *n <= UP_QUEUE));
+                prop_assert_eq!(r.upstream_lens().iter().sum::<usize>(), r.up_total);
                 let c = r.counters();
                 prop_assert_eq!(pushed, c.forwarded_up + c.sent_own + c.dropped_full + c.dropped_reroute + r.queued() as u32);
             }
