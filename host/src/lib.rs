@@ -12,6 +12,9 @@
 //! - [`config`]: the TOML configuration of the `skin` program.
 //! - [`control`]: whole-body tactile reactions, events, touch areas, key poses and the grasp.
 //! - [`grasping`]: the simulated experiment: exploration, teaching by proximity, grasps of Figure 16 objects.
+//! - [`remote`]: a robot and its skin over UDP: the robot link and the interface as one rig.
+//! - [`pipeline`]: the main job's steps: wait for the skin to organize, write the cell settings.
+//! - [`report`]: the report folder: figures as SVG, `report.json`, `index.html`.
 // Denied, not forbidden: the batched receive of `interface::socket` calls
 // `recvmmsg`/`sendmmsg` and is the one module allowed to.
 #![deny(unsafe_code)]
@@ -22,5 +25,8 @@ pub mod control;
 pub mod explore;
 pub mod grasping;
 pub mod interface;
+pub mod pipeline;
 pub mod registry;
+pub mod remote;
+pub mod report;
 pub mod robot;

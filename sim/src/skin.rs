@@ -155,6 +155,26 @@ impl Skin {
     pub fn cells(&self) -> &[Cell] {
         &self.cells
     }
+
+    /// The same cells under other IDs, `ids[i]` for cell `i`: the IDs a
+    /// host assigned during self-organization, so ground truth can be
+    /// looked up by them.
+    pub fn relabeled(&self, ids: &[Address]) -> Result<Skin, SkinError> {
+        if ids.len() != self.cells.len() {
+            return Err(SkinError::Parse(format!("{} IDs for {} cells", ids.len(), self.cells.len())));
+        }
+        let mut seen = std::collections::HashSet::new();
+        for id in ids {
+            if !id.is_cell() {
+                return Err(SkinError::BadId(u32::from(id.0)));
+            }
+            if !seen.insert(*id) {
+                return Err(SkinError::DuplicateId(id.0));
+            }
+        }
+        let cells = self.cells.iter().zip(ids).map(|(c, id)| Cell { id: *id, ..c.clone() }).collect();
+        Ok(Skin { cells })
+    }
 }
 
 fn check_count(n: usize) -> Result<(), SkinError> {
@@ -375,6 +395,23 @@ fn frame_with_normal(normal: &Vector3<f64>, angle: f64) -> UnitQuaternion<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn relabeling_keeps_the_cells_and_checks_the_ids() {
+        let robot = crate::robot::hrp2::robot();
+        let skin = Skin::per_link(&robot, 1, 0).unwrap();
+        let n = skin.cells().len();
+        let ids: Vec<Address> = (0..n as u16).map(|i| Address(100 + i)).collect();
+        let relabeled = skin.relabeled(&ids).unwrap();
+        assert!(relabeled.cells().iter().zip(skin.cells()).all(|(a, b)| a.link == b.link && a.pose == b.pose));
+        assert_eq!(relabeled.cells()[3].id, Address(103));
+        assert!(skin.relabeled(&ids[1..]).is_err());
+        let mut twice = ids.clone();
+        twice[1] = twice[0];
+        assert!(matches!(skin.relabeled(&twice), Err(SkinError::DuplicateId(100))));
+        twice[1] = Address::UNASSIGNED;
+        assert!(matches!(skin.relabeled(&twice), Err(SkinError::BadId(0))));
+    }
     use crate::robot::hrp2;
 
     #[test]

@@ -1,8 +1,10 @@
 //! The `skin` command line: one module per subcommand, dispatched here.
 
 mod config;
+mod demo;
 mod explore;
 mod grasp;
+mod job;
 mod loadgen;
 mod monitor;
 
@@ -20,6 +22,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// The main job on the built-in simulated robot and skin: organize, explore, teach, grasp, report.
+    Demo(demo::Args),
     /// Learn the robot's kinematic tree and sensory-motor map from its skin (section 4).
     Explore(explore::Args),
     /// Teach key poses by touch and grasp the objects of Figure 16 in simulation (sections 5 and 6).
@@ -40,6 +44,7 @@ pub fn main() -> ExitCode {
         .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()))
         .init();
     let result = match Cli::parse().command {
+        Command::Demo(args) => demo::run(args),
         Command::Explore(args) => explore::run(args),
         Command::Grasp(args) => grasp::run(args),
         Command::Monitor(args) => monitor::run(args),

@@ -1,0 +1,148 @@
+//! The main job shared by `skin demo` and `skin run`: organize the skin,
+//! write the cell settings, explore the body, each step with a progress
+//! bar; and the report's parts that come from it.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use skin_host::explore::{explore, Exploration, ExploreConfig};
+use skin_host::pipeline::{organize, write_settings, OrganizeConfig, Organized, PipelineError};
+use skin_host::remote::Remote;
+use skin_host::report::{ExplorationSection, LinkSection, Report, RobotSection, Timing};
+use skin_protocol::message::Setting;
+
+/// Robot time given to the cells to acknowledge each round of settings, s.
+const ACK_WAIT_S: f64 = 0.05;
+
+/// What the job does.
+pub struct Steps {
+    /// When the skin counts as organized.
+    pub organize: OrganizeConfig,
+    /// Written into every cell once organized.
+    pub settings: Vec<Setting>,
+    /// The exploration.
+    pub explore: ExploreConfig,
+}
+
+/// What the job found.
+pub struct Found {
+    pub organized: Organized,
+    pub exploration: Exploration,
+    pub timing: Timing,
+}
+
+pub fn bar(template: &str) -> ProgressBar {
+    ProgressBar::new(0)
+        .with_style(ProgressStyle::with_template(template).expect("a valid template").progress_chars("=> "))
+}
+
+/// Organizes, configures and explores.
+pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
+    let mut timing = Timing::default();
+    let wall = Instant::now();
+    let organizing = bar("{msg:24} [{bar:30}] {pos}/{len} cells with neighbour tables");
+    organizing.set_message("self-organization");
+    organizing.set_length(steps.organize.expected_cells.unwrap_or(0) as u64);
+    let mut organized = organize(remote, &steps.organize, &mut |n| {
+        if steps.organize.expected_cells.is_none() {
+            organizing.set_length(n as u64);
+        }
+        organizing.set_position(n as u64);
+    })?;
+    organized.settings_written = organized.cells.len() * steps.settings.len();
+    organized.settings_acknowledged = write_settings(remote, &steps.settings, ACK_WAIT_S)?;
+    organizing.finish_and_clear();
+    timing.organize_wall_s = wall.elapsed().as_secs_f64();
+    timing.organize_robot_s = organized.time_s;
+
+    let wall = Instant::now();
+    let exploring = bar("{msg:24} [{bar:30}] {pos}/{len} DoF measurements");
+    exploring.set_message("self-exploration");
+    let exploration = explore(remote, &steps.explore, &mut |p| {
+        exploring.set_length(p.total as u64);
+        exploring.set_position(p.done as u64);
+    })?;
+    exploring.finish_and_clear();
+    timing.explore_wall_s = wall.elapsed().as_secs_f64();
+    timing.structure_robot_s = exploration.structure_time_s;
+    timing.smm_robot_s = exploration.smm_time_s;
+    Ok(Found { organized, exploration, timing })
+}
+
+/// The report's parts that the job found; the rest is left empty.
+pub fn report(remote: &Remote, source: String, found: Found) -> Report {
+    let info = remote.link().info();
+    let link = remote.link().counters();
+    Report {
+        robot: RobotSection {
+            source,
+            dof_names: info.dof_names.clone(),
+            period_s: info.period_s,
+            lockstep: info.lockstep,
+        },
+        timing: found.timing,
+        organization: found.organized,
+        interface: *remote.interface().counters(),
+        link: LinkSection { retries: link.retries, ignored: link.ignored },
+        exploration: ExplorationSection::new(&found.exploration),
+        latency: None,
+        grasps: None,
+        truth: None,
+        figures: Vec::new(),
+    }
+}
+
+/// The short human summary.
+pub fn summary(r: &Report, written: &[PathBuf]) -> String {
+    let t = &r.timing;
+    let e = &r.exploration;
+    let mut s = format!("{}\n", r.robot.source);
+    s += &format!(
+        "self-organization: {} cells in {:.2} s robot time, {} of {} settings acknowledged\n",
+        r.organization.cells.len(),
+        t.organize_robot_s,
+        r.organization.settings_acknowledged,
+        r.organization.settings_written
+    );
+    s += &format!(
+        "self-exploration: {} body parts, {} joints, {} limbs; {:.1} s + {:.1} s robot time (structure + sensory-motor map)\n",
+        e.body_parts.len(),
+        e.joints.len(),
+        e.limbs.len(),
+        t.structure_robot_s,
+        t.smm_robot_s
+    );
+    if let Some(l) = &r.latency {
+        s += &format!(
+            "network latency: median {} us, 99% {} us, max {} us over {} sensor frames\n",
+            l.p50_us, l.p99_us, l.max_us, l.frames
+        );
+    }
+    if let Some(g) = &r.grasps {
+        let held = g.runs.iter().filter(|r| r.succeeded).count();
+        let names: Vec<String> =
+            g.runs.iter().map(|r| format!("{} {}", r.object, if r.succeeded { "held" } else { "NOT held" })).collect();
+        s += &format!("grasps: {held} of {} held ({})\n", g.runs.len(), names.join(", "));
+    }
+    if let Some(truth) = &r.truth {
+        s += &format!(
+            "checked against the simulator: {} of {} cells with unique IDs, neighbour tables {}, tree {}\n",
+            if truth.ids_unique { truth.cells_with_id } else { 0 },
+            truth.cells_in_skin,
+            if truth.neighbours_correct { "true" } else { "WRONG" },
+            if truth.tree_correct { "true" } else { "WRONG" }
+        );
+    }
+    for w in &e.warnings {
+        s += &format!("warning: {w}\n");
+    }
+    s += &format!(
+        "wall time {:.1} s (organize {:.1} s, explore {:.1} s, grasp {:.1} s)\n",
+        t.total_wall_s, t.organize_wall_s, t.explore_wall_s, t.grasp_wall_s
+    );
+    if let Some(index) = written.iter().find(|p| p.ends_with("index.html")) {
+        s += &format!("report: {} ({} files)", index.display(), written.len());
+    }
+    s.trim_end().to_owned()
+}

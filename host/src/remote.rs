@@ -1,0 +1,286 @@
+//! A robot and its skin reached over UDP, as on the real HRP-2: the robot
+//! on the robot link ([`skin_protocol::robot_link`]), the skin through the
+//! interface ([`Interface`]).
+//!
+//! [`RobotLink`] is the three requirements of section 3.2 over the wire:
+//! the number of revolute DoFs (and their names) at connection, then one
+//! velocity command per control period answered by position feedback.
+//! [`Remote`] joins it with the interface into the [`Robot`] +
+//! [`SampleSource`] the exploration and the controller drive: one tick is
+//! one command and its feedback, then every datagram the skin sent
+//! meanwhile. A robot in lockstep (a simulator) moves one period per
+//! command, so ticks run as fast as both ends go; a real-time robot is
+//! paced by the host's clock.
+
+use std::net::{SocketAddr, UdpSocket};
+use std::time::{Duration, Instant};
+
+use skin_protocol::robot_link::{self, FromRobot, ToRobot, MAX_DOFS};
+use skin_protocol::{Address, Sample};
+
+use crate::interface::{Event, EventKind, Interface};
+use crate::robot::{Robot, RobotError, SampleSource};
+
+/// Tries of one request before the robot counts as gone.
+const TRIES: u32 = 5;
+
+/// What the robot said about itself when the link opened.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobotInfo {
+    /// DoF names, in command order.
+    pub dof_names: Vec<String>,
+    /// The robot's control period, s.
+    pub period_s: f64,
+    /// The robot advances one period per command (a simulator).
+    pub lockstep: bool,
+}
+
+/// Counts of the link's trouble.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LinkCounters {
+    /// Requests sent again after no answer came in time.
+    pub retries: u64,
+    /// Datagrams that were not the answer awaited (late, foreign, malformed).
+    pub ignored: u64,
+}
+
+/// The robot over the robot link.
+#[derive(Debug)]
+pub struct RobotLink {
+    socket: UdpSocket,
+    robot: SocketAddr,
+    info: RobotInfo,
+    timeout: Duration,
+    seq: u32,
+    command: Vec<f64>,
+    positions: Vec<f64>,
+    time_us: u64,
+    counters: LinkCounters,
+}
+
+fn gone(robot: SocketAddr, why: impl std::fmt::Display) -> RobotError {
+    RobotError::Disconnected(format!("robot at {robot}: {why}"))
+}
+
+impl RobotLink {
+    /// Opens the link: asks the robot for its DoFs and their names, and
+    /// reads its first feedback with a zero command. `timeout` bounds each
+    /// wait for an answer.
+    pub fn connect(robot: SocketAddr, timeout: Duration) -> Result<RobotLink, RobotError> {
+        let local: SocketAddr = if robot.is_ipv4() { ([0, 0, 0, 0], 0).into() } else { ([0u16; 8], 0).into() };
+        let socket = UdpSocket::bind(local).map_err(|e| gone(robot, e))?;
+        let mut link = RobotLink {
+            socket,
+            robot,
+            info: RobotInfo { dof_names: Vec::new(), period_s: 0.0, lockstep: false },
+            timeout,
+            seq: 0,
+            command: Vec::new(),
+            positions: Vec::new(),
+            time_us: 0,
+            counters: LinkCounters::default(),
+        };
+        let (dofs, period_us, lockstep) =
+            match link.exchange(&ToRobot::Hello, |m| matches!(m, FromRobot::Info { .. }))? {
+                FromRobot::Info { dofs, period_us, lockstep } => (dofs, period_us, lockstep),
+                other => return Err(gone(robot, format!("answered hello with {other:?}"))),
+            };
+        if usize::from(dofs) > MAX_DOFS || period_us == 0 {
+            return Err(gone(robot, format!("claims {dofs} DoFs and a period of {period_us} us")));
+        }
+        let mut names = Vec::with_capacity(usize::from(dofs));
+        for index in 0..dofs {
+            let answer = link.exchange(&ToRobot::DofName { index }, |m| {
+                matches!(m, FromRobot::DofName { index: i, .. } if *i == index)
+                    || matches!(m, FromRobot::Refused { .. })
+            })?;
+            match answer {
+                FromRobot::DofName { name, .. } => names.push(name.as_str().to_owned()),
+                other => return Err(gone(robot, format!("has no name for DoF {index}: {other:?}"))),
+            }
+        }
+        link.info = RobotInfo { dof_names: names, period_s: f64::from(period_us) * 1e-6, lockstep };
+        link.command = vec![0.0; usize::from(dofs)];
+        link.tick()?;
+        Ok(link)
+    }
+
+    /// What the robot said about itself.
+    pub fn info(&self) -> &RobotInfo {
+        &self.info
+    }
+
+    /// The robot's clock at the last feedback, s.
+    pub fn time_s(&self) -> f64 {
+        self.time_us as f64 * 1e-6
+    }
+
+    /// The link's trouble so far.
+    pub fn counters(&self) -> LinkCounters {
+        self.counters
+    }
+
+    /// Sends the held command as a new one and waits for its feedback.
+    pub fn tick(&mut self) -> Result<(), RobotError> {
+        self.seq = self.seq.wrapping_add(1);
+        let seq = self.seq;
+        let velocities = self.command.iter().copied().collect();
+        let answer = self.exchange(&ToRobot::Command { seq, velocities }, |m| match m {
+            FromRobot::State { seq: s, .. } | FromRobot::Refused { seq: s, .. } => *s == seq,
+            _ => false,
+        })?;
+        match answer {
+            FromRobot::State { time_us, positions, .. } if positions.len() == self.command.len() => {
+                self.time_us = time_us;
+                self.positions.clear();
+                self.positions.extend_from_slice(&positions);
+                Ok(())
+            }
+            other => Err(gone(self.robot, format!("answered command {seq} with {other:?}"))),
+        }
+    }
+
+    /// Sends `request` until an answer `wanted` comes, at most [`TRIES`] times.
+    fn exchange(&mut self, request: &ToRobot, wanted: impl Fn(&FromRobot) -> bool) -> Result<FromRobot, RobotError> {
+        let mut out = [0u8; robot_link::MAX_DATAGRAM];
+        let len = robot_link::encode(request, &mut out).map_err(|e| gone(self.robot, e))?;
+        let mut buf = [0u8; robot_link::MAX_DATAGRAM + 1];
+        for attempt in 0..TRIES {
+            if attempt > 0 {
+                self.counters.retries += 1;
+                tracing::debug!(robot = %self.robot, attempt, "no answer from the robot in time; asking again");
+            }
+            self.socket.send_to(&out[..len], self.robot).map_err(|e| gone(self.robot, e))?;
+            let deadline = Instant::now() + self.timeout;
+            while let Some(left) = deadline.checked_duration_since(Instant::now()).filter(|d| !d.is_zero()) {
+                self.socket.set_read_timeout(Some(left)).map_err(|e| gone(self.robot, e))?;
+                let (n, from) = match self.socket.recv_from(&mut buf) {
+                    Ok(got) => got,
+                    Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => {
+                        break
+                    }
+                    Err(e) if e.kind() == std::io::ErrorKind::ConnectionRefused => {
+                        return Err(gone(self.robot, "nothing listens there (is the robot endpoint running?)"))
+                    }
+                    Err(e) => return Err(gone(self.robot, e)),
+                };
+                match robot_link::decode::<FromRobot>(&buf[..n]) {
+                    Ok(answer) if from == self.robot && wanted(&answer) => return Ok(answer),
+                    _ => self.counters.ignored += 1,
+                }
+            }
+        }
+        Err(gone(self.robot, format!("no answer after {TRIES} tries of {:?} each", self.timeout)))
+    }
+}
+
+impl Robot for RobotLink {
+    fn dof_names(&self) -> Vec<String> {
+        self.info.dof_names.clone()
+    }
+
+    fn command_velocities(&mut self, omega_rad_s: &[f64]) -> Result<(), RobotError> {
+        if omega_rad_s.len() != self.command.len() {
+            return Err(RobotError::WrongLength { expected: self.command.len(), got: omega_rad_s.len() });
+        }
+        if let Some(d) = omega_rad_s.iter().position(|w| !w.is_finite()) {
+            return Err(RobotError::NotFinite(d));
+        }
+        self.command.copy_from_slice(omega_rad_s);
+        Ok(())
+    }
+
+    fn positions(&self) -> Vec<f64> {
+        self.positions.clone()
+    }
+}
+
+/// The robot link and the skin interface as one rig.
+#[derive(Debug)]
+pub struct Remote {
+    link: RobotLink,
+    interface: Interface,
+    events: Vec<Event>,
+    /// Real-time robots: when the next tick is due on the host's clock.
+    next_due: Option<Instant>,
+}
+
+impl Remote {
+    /// Joins an open robot link and a bound interface.
+    pub fn new(link: RobotLink, interface: Interface) -> Remote {
+        Remote { link, interface, events: Vec::new(), next_due: None }
+    }
+
+    /// The robot link.
+    pub fn link(&self) -> &RobotLink {
+        &self.link
+    }
+
+    /// The skin interface.
+    pub fn interface(&self) -> &Interface {
+        &self.interface
+    }
+
+    /// The skin interface, to write configuration.
+    pub fn interface_mut(&mut self) -> &mut Interface {
+        &mut self.interface
+    }
+
+    /// Everything the skin said during the last tick.
+    pub fn events(&self) -> &[Event] {
+        &self.events
+    }
+
+    /// One control period: the command goes out and its feedback comes
+    /// back, then every datagram the skin sent is taken.
+    pub fn tick(&mut self) -> Result<(), RobotError> {
+        self.link.tick()?;
+        if !self.link.info.lockstep {
+            let period = Duration::from_secs_f64(self.link.info.period_s);
+            let due = self.next_due.map_or_else(|| Instant::now() + period, |d| d + period);
+            if let Some(wait) = due.checked_duration_since(Instant::now()) {
+                std::thread::sleep(wait);
+            }
+            self.next_due = Some(due);
+        }
+        self.events.clear();
+        loop {
+            let taken = self
+                .interface
+                .poll(Duration::ZERO, &mut self.events)
+                .map_err(|e| RobotError::Disconnected(format!("skin interface: {e}")))?;
+            if taken == 0 {
+                return Ok(());
+            }
+        }
+    }
+}
+
+impl Robot for Remote {
+    fn dof_names(&self) -> Vec<String> {
+        self.link.dof_names()
+    }
+
+    fn command_velocities(&mut self, omega_rad_s: &[f64]) -> Result<(), RobotError> {
+        self.link.command_velocities(omega_rad_s)
+    }
+
+    fn positions(&self) -> Vec<f64> {
+        self.link.positions()
+    }
+}
+
+impl SampleSource for Remote {
+    fn tick_s(&self) -> f64 {
+        self.link.info.period_s
+    }
+
+    fn next_tick(&mut self, out: &mut Vec<(Address, Sample)>) -> Result<(), RobotError> {
+        self.tick()?;
+        out.extend(self.events.iter().filter_map(|e| match e.kind {
+            EventKind::Sample(s) => Some((e.cell, s)),
+            _ => None,
+        }));
+        Ok(())
+    }
+}

@@ -1,0 +1,259 @@
+//! The report's pictures, as SVG drawn with plotters: matrices as heat
+//! maps, the kinematic tree and the skin's interface trees as diagrams,
+//! the latency histogram as bars.
+
+use std::path::Path;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+/// What plotters reports when drawing fails.
+pub type DrawError = Box<dyn std::error::Error>;
+
+/// One colour per interface port (tree), repeating after eight.
+const TREE_COLOURS: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(23, 190, 207),
+];
+
+/// The colour of interface tree `k`.
+pub fn tree_colour(k: u8) -> RGBColor {
+    TREE_COLOURS[usize::from(k) % TREE_COLOURS.len()]
+}
+
+fn centred(size: u32) -> TextStyle<'static> {
+    ("sans-serif", size).into_font().color(&BLACK).pos(Pos::new(HPos::Center, VPos::Center))
+}
+
+fn anchored(size: u32, h: HPos) -> TextStyle<'static> {
+    ("sans-serif", size).into_font().color(&BLACK).pos(Pos::new(h, VPos::Center))
+}
+
+/// A matrix of cells: `value(r, c)` in [-1, 1] (booleans as 0 and 1), with
+/// row and column labels; colours diverge blue - white - red when `signed`.
+pub struct Grid<'a> {
+    /// Title above the grid.
+    pub title: &'a str,
+    /// One label per row.
+    pub rows: &'a [String],
+    /// One label per column.
+    pub columns: &'a [String],
+    /// Values in [-1, 1], row major.
+    pub values: &'a [Vec<f64>],
+    /// Negative values mean something (a colour scale with a legend).
+    pub signed: bool,
+}
+
+/// Blue for -1, white for 0, red for +1; grey-black for booleans.
+fn shade(v: f64, signed: bool) -> RGBColor {
+    let v = if v.is_finite() { v.clamp(-1.0, 1.0) } else { 0.0 };
+    let fade = |c: u8, t: f64| (255.0 - (255.0 - f64::from(c)) * t).round() as u8;
+    if !signed {
+        return RGBColor(fade(40, v.abs()), fade(40, v.abs()), fade(40, v.abs()));
+    }
+    let (r, g, b) = if v >= 0.0 { (214, 39, 40) } else { (31, 119, 180) };
+    RGBColor(fade(r, v.abs()), fade(g, v.abs()), fade(b, v.abs()))
+}
+
+/// Draws a [`Grid`] into an SVG file.
+pub fn grid(path: &Path, g: &Grid<'_>) -> Result<(), DrawError> {
+    let cell = if g.rows.len() > 40 { 11 } else { 22 };
+    let (left, top, bottom) = (150, 40, 130 + if g.signed { 40 } else { 0 });
+    let width = (left + cell * g.columns.len() as u32 + 30).max(420);
+    let height = top + cell * g.rows.len() as u32 + bottom;
+    let root = SVGBackend::new(path, (width, height)).into_drawing_area();
+    root.fill(&WHITE)?;
+    root.draw(&Text::new(g.title.to_owned(), (10, 18), ("sans-serif", 16).into_font()))?;
+    let label = anchored(if cell > 11 { 12 } else { 9 }, HPos::Right);
+    for (r, name) in g.rows.iter().enumerate() {
+        let y = (top + cell * r as u32) as i32;
+        root.draw(&Text::new(name.clone(), (left as i32 - 6, y + cell as i32 / 2), label.clone()))?;
+        for (c, v) in g.values[r].iter().enumerate() {
+            let x = (left + cell * c as u32) as i32;
+            let fill = shade(*v, g.signed);
+            root.draw(&Rectangle::new([(x, y), (x + cell as i32, y + cell as i32)], fill.filled()))?;
+            root.draw(&Rectangle::new([(x, y), (x + cell as i32, y + cell as i32)], RGBColor(220, 220, 220)))?;
+        }
+    }
+    let below = (top + cell * g.rows.len() as u32 + 6) as i32;
+    let column_label = ("sans-serif", 11).into_font().transform(FontTransform::Rotate90);
+    for (c, name) in g.columns.iter().enumerate() {
+        let x = (left + cell * c as u32 + cell / 2) as i32 + 5;
+        root.draw(&Text::new(name.clone(), (x, below), column_label.clone()))?;
+    }
+    if g.signed {
+        let y = height as i32 - 30;
+        root.draw(&Text::new("-1".to_owned(), (left as i32 - 6, y + 6), anchored(11, HPos::Right)))?;
+        for k in 0..=40 {
+            let x = left as i32 + k * 5;
+            let fill = shade(f64::from(k - 20) / 20.0, true);
+            root.draw(&Rectangle::new([(x, y), (x + 5, y + 12)], fill.filled()))?;
+        }
+        root.draw(&Text::new("+1".to_owned(), (left as i32 + 210, y + 6), anchored(11, HPos::Left)))?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// A node of a drawn tree.
+pub struct Node {
+    /// Text in the node.
+    pub label: String,
+    /// The parent node and the edge's label; `None` for a root.
+    pub parent: Option<(usize, String)>,
+    /// Colour of the node and of its edge.
+    pub colour: RGBColor,
+}
+
+/// Positions of a forest laid out top-down: depth gives y, the order of
+/// leaves gives x, and a parent sits over the middle of its children.
+fn layout(nodes: &[Node]) -> (Vec<(f64, usize)>, usize, usize) {
+    let n = nodes.len();
+    let mut children: Vec<Vec<usize>> = vec![Vec::new(); n];
+    let mut roots = Vec::new();
+    for (i, node) in nodes.iter().enumerate() {
+        match node.parent {
+            Some((p, _)) if p < n && p != i => children[p].push(i),
+            _ => roots.push(i),
+        }
+    }
+    let mut at = vec![(0.0, 0usize); n];
+    let mut next_leaf = 0.0;
+    let mut deepest = 0;
+    // Iterative post-order walk (a cyclic parent list still ends: each node is visited once).
+    let mut visited = vec![false; n];
+    for &r in &roots {
+        let mut stack = vec![(r, 0usize, false)];
+        while let Some((i, depth, done)) = stack.pop() {
+            if done {
+                let xs: Vec<f64> = children[i].iter().filter(|c| visited[**c]).map(|c| at[*c].0).collect();
+                let x = if xs.is_empty() {
+                    next_leaf += 1.0;
+                    next_leaf - 1.0
+                } else {
+                    (xs[0] + xs[xs.len() - 1]) / 2.0
+                };
+                at[i] = (x, depth);
+                continue;
+            }
+            if std::mem::replace(&mut visited[i], true) {
+                continue;
+            }
+            deepest = deepest.max(depth);
+            stack.push((i, depth, true));
+            for &c in children[i].iter().rev() {
+                stack.push((c, depth + 1, false));
+            }
+        }
+        next_leaf += 0.5;
+    }
+    (at, (next_leaf.ceil() as usize).max(1), deepest + 1)
+}
+
+/// Draws a forest of labelled nodes, roots on top, with labelled edges;
+/// `extra` are further links drawn faintly (e.g. non-tree neighbours).
+pub fn forest(
+    path: &Path,
+    title: &str,
+    nodes: &[Node],
+    extra: &[(usize, usize)],
+    legend: &[(String, RGBColor)],
+) -> Result<(), DrawError> {
+    let (at, columns, levels) = layout(nodes);
+    let (dx, dy) = if nodes.len() > 30 { (30.0, 48.0) } else { (120.0, 70.0) };
+    let (left, top) = (40.0, 60.0);
+    let width = (left * 2.0 + dx * columns as f64) as u32;
+    let height = (top + dy * levels as f64 + 30.0 + 18.0 * legend.len() as f64) as u32;
+    let root: DrawingArea<SVGBackend, Shift> = SVGBackend::new(path, (width.max(420), height)).into_drawing_area();
+    root.fill(&WHITE)?;
+    root.draw(&Text::new(title.to_owned(), (10, 18), ("sans-serif", 16).into_font()))?;
+    let pos = |i: usize| ((left + dx * at[i].0 + dx / 2.0) as i32, (top + dy * at[i].1 as f64) as i32);
+    for &(a, b) in extra {
+        if a < nodes.len() && b < nodes.len() {
+            root.draw(&PathElement::new(vec![pos(a), pos(b)], RGBColor(200, 200, 200)))?;
+        }
+    }
+    let small = nodes.len() > 30;
+    for (i, node) in nodes.iter().enumerate() {
+        if let Some((p, label)) = &node.parent {
+            if *p < nodes.len() {
+                root.draw(&PathElement::new(vec![pos(*p), pos(i)], node.colour.stroke_width(2)))?;
+                if !label.is_empty() {
+                    let (x0, y0) = pos(*p);
+                    let (x1, y1) = pos(i);
+                    let mid = ((x0 + x1) / 2 + 6, (y0 + y1) / 2);
+                    root.draw(&Text::new(label.clone(), mid, anchored(11, HPos::Left)))?;
+                }
+            }
+        }
+    }
+    for (i, node) in nodes.iter().enumerate() {
+        let r = if small { 11 } else { 22 };
+        root.draw(&Circle::new(pos(i), r, node.colour.mix(0.25).filled()))?;
+        root.draw(&Circle::new(pos(i), r, node.colour.stroke_width(2)))?;
+        root.draw(&Text::new(node.label.clone(), pos(i), centred(if small { 9 } else { 12 })))?;
+    }
+    for (k, (text, colour)) in legend.iter().enumerate() {
+        let y = height as i32 - 18 * (legend.len() - k) as i32;
+        root.draw(&Rectangle::new([(12, y - 5), (24, y + 5)], colour.filled()))?;
+        root.draw(&Text::new(text.clone(), (30, y), anchored(12, HPos::Left)))?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// Bars of a histogram: `bins` as (lower edge, count), each `width` wide.
+pub fn histogram(path: &Path, title: &str, x_desc: &str, bins: &[(f64, u64)], width: f64) -> Result<(), DrawError> {
+    let root = SVGBackend::new(path, (760, 420)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let hi_x = bins.last().map_or(1.0, |b| b.0 + width);
+    let hi_y = bins.iter().map(|b| b.1).max().unwrap_or(1).max(1) as f64 * 1.05;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 16))
+        .margin(12)
+        .x_label_area_size(36)
+        .y_label_area_size(64)
+        .build_cartesian_2d(0.0..hi_x, 0.0..hi_y)?;
+    chart.configure_mesh().x_desc(x_desc).y_desc("frames").light_line_style(WHITE).draw()?;
+    chart.draw_series(
+        bins.iter().map(|&(lo, n)| Rectangle::new([(lo, 0.0), (lo + width, n as f64)], TREE_COLOURS[0].filled())),
+    )?;
+    root.present()?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_forest_is_laid_out_by_depth_and_leaves_and_a_cycle_ends() {
+        let node = |parent: Option<usize>| Node {
+            label: String::new(),
+            parent: parent.map(|p| (p, String::new())),
+            colour: BLACK,
+        };
+        // 0 -> {1, 2}, 2 -> 3; 4 and 5 point at each other (bad input).
+        let nodes = [node(None), node(Some(0)), node(Some(0)), node(Some(2)), node(Some(5)), node(Some(4))];
+        let (at, columns, levels) = layout(&nodes);
+        assert_eq!((at[0].1, at[3].1, levels), (0, 2, 3));
+        assert!(at[1].0 < at[2].0 && at[0].0 > at[1].0 && at[0].0 < at[3].0 + 1e-9);
+        assert_eq!(columns, 3, "two leaves, a gap after the tree, none for the cycle");
+    }
+
+    #[test]
+    fn shades_stay_in_range() {
+        assert_eq!(shade(0.0, true), RGBColor(255, 255, 255));
+        assert_eq!(shade(f64::NAN, true), RGBColor(255, 255, 255));
+        assert_eq!(shade(1.0, true), RGBColor(214, 39, 40));
+        assert_eq!(shade(-7.0, true), RGBColor(31, 119, 180));
+        assert_eq!(shade(1.0, false), RGBColor(40, 40, 40));
+    }
+}

@@ -1,0 +1,141 @@
+//! `index.html`: the summary and every figure on one self-contained page.
+
+use std::fmt::Write;
+
+use super::Report;
+
+/// Text made safe inside HTML.
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}
+
+fn row(out: &mut String, key: &str, value: &str) {
+    let _ = writeln!(out, "<tr><th>{}</th><td>{}</td></tr>", escape(key), escape(value));
+}
+
+/// The page.
+pub fn page(r: &Report) -> String {
+    let mut s = String::from(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>Robot skin report</title>\n<style>\n\
+         body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }\n\
+         table { border-collapse: collapse; margin: 1em 0; }\n\
+         th, td { text-align: left; padding: 0.2em 0.8em; border-bottom: 1px solid #ddd; }\n\
+         figure { margin: 2em 0; } img { max-width: 100%; border: 1px solid #eee; }\n\
+         .ok { color: #1a7f37; } .bad { color: #c62828; font-weight: bold; }\n</style>\n</head>\n<body>\n",
+    );
+    s += "<h1>Robot skin: self-organization, self-exploration and grasping</h1>\n";
+    let _ = writeln!(s, "<p>{}</p>", escape(&r.robot.source));
+    s += "<h2>Summary</h2>\n<table>\n";
+    let t = &r.timing;
+    row(&mut s, "wall time", &format!("{:.1} s in all", t.total_wall_s));
+    row(
+        &mut s,
+        "robot",
+        &format!(
+            "{} DoFs, control period {:.1} ms, {}",
+            r.robot.dof_names.len(),
+            r.robot.period_s * 1e3,
+            if r.robot.lockstep { "lockstep (simulated time)" } else { "real time" }
+        ),
+    );
+    let o = &r.organization;
+    row(
+        &mut s,
+        "self-organization",
+        &format!(
+            "{} cells organized in {:.2} s robot time ({:.2} s wall); {} of {} settings acknowledged",
+            o.cells.len(),
+            o.time_s,
+            t.organize_wall_s,
+            o.settings_acknowledged,
+            o.settings_written
+        ),
+    );
+    let e = &r.exploration;
+    row(
+        &mut s,
+        "exploration",
+        &format!(
+            "{} body parts, {} joints; structure {:.1} s + sensory-motor map {:.1} s robot time ({:.1} s wall)",
+            e.body_parts.len(),
+            e.joints.len(),
+            t.structure_robot_s,
+            t.smm_robot_s,
+            t.explore_wall_s
+        ),
+    );
+    let i = &r.interface;
+    row(
+        &mut s,
+        "interface",
+        &format!(
+            "{} datagrams, {} frames accepted; {} datagrams and {} frames rejected",
+            i.datagrams.accepted,
+            i.frames.accepted,
+            i.datagrams.rejected_total(),
+            i.frames.rejected_total()
+        ),
+    );
+    if let Some(l) = &r.latency {
+        row(&mut s, "network latency", &format!("median {} us, 99% {} us, max {} us", l.p50_us, l.p99_us, l.max_us));
+    }
+    if let Some(truth) = &r.truth {
+        let mark = |ok: bool| if ok { "<span class=\"ok\">yes</span>" } else { "<span class=\"bad\">NO</span>" };
+        let _ = writeln!(
+            s,
+            "<tr><th>checked against the simulator</th><td>IDs unique: {}; neighbour tables true: {}; kinematic tree true: {} ({} wrong activity entries); sensory-motor map mean |w - w<sub>true</sub>| {:.3}</td></tr>",
+            mark(truth.ids_unique && truth.cells_with_id == truth.cells_in_skin),
+            mark(truth.neighbours_correct),
+            mark(truth.tree_correct),
+            truth.wrong_activity_entries,
+            truth.smm_mean_abs_error
+        );
+    }
+    s += "</table>\n";
+    if let Some(g) = &r.grasps {
+        s += "<h2>Teaching and grasping</h2>\n<table>\n<tr><th>key pose</th><th>taught in (robot time)</th></tr>\n";
+        for l in &g.lessons {
+            let _ = writeln!(s, "<tr><td>{}</td><td>{:.1} s</td></tr>", escape(&l.pose), l.time_s);
+        }
+        s += "</table>\n<table>\n<tr><th>object</th><th>result</th><th>final state</th><th>time</th><th>largest cell force</th></tr>\n";
+        for run in &g.runs {
+            let _ = writeln!(
+                s,
+                "<tr><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{:.1} s</td><td>{:.2} N</td></tr>",
+                escape(&run.object),
+                if run.succeeded { "ok" } else { "bad" },
+                if run.succeeded { "held" } else { "not held" },
+                run.final_state.name(),
+                run.time_s,
+                run.max_cell_force_n
+            );
+        }
+        s += "</table>\n";
+    }
+    for w in &e.warnings {
+        let _ = writeln!(s, "<p class=\"bad\">warning: {}</p>", escape(w));
+    }
+    s += "<h2>Figures</h2>\n";
+    for f in &r.figures {
+        let _ = writeln!(
+            s,
+            "<figure>\n<h3>{}</h3>\n<img src=\"{}\" alt=\"{}\">\n<figcaption>{}</figcaption>\n</figure>",
+            escape(&f.title),
+            escape(&f.file),
+            escape(&f.title),
+            escape(&f.caption)
+        );
+    }
+    s += "<p>All data of these figures: <a href=\"report.json\">report.json</a>.</p>\n</body>\n</html>\n";
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::escape;
+
+    #[test]
+    fn markup_is_escaped() {
+        assert_eq!(escape("<a href=\"x\">&</a>"), "&lt;a href=&quot;x&quot;&gt;&amp;&lt;/a&gt;");
+    }
+}
