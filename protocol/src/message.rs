@@ -58,6 +58,10 @@ pub struct Probe {
     /// True when this port is the sender's master port: the receiver is its
     /// parent in the tree and must deliver downstream traffic to it.
     pub master: bool,
+    /// True when the sender already knows who is on this port, so a probe
+    /// needs no answer: on a settled link the periodic probes of both sides
+    /// carry everything, and only a new or rebooted neighbour is answered.
+    pub known: bool,
 }
 
 /// Phase 2: one wave of a tree beacon, started by an interface port every

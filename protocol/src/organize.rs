@@ -228,7 +228,7 @@ impl Organizer {
     }
 
     fn probe(&self, port: Port) -> Probe {
-        Probe { port, id: self.id, master: self.master() == Some(port) }
+        Probe { port, id: self.id, master: self.master() == Some(port), known: self.neighbour(port).is_some() }
     }
 
     fn link_frame(&self, message: Message) -> Frame {
@@ -257,7 +257,7 @@ impl Organizer {
     ) {
         match *message {
             Message::Probe(p) | Message::ProbeAck(p) => {
-                if matches!(message, Message::Probe(_)) {
+                if matches!(message, Message::Probe(_)) && !p.known {
                     let ack = self.link_frame(Message::ProbeAck(self.probe(port)));
                     outs.send(Out::Link(port, ack));
                 }
@@ -478,8 +478,8 @@ impl Sink {
         if !frame.kind().is_link_local() {
             return Ok(FromCell::Host(frame));
         }
-        if let Message::Probe(_) = frame.message()? {
-            let ack = Probe { port: Port::P0, id: self.address, master: false };
+        if let Message::Probe(Probe { known: false, .. }) = frame.message()? {
+            let ack = Probe { port: Port::P0, id: self.address, master: false, known: true };
             let _ = self.link.push_back(Frame::new(self.address, Address::BROADCAST, &Message::ProbeAck(ack)));
         }
         Ok(FromCell::Link)

@@ -60,7 +60,12 @@ fn channel() -> impl Strategy<Value = Channel> {
 }
 
 fn probe() -> impl Strategy<Value = Probe> {
-    (port(), address(), any::<bool>()).prop_map(|(port, id, master)| Probe { port, id, master })
+    (port(), address(), any::<bool>(), any::<bool>()).prop_map(|(port, id, master, known)| Probe {
+        port,
+        id,
+        master,
+        known,
+    })
 }
 
 /// Every message kind with every field over its whole range.

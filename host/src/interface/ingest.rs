@@ -285,7 +285,12 @@ mod tests {
         let mut corrupt = sample(1, 0);
         let mut bytes = *corrupt.as_bytes();
         bytes[7] ^= 0x10;
-        let probe = Message::Probe(skin_protocol::message::Probe { port: Port::P0, id: Address(1), master: false });
+        let probe = Message::Probe(skin_protocol::message::Probe {
+            port: Port::P0,
+            id: Address(1),
+            master: false,
+            known: false,
+        });
         let frames = [
             sample(1, 0),
             sample(2, 0),
