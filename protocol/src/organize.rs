@@ -4,8 +4,9 @@
 //! frame (or the passing of time) goes in, frames to send come out.
 //!
 //! 1. **Active ports.** Every cell probes each port on which it sent nothing
-//!    for a probe period; a probe is answered at once. A port is active while
-//!    frames arrive on it, so a busy link needs no keep-alive traffic.
+//!    but probes for a probe period; a probe from a neighbour that does not
+//!    know us yet is answered at once. A port is active while frames arrive
+//!    on it, so a link busy with data or beacons needs no keep-alive.
 //! 2. **Master-port trees.** Every interface port ([`Sink`]) starts a beacon
 //!    wave each period. A cell takes as master port the port with the fewest
 //!    hops to an interface, and relays only the waves that reach it through
@@ -141,8 +142,13 @@ pub struct Organizer {
     repeats: u8,
     next_report_us: u64,
     next_probe_us: u64,
+    /// Probe rounds since the last one that probed every port.
+    rounds: u8,
     next_id_request_us: u64,
 }
+
+/// Every this many probe rounds, busy ports are probed as well.
+const REFRESH_ROUNDS: u8 = 10;
 
 /// Delays of the repeats of a changed neighbour report, in report order.
 const REPEAT_DELAYS_US: [u64; 2] = [200_000, 50_000];
@@ -160,6 +166,7 @@ impl Organizer {
             repeats: 0,
             next_report_us: now_us + config.report_period_us,
             next_probe_us: now_us,
+            rounds: 0,
             next_id_request_us: now_us,
         }
     }
@@ -409,7 +416,11 @@ impl Organizer {
         }
         if now_us >= self.next_probe_us {
             self.next_probe_us = now_us + self.config.probe_period_us;
-            for p in Port::ALL.into_iter().filter(|p| busy & (1 << p.index()) == 0) {
+            // Every few rounds a busy port is probed too, so that a lost
+            // probe cannot leave the neighbour's view of us stale for good.
+            self.rounds = (self.rounds + 1) % REFRESH_ROUNDS;
+            let skip = if self.rounds == 0 { 0 } else { busy };
+            for p in Port::ALL.into_iter().filter(|p| skip & (1 << p.index()) == 0) {
                 outs.send(Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
             }
         }

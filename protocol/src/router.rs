@@ -78,8 +78,8 @@ pub struct Router {
     next: usize,
     master: Option<Port>,
     children: [bool; 4],
-    /// Bit `p`: port `p` sent a forwarded or own frame (not a link-local
-    /// one) since the last [`Router::take_sent`].
+    /// Bit `p`: port `p` sent something other than a probe since the last
+    /// [`Router::take_sent`], so the neighbour heard from us anyway.
     sent: u8,
     counters: Counters,
 }
@@ -191,6 +191,9 @@ impl Router {
         let p = port.index();
         if let Some(f) = self.link[p].pop_front() {
             self.counters.sent_link += 1;
+            if f.kind() != crate::frame::Kind::Probe {
+                self.sent |= 1 << p;
+            }
             return Some(f);
         }
         let frame = self.next_data(port)?;
@@ -231,7 +234,7 @@ impl Router {
         Port::ALL.iter().filter(|p| self.has_pending(**p)).fold(0, |m, p| m | 1 << p.index())
     }
 
-    /// The ports that sent a forwarded or own frame since the last call, as bits.
+    /// The ports that sent anything but a probe since the last call, as bits.
     pub fn take_sent(&mut self) -> u8 {
         core::mem::take(&mut self.sent)
     }
