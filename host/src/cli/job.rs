@@ -138,9 +138,10 @@ pub fn summary(r: &Report, written: &[PathBuf]) -> String {
         s += &format!("warning: {w}\n");
     }
     s += &format!(
-        "wall time {:.1} s (organize {:.1} s, explore {:.1} s, grasp {:.1} s)\n",
-        t.total_wall_s, t.organize_wall_s, t.explore_wall_s, t.grasp_wall_s
+        "wall time {:.1} s (organize {:.1} s, explore {:.1} s",
+        t.total_wall_s, t.organize_wall_s, t.explore_wall_s
     );
+    s += &if r.grasps.is_some() { format!(", teach and grasp {:.1} s)\n", t.grasp_wall_s) } else { ")\n".to_owned() };
     if let Some(index) = written.iter().find(|p| p.ends_with("index.html")) {
         s += &format!("report: {} ({} files)", index.display(), written.len());
     }

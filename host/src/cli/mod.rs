@@ -7,6 +7,8 @@ mod grasp;
 mod job;
 mod loadgen;
 mod monitor;
+mod run;
+mod sim_endpoint;
 
 use std::process::ExitCode;
 
@@ -32,6 +34,10 @@ enum Command {
     Monitor(monitor::Args),
     /// Write the default configuration file, or check one.
     Config(config::Args),
+    /// The main job against a real skin and robot (or an external simulator): organize, explore, report.
+    Run(run::Args),
+    /// Serve the built-in simulated robot and skin on loopback UDP, for `skin run` in another terminal.
+    SimEndpoint(sim_endpoint::Args),
     /// Simulate a skin that sends interface datagrams to a host (for measuring and watching without hardware).
     Loadgen(loadgen::Args),
 }
@@ -50,6 +56,8 @@ pub fn main() -> ExitCode {
         Command::Monitor(args) => monitor::run(args),
         Command::Config(args) => config::run(args),
         Command::Loadgen(args) => loadgen::run(args),
+        Command::Run(args) => run::run(args),
+        Command::SimEndpoint(args) => sim_endpoint::run(args),
     };
     result.unwrap_or_else(|e| {
         eprintln!("error: {e}");

@@ -188,8 +188,10 @@ pub fn forest(
                 if !label.is_empty() {
                     let (x0, y0) = pos(*p);
                     let (x1, y1) = pos(i);
-                    let mid = ((x0 + x1) / 2 + 6, (y0 + y1) / 2);
-                    root.draw(&Text::new(label.clone(), mid, anchored(11, HPos::Left)))?;
+                    // On the outer side of the edge, so siblings' labels do not meet.
+                    let (dx, side) = if x1 < x0 { (-6, HPos::Right) } else { (6, HPos::Left) };
+                    let mid = ((x0 + x1) / 2 + dx, (y0 + y1) / 2);
+                    root.draw(&Text::new(label.clone(), mid, anchored(11, side)))?;
                 }
             }
         }
@@ -209,21 +211,36 @@ pub fn forest(
     Ok(())
 }
 
-/// Bars of a histogram: `bins` as (lower edge, count), each `width` wide.
-pub fn histogram(path: &Path, title: &str, x_desc: &str, bins: &[(f64, u64)], width: f64) -> Result<(), DrawError> {
+/// Bars of a histogram over `0..x_max`: `bins` as (lower edge, count),
+/// each `width` wide; bins past `x_max` are left out.
+pub fn histogram(
+    path: &Path,
+    title: &str,
+    x_desc: &str,
+    bins: &[(f64, u64)],
+    width: f64,
+    x_max: f64,
+) -> Result<(), DrawError> {
     let root = SVGBackend::new(path, (760, 420)).into_drawing_area();
     root.fill(&WHITE)?;
-    let hi_x = bins.last().map_or(1.0, |b| b.0 + width);
-    let hi_y = bins.iter().map(|b| b.1).max().unwrap_or(1).max(1) as f64 * 1.05;
+    let shown: Vec<(f64, u64)> = bins.iter().copied().filter(|b| b.0 < x_max).collect();
+    let hi_y = shown.iter().map(|b| b.1).max().unwrap_or(1).max(1) as f64 * 1.05;
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 16))
         .margin(12)
         .x_label_area_size(36)
         .y_label_area_size(64)
-        .build_cartesian_2d(0.0..hi_x, 0.0..hi_y)?;
-    chart.configure_mesh().x_desc(x_desc).y_desc("frames").light_line_style(WHITE).draw()?;
+        .build_cartesian_2d(0.0..x_max, 0.0..hi_y)?;
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc("frames")
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| format!("{v:.0}"))
+        .light_line_style(WHITE)
+        .draw()?;
     chart.draw_series(
-        bins.iter().map(|&(lo, n)| Rectangle::new([(lo, 0.0), (lo + width, n as f64)], TREE_COLOURS[0].filled())),
+        shown.iter().map(|&(lo, n)| Rectangle::new([(lo, 0.0), (lo + width, n as f64)], TREE_COLOURS[0].filled())),
     )?;
     root.present()?;
     Ok(())

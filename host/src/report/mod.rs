@@ -53,7 +53,7 @@ pub struct RobotSection {
 /// How long each step took, on the wall clock and on the robot's clock.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct Timing {
-    /// Everything, from start to the report written, wall clock, s.
+    /// Everything, from the start until the report's files were written, wall clock, s.
     pub total_wall_s: f64,
     /// Self-organization, wall clock, s.
     pub organize_wall_s: f64,
@@ -303,7 +303,7 @@ impl Report {
             "activity_before.svg",
             "Activity matrix before merging",
             format!(
-                "{} cells x {} DoFs: dark where stepping the DoF moved the cell's gravity vector (two postural runs OR-ed).",
+                "{} cells x {} DoFs: dark where stepping the DoF moved the cell (its gravity vector, or its lever arm's dynamic acceleration; section 4.2).",
                 e.cells.len(),
                 e.dofs.len()
             ),
@@ -449,7 +449,9 @@ impl Report {
 
     fn draw_latency(&mut self, dir: &Path) -> Result<(), ReportError> {
         let Some(l) = self.latency.clone() else { return Ok(()) };
-        let width_us = ((l.p99_us.max(1) as f64 / 40.0).ceil()).max(10.0);
+        // The bulk up to half again the 99th percentile, in about 60 bins.
+        let x_max = (l.p99_us.max(1) as f64 * 1.5).ceil();
+        let width_us = (x_max / 60.0).ceil().max(1.0);
         let mut bins: Vec<(f64, u64)> = Vec::new();
         for &(us, n) in &l.bins_us {
             let lo = (us as f64 / width_us).floor() * width_us;
@@ -459,11 +461,16 @@ impl Report {
             }
         }
         let caption = format!(
-            "{} sensor frames from sampling to the host's socket: median {} us, 99% within {} us, longest {} us; {} lost.",
-            l.frames, l.p50_us, l.p99_us, l.max_us, l.sensor_frames_lost
+            "{} sensor frames from sampling to the host's socket: median {} us, 99% within {} us, longest {} us ({} frames beyond {x_max} us not drawn); {} lost.",
+            l.frames,
+            l.p50_us,
+            l.p99_us,
+            l.max_us,
+            l.bins_us.iter().filter(|b| b.0 as f64 >= x_max).map(|b| b.1).sum::<u64>(),
+            l.sensor_frames_lost
         );
         self.figure(dir, "latency.svg", "Network latency", caption, |path| {
-            figures::histogram(path, "skin network: latency of sensor frames", "latency (us)", &bins, width_us)
+            figures::histogram(path, "skin network: latency of sensor frames", "latency (us)", &bins, width_us, x_max)
         })
     }
 

@@ -1,0 +1,110 @@
+//! `skin run`: the main job against a real skin and a real robot (or an
+//! external simulator such as `skin sim-endpoint`): wait for the skin to
+//! organize, write the configured cell settings, explore the body and
+//! write the report folder.
+//!
+//! The robot is reached on the robot link (`skin_protocol::robot_link`):
+//! it must publish its number of revolute DoFs, accept velocity commands
+//! and give position feedback (section 3.2). The skin's interface ports
+//! send their datagrams to `--interface`.
+
+use std::io::Write;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use skin_host::config::Config;
+use skin_host::explore::ExploreConfig;
+use skin_host::interface::Interface;
+use skin_host::pipeline::OrganizeConfig;
+use skin_host::remote::{Remote, RobotLink};
+
+use super::job::{self, Steps};
+
+/// Arguments of `skin run`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Address to listen on for the skin's interface ports [default: the configuration's `interface.listen`].
+    #[arg(long, value_name = "ADDR")]
+    interface: Option<SocketAddr>,
+    /// The robot's robot-link address.
+    #[arg(long, value_name = "ADDR")]
+    robot: SocketAddr,
+    /// Configuration file (interface ports, cell settings) [default: the built-in defaults, see `skin config --default`].
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Cells the skin has: wait until that many have organized [default: whatever reports and stays unchanged].
+    #[arg(long, value_name = "N")]
+    cells: Option<usize>,
+    /// Longest time the skin may take to organize, robot seconds.
+    #[arg(long, value_name = "S", default_value_t = 30.0)]
+    organize_timeout: f64,
+    /// Longest wait for one answer of the robot, milliseconds.
+    #[arg(long, value_name = "MS", default_value_t = 1000)]
+    robot_timeout_ms: u64,
+    /// The report folder (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "report")]
+    out: PathBuf,
+    /// Print report.json on stdout instead of the human summary.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Why `skin run` could not start.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A time limit that is not a positive number.
+    #[error("--organize-timeout must be a number of seconds > 0, not {0}")]
+    Timeout(f64),
+    /// A robot timeout of zero.
+    #[error("--robot-timeout-ms must be at least 1")]
+    RobotTimeout,
+}
+
+pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
+    let wall = Instant::now();
+    if !(args.organize_timeout.is_finite() && args.organize_timeout > 0.0) {
+        return Err(Error::Timeout(args.organize_timeout).into());
+    }
+    if args.robot_timeout_ms == 0 {
+        return Err(Error::RobotTimeout.into());
+    }
+    let mut config = match &args.config {
+        Some(path) => Config::load(path)?,
+        None => Config::default(),
+    };
+    if let Some(listen) = args.interface {
+        config.interface.listen = listen;
+    }
+    let interface = Interface::bind(&config.interface)?;
+    let link = RobotLink::connect(args.robot, Duration::from_millis(args.robot_timeout_ms))?;
+    let source = format!(
+        "The robot at {} ({} DoFs, {}) and the skin heard on {}.",
+        args.robot,
+        link.info().dof_names.len(),
+        if link.info().lockstep { "lockstep" } else { "real time" },
+        interface.local_addr()
+    );
+    let mut remote = Remote::new(link, interface);
+    let steps = Steps {
+        organize: OrganizeConfig {
+            expected_cells: args.cells,
+            timeout_s: args.organize_timeout,
+            ..OrganizeConfig::default()
+        },
+        settings: config.cells.settings(),
+        explore: ExploreConfig::default(),
+    };
+    let found = job::run(&mut remote, &steps)?;
+    let mut report = job::report(&remote, source, found);
+    report.timing.total_wall_s = wall.elapsed().as_secs_f64();
+    let written = report.write(&args.out)?;
+    let text = if args.json { serde_json::to_string_pretty(&report)? } else { job::summary(&report, &written) };
+    match writeln!(std::io::stdout().lock(), "{text}") {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+        other => other?,
+    }
+    Ok(ExitCode::SUCCESS)
+}
