@@ -284,3 +284,73 @@ impl SampleSource for Remote {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A robot of two DoFs that swallows the first command it gets.
+    fn flaky_robot(socket: UdpSocket, claimed_dofs: u8) {
+        let mut buf = [0u8; robot_link::MAX_DATAGRAM];
+        let mut out = [0u8; robot_link::MAX_DATAGRAM];
+        let mut swallowed = false;
+        let mut position = 0.0;
+        while let Ok((n, from)) = socket.recv_from(&mut buf) {
+            let answer = match robot_link::decode::<ToRobot>(&buf[..n]) {
+                Ok(ToRobot::Hello) => FromRobot::Info { dofs: claimed_dofs, period_us: 4000, lockstep: true },
+                Ok(ToRobot::DofName { index }) => FromRobot::DofName { index, name: "j".chars().collect() },
+                Ok(ToRobot::Command { seq, velocities }) => {
+                    if !std::mem::replace(&mut swallowed, true) {
+                        continue;
+                    }
+                    position += velocities[0] * 0.004;
+                    FromRobot::State {
+                        seq,
+                        time_us: 4000 * u64::from(seq),
+                        positions: [position, 0.0].into_iter().collect(),
+                    }
+                }
+                Err(_) => continue,
+            };
+            let len = robot_link::encode(&answer, &mut out).unwrap();
+            socket.send_to(&out[..len], from).unwrap();
+        }
+    }
+
+    fn spawn_robot(claimed_dofs: u8) -> SocketAddr {
+        let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
+        socket.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        let addr = socket.local_addr().unwrap();
+        std::thread::spawn(move || flaky_robot(socket, claimed_dofs));
+        addr
+    }
+
+    #[test]
+    fn a_lost_answer_is_asked_for_again_and_commands_are_checked() {
+        let mut link = RobotLink::connect(spawn_robot(2), Duration::from_millis(100)).unwrap();
+        assert_eq!(link.counters().retries, 1, "the first command was swallowed");
+        assert_eq!(
+            (link.dof_names(), link.info().period_s, link.info().lockstep),
+            (vec!["j".into(), "j".into()], 0.004, true)
+        );
+        link.command_velocities(&[1.0, 0.0]).unwrap();
+        link.tick().unwrap();
+        assert!((link.positions()[0] - 0.004).abs() < 1e-12 && link.time_s() > 0.0);
+        assert_eq!(link.command_velocities(&[1.0]), Err(RobotError::WrongLength { expected: 2, got: 1 }));
+        assert_eq!(link.command_velocities(&[0.0, f64::INFINITY]), Err(RobotError::NotFinite(1)));
+    }
+
+    #[test]
+    fn a_robot_with_feedback_of_the_wrong_length_is_refused() {
+        // It claims three DoFs but reports two positions.
+        let e = RobotLink::connect(spawn_robot(3), Duration::from_millis(100)).unwrap_err();
+        assert!(e.to_string().contains("answered command"), "{e}");
+    }
+
+    #[test]
+    fn nobody_listening_is_explained() {
+        let nobody = UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap();
+        let e = RobotLink::connect(nobody, Duration::from_millis(50)).unwrap_err();
+        assert!(e.to_string().contains(&nobody.to_string()), "{e}");
+    }
+}

@@ -123,3 +123,38 @@ fn addresses_beyond_this_machine_are_refused() {
     let e = Endpoint::hrp2(0, config).err().expect("a host off this machine is refused");
     assert!(e.to_string().contains("127.0.0.1"), "{e}");
 }
+
+#[test]
+fn any_bytes_on_the_robot_link_are_counted_and_change_nothing() {
+    use rand::{Rng, SeedableRng};
+    let config = EndpointConfig {
+        robot: "127.0.0.1:0".parse().unwrap(),
+        host: "127.0.0.1:9".parse().unwrap(),
+        pacing: Pacing::Lockstep,
+        network: NetworkConfig::default(),
+    };
+    let running = Running::spawn(move || Endpoint::hrp2(0, config)).unwrap();
+    let robot = UdpSocket::bind("127.0.0.1:0").unwrap();
+    robot.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let mut garbage = 0;
+    for k in 0..500 {
+        // A question now and then keeps the endpoint's receive buffer from overflowing.
+        if k % 20 == 0 {
+            assert!(matches!(ask(&robot, running.robot, &ToRobot::Hello), FromRobot::Info { dofs: 14, .. }));
+        }
+        let len = rng.random_range(0..600);
+        let mut bytes: Vec<u8> = (0..len).map(|_| rng.random()).collect();
+        // Half of them with a valid header, so the body decoder is exercised too.
+        if rng.random() && len >= 3 {
+            bytes[..3].copy_from_slice(&[b'R', b'L', robot_link::VERSION]);
+        }
+        if robot_link::decode::<ToRobot>(&bytes).is_err() {
+            garbage += 1;
+            robot.send_to(&bytes, running.robot).unwrap();
+        }
+    }
+    assert!(matches!(ask(&robot, running.robot, &ToRobot::Hello), FromRobot::Info { dofs: 14, .. }));
+    let truth = running.stop().unwrap();
+    assert_eq!((truth.served.rejected, truth.served.ticks), (garbage, 0));
+}
