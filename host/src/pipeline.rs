@@ -145,16 +145,16 @@ pub fn organize(
 
 /// Rounds of writing the settings a cell has not acknowledged yet.
 const SETTING_ROUNDS: usize = 20;
-/// Configuration writes sent down one interface port per round: the
-/// interface port and the cells' downstream queues hold 16 frames, so a
-/// larger burst is partly dropped.
-const WRITES_PER_PORT: usize = 4;
+/// Configuration writes sent down one interface port per round: every
+/// downstream frame is copied to the whole tree, and a cell queues only
+/// this many per child port, so a larger burst is partly dropped.
+const WRITES_PER_PORT: usize = skin_protocol::router::DOWN_QUEUE;
 
-/// Writes `settings` into every cell: once to all, then again to each cell
-/// that did not acknowledge some of them within `wait_s` of robot time (a
-/// busy network drops frames), a few per interface port and round; the
-/// robot is held still meanwhile. Returns how many (cell, setting) pairs
-/// were acknowledged.
+/// Writes `settings` into every cell: to all cells at once, a queue's worth
+/// per round, then again to each cell that did not acknowledge some of them
+/// within `wait_s` of robot time (a busy network drops frames), a queue's
+/// worth per interface port and round; the robot is held still meanwhile.
+/// Returns how many (cell, setting) pairs were acknowledged.
 pub fn write_settings(remote: &mut Remote, settings: &[Setting], wait_s: f64) -> Result<usize, PipelineError> {
     let cells: Vec<Address> = remote.interface().registry().cells().map(|c| c.id()).collect();
     // Per cell, which settings are still unacknowledged.
@@ -192,12 +192,9 @@ pub fn write_settings(remote: &mut Remote, settings: &[Setting], wait_s: f64) ->
         while remote.link().time_s() - start_s < wait_s {
             remote.tick()?;
             for e in remote.events() {
-                if let EventKind::ConfigAck(a) = e.kind {
-                    if let (true, Some(&k)) = (a.accepted, sent.get(&(e.cell, a.tag))) {
-                        if let Some(left) = missing.get_mut(&e.cell) {
-                            left[k] = false;
-                        }
-                    }
+                let EventKind::ConfigAck(a) = e.kind else { continue };
+                if let (Some(&k), Some(left)) = (sent.get(&(e.cell, a.tag)), missing.get_mut(&e.cell)) {
+                    left[k] &= !a.accepted;
                 }
             }
         }

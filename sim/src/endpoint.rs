@@ -62,8 +62,7 @@ pub struct EndpointConfig {
 pub struct Served {
     /// Control periods simulated.
     pub ticks: u64,
-    /// Robot-link datagrams that were not requests, or came from elsewhere
-    /// than the host's first robot-link address.
+    /// Robot-link datagrams that were not requests.
     pub rejected: u64,
     /// Commands refused (wrong length, not finite).
     pub refused: u64,
@@ -99,14 +98,12 @@ pub struct Endpoint {
     robot_socket: UdpSocket,
     ports: Vec<UdpSocket>,
     host: SocketAddr,
-    /// The host's robot-link address, bound to the first one that asks.
-    commander: Option<SocketAddr>,
     pacing: Pacing,
     command: Vec<f64>,
     /// When the last command came.
     commanded_at: Option<Instant>,
-    /// The last command's `seq` and the answer sent, for retries.
-    last: Option<(u32, FromRobot)>,
+    /// Who sent the last command, its `seq` and the answer, for retries.
+    last: Option<(SocketAddr, u32, FromRobot)>,
     samples: Vec<(Address, Sample)>,
     raw: Vec<Sample>,
     served: Served,
@@ -170,7 +167,6 @@ impl Endpoint {
             robot_socket,
             ports,
             host: config.host,
-            commander: None,
             commanded_at: None,
             pacing: config.pacing,
             last: None,
@@ -189,29 +185,14 @@ impl Endpoint {
         Ok(self.ports.iter().map(UdpSocket::local_addr).collect::<Result<_, _>>()?)
     }
 
-    /// The world: ground truth, for checking what the host learned.
-    pub fn world(&self) -> &World {
-        &self.world
-    }
-
-    /// The skin network: ground truth of the wiring and its measurements.
-    pub fn network(&self) -> &Network {
-        &self.network
-    }
-
     /// The ID each of the world's skin cells has in the network now
     /// ([`Address::UNASSIGNED`] before it got one), in the world's skin order.
-    pub fn assigned_ids(&self) -> Vec<Address> {
+    fn assigned_ids(&self) -> Vec<Address> {
         let mut ids = vec![Address::UNASSIGNED; self.world_cell.len()];
         for (n, &w) in self.world_cell.iter().enumerate() {
             ids[w] = self.network.cell(n).map_or(Address::UNASSIGNED, |c| c.id());
         }
         ids
-    }
-
-    /// What was served so far.
-    pub fn served(&self) -> Served {
-        self.served
     }
 
     /// What only the simulator knows, now.
@@ -231,12 +212,12 @@ impl Endpoint {
 
     /// Serves the host until `stop` is set.
     pub fn serve(&mut self, stop: &AtomicBool) -> Result<Served, NetworkError> {
-        let period = Duration::from_secs_f64(self.world.config().tick_s);
+        let tick_s = self.world.config().tick_s;
         let start = Instant::now();
         let mut buf = [0u8; robot_link::MAX_DATAGRAM + 1];
         while !stop.load(Ordering::Relaxed) {
             if self.pacing == Pacing::RealTime {
-                let due = start + period * (self.served.ticks as u32 + 1);
+                let due = start + Duration::from_secs_f64(tick_s * (self.served.ticks + 1) as f64);
                 match due.checked_duration_since(Instant::now()) {
                     None => {
                         self.advance()?;
@@ -252,15 +233,11 @@ impl Endpoint {
                 Err(e) if e.kind() == ErrorKind::ConnectionRefused => continue,
                 Err(e) => return Err(e.into()),
             };
-            if *self.commander.get_or_insert(from) != from {
-                self.served.rejected += 1;
-                continue;
-            }
             let Ok(request) = robot_link::decode::<ToRobot>(&buf[..n]) else {
                 self.served.rejected += 1;
                 continue;
             };
-            let answer = self.answer(request)?;
+            let answer = self.answer(request, from)?;
             let mut out = [0u8; robot_link::MAX_DATAGRAM];
             let len = robot_link::encode(&answer, &mut out).expect("answers fit a robot-link datagram");
             self.robot_socket.send_to(&out[..len], from)?;
@@ -268,7 +245,7 @@ impl Endpoint {
         Ok(self.served)
     }
 
-    fn answer(&mut self, request: ToRobot) -> Result<FromRobot, NetworkError> {
+    fn answer(&mut self, request: ToRobot, from: SocketAddr) -> Result<FromRobot, NetworkError> {
         let dofs = self.world.robot().dofs();
         Ok(match request {
             ToRobot::Hello => FromRobot::Info {
@@ -284,8 +261,8 @@ impl Endpoint {
                 None => FromRobot::Refused { seq: 0, reason: Refusal::NoSuchDof },
             },
             ToRobot::Command { seq, velocities } => {
-                if let Some((last, answer)) = &self.last {
-                    if *last == seq {
+                if let Some((asker, last, answer)) = &self.last {
+                    if *asker == from && *last == seq {
                         return Ok(answer.clone());
                     }
                 }
@@ -311,7 +288,7 @@ impl Endpoint {
                     time_us: (self.world.time_s() * 1e6).round() as u64,
                     positions: self.world.positions().iter().copied().collect(),
                 };
-                self.last = Some((seq, answer.clone()));
+                self.last = Some((from, seq, answer.clone()));
                 answer
             }
         })
