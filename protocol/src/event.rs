@@ -108,6 +108,17 @@ impl Quantizer {
             level
         })
     }
+
+    /// True when no value in `lo..=hi` changes the level. The level a value
+    /// leads to never falls as the value grows (entering is at a bound,
+    /// falling is held below it), so the two ends decide.
+    pub fn holds(&self, lo: f32, hi: f32) -> bool {
+        let stays = |v: f32| {
+            let mut q = *self;
+            v.is_finite() && q.update(v).is_none()
+        };
+        lo <= hi && stays(lo) && stays(hi)
+    }
 }
 
 /// Send-on-delta filter over the eight channels of a [`Sample`].
@@ -169,6 +180,17 @@ impl SendOnDelta {
     pub fn reset(&mut self) {
         self.last = None;
     }
+
+    /// True when no sample whose channels each lie within `lo..=hi` would
+    /// be sent: there is a reference, and both ends of every channel's
+    /// range are within its threshold of it.
+    pub fn holds(&self, lo: [i32; 8], hi: [i32; 8]) -> bool {
+        let Some(last) = self.last else { return false };
+        (0..8).all(|c| {
+            let near = |v: i32| (i64::from(v) - i64::from(last[c])).unsigned_abs() <= u64::from(self.deltas[c]);
+            lo[c] <= hi[c] && near(lo[c]) && near(hi[c])
+        })
+    }
 }
 
 #[cfg(test)]
@@ -225,6 +247,53 @@ mod tests {
             q.update(b);
             let events = jitter.iter().filter(|j| q.update(b + **j).is_some()).count();
             prop_assert!(events <= 1, "{} events", events);
+        }
+
+        /// Whatever holds for a range holds for every value in it.
+        #[test]
+        fn a_range_that_holds_changes_no_level(
+            history in proptest::collection::vec(0.0f32..1.0, 0..20),
+            a in 0.0f32..1.0,
+            b in 0.0f32..1.0,
+            inside in proptest::collection::vec(0.0f32..=1.0, 1..50),
+        ) {
+            let mut q = Quantizer::force();
+            history.into_iter().for_each(|v| { q.update(v); });
+            let (lo, hi) = (a.min(b), a.max(b));
+            if q.holds(lo, hi) {
+                for t in inside {
+                    prop_assert_eq!(q.update(lo + t * (hi - lo)), None);
+                }
+            }
+        }
+
+        #[test]
+        fn a_range_within_the_thresholds_sends_nothing(
+            reference in proptest::collection::vec(50i32..450, 8),
+            spread in proptest::collection::vec((0i32..50, 0i32..50), 8),
+            inside in proptest::collection::vec(proptest::collection::vec(0.0f64..=1.0, 8), 1..30),
+        ) {
+            let sample = |v: [i32; 8]| {
+                Sample::new(v[0] as u16, [1, 2, 3].map(|c| v[c] as u16), [4, 5, 6].map(|c| v[c] as i16), v[7] as i16, 0)
+                    .unwrap()
+            };
+            let mut f = SendOnDelta::new([40, 40, 40, 40, 6, 6, 6, 0]);
+            let r: [i32; 8] = core::array::from_fn(|c| reference[c]);
+            let lo: [i32; 8] = core::array::from_fn(|c| r[c] - spread[c].0);
+            let hi: [i32; 8] = core::array::from_fn(|c| r[c] + spread[c].1);
+            prop_assert!(!f.holds(lo, hi), "no reference yet: the next sample goes out");
+            prop_assert!(f.update(&sample(r)));
+            let fits = (0..8).all(|c| spread[c].0.max(spread[c].1) <= i32::from(f.deltas[c]));
+            prop_assert_eq!(f.holds(lo, hi), fits);
+            if lo != hi {
+                prop_assert!(!f.holds(hi, lo), "an empty range is refused");
+            }
+            if fits {
+                for t in inside {
+                    let v = core::array::from_fn(|c| lo[c] + (t[c] * f64::from(hi[c] - lo[c])).round() as i32);
+                    prop_assert!(!f.update(&sample(v)));
+                }
+            }
         }
 
         #[test]

@@ -81,6 +81,20 @@ fn exp_neg(x: f32) -> f32 {
     e
 }
 
+/// Filtered values rounded to counts and clamped to the sensors' ranges.
+fn counts(y: &[f32; 8], seq: u8) -> Sample {
+    let round = |v: f32| if v < 0.0 { (v - 0.5) as i32 } else { (v + 0.5) as i32 };
+    let clamp_u16 = |v: f32, max: u16| round(v).clamp(0, i32::from(max)) as u16;
+    let clamp_i16 = |v: f32| round(v).clamp(i32::from(i16::MIN), i32::from(i16::MAX)) as i16;
+    Sample::saturating(
+        clamp_u16(y[0], PROXIMITY_MAX),
+        [clamp_u16(y[1], FORCE_MAX), clamp_u16(y[2], FORCE_MAX), clamp_u16(y[3], FORCE_MAX)],
+        [clamp_i16(y[4]), clamp_i16(y[5]), clamp_i16(y[6])],
+        clamp_i16(y[7]),
+        seq,
+    )
+}
+
 impl Processor {
     /// Clock-driven at 250 Hz, Table 3 levels, no offsets, unit gains.
     pub fn new() -> Processor {
@@ -212,17 +226,59 @@ impl Processor {
         true
     }
 
+    /// Raw channels less offsets, times the force gains: the filter's input.
+    fn inputs(&self, raw: [i32; 8]) -> [f32; 8] {
+        core::array::from_fn(|i| {
+            let gain = if (1..4).contains(&i) { self.force_gain[i - 1] } else { 1.0 };
+            (raw[i] - self.offsets[i]) as f32 * gain
+        })
+    }
+
+    /// True when, from its present state, this processor sends nothing for
+    /// any run of raw samples whose channels stay within `lo..=hi` (in
+    /// [`Sample::channels`] order), and such samples change nothing but its
+    /// filter and its sequence number. So a caller that knows its inputs
+    /// stay so bounded for a while (a simulator's resting cell) may process
+    /// them later in one go, with the same outcome.
+    ///
+    /// It holds when traffic is event-driven, no calibration runs, and every
+    /// value the filter can reach stays within the send-on-delta threshold
+    /// of the last sample sent and within each quantizer's present level.
+    /// The filter's output is a weighted mean of its present value and the
+    /// inputs, so it stays between them; f32 rounding can step past that
+    /// range by a few units in the last place (never further: a step from
+    /// outside it goes back toward it), which the margin of a quarter count
+    /// (or 2^-20 of the value, when larger) covers. Quantization to counts
+    /// and the level of a value are monotonic, so the range's ends decide.
+    pub fn silent_within(&self, lo: [i32; 8], hi: [i32; 8]) -> bool {
+        if self.traffic != TrafficMode::Event || self.calibration.is_some() {
+            return false;
+        }
+        let (a, b) = (self.inputs(lo), self.inputs(hi));
+        let mut ends = [[0f32; 8]; 2];
+        for c in 0..8 {
+            let (mut l, mut h) = (a[c].min(b[c]), a[c].max(b[c]));
+            if let Some(y) = &self.filtered {
+                (l, h) = (l.min(y[c]), h.max(y[c]));
+            }
+            let margin = (l.abs().max(h.abs()) * 8.0 * f32::EPSILON).max(0.25);
+            (ends[0][c], ends[1][c]) = (l - margin, h + margin);
+        }
+        let (low, high) = (counts(&ends[0], 0), counts(&ends[1], 0));
+        let (pl, ph) = (low.proximity_norm(), high.proximity_norm());
+        let (fl, fh) = (low.force_norm(), high.force_norm());
+        self.delta.holds(low.channels(), high.channels())
+            && self.proximity.holds(pl, ph)
+            && (0..3).all(|k| self.force[k].holds(fl[k], fh[k]))
+    }
+
     /// Processes one raw sample: offsets, gains, low-pass, events, and the
     /// send decision. During a calibration nothing comes out.
     pub fn process(&mut self, raw: &Sample) -> Outputs {
         if self.calibration_step(raw) {
             return Outputs::new();
         }
-        let mut x = [0f32; 8];
-        for (i, (v, o)) in raw.channels().into_iter().zip(self.offsets).enumerate() {
-            let gain = if (1..4).contains(&i) { self.force_gain[i - 1] } else { 1.0 };
-            x[i] = (v - o) as f32 * gain;
-        }
+        let x = self.inputs(raw.channels());
         let y = match &mut self.filtered {
             Some(y) => {
                 for (y, x) in y.iter_mut().zip(x) {
@@ -233,16 +289,7 @@ impl Processor {
             slot @ None => *slot.insert(x),
         };
         self.seq = self.seq.wrapping_add(1);
-        let round = |v: f32| if v < 0.0 { (v - 0.5) as i32 } else { (v + 0.5) as i32 };
-        let clamp_u16 = |v: f32, max: u16| round(v).clamp(0, i32::from(max)) as u16;
-        let clamp_i16 = |v: f32| round(v).clamp(i32::from(i16::MIN), i32::from(i16::MAX)) as i16;
-        let sample = Sample::saturating(
-            clamp_u16(y[0], PROXIMITY_MAX),
-            [clamp_u16(y[1], FORCE_MAX), clamp_u16(y[2], FORCE_MAX), clamp_u16(y[3], FORCE_MAX)],
-            [clamp_i16(y[4]), clamp_i16(y[5]), clamp_i16(y[6])],
-            clamp_i16(y[7]),
-            self.seq,
-        );
+        let sample = counts(&y, self.seq);
 
         let mut out = Outputs::new();
         let send = match self.traffic {
@@ -272,6 +319,7 @@ impl Processor {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
 
     fn force(f: u16) -> Sample {
         Sample::new(0, [f, 0, 0], [0, 0, 256], 800, 0).unwrap()
@@ -342,5 +390,74 @@ mod tests {
         assert_eq!(p.take_calibrated(), None);
         let Message::Sample(s) = p.process(&rest)[0] else { panic!() };
         assert_eq!((s.proximity(), s.force(), s.accel()), (0, [0; 3], [1, 2, 250]));
+    }
+
+    fn raw(v: [i32; 8]) -> Sample {
+        Sample::saturating(
+            v[0] as u16,
+            [v[1], v[2], v[3]].map(|f| f as u16),
+            [v[4], v[5], v[6]].map(|a| a as i16),
+            v[7] as i16,
+            0,
+        )
+    }
+
+    /// A cell at rest: baselines, and noise within three counts.
+    const REST: [i32; 8] = [1_200, 50, 60, 70, 10, -20, 250, 1_000];
+
+    #[test]
+    fn a_settled_resting_cell_is_silent_and_clock_traffic_never() {
+        let (lo, hi) = (REST.map(|v| v - 3), REST.map(|v| v + 3));
+        let mut p = Processor::new();
+        assert!(!p.silent_within(lo, hi), "clock-driven traffic sends every sample");
+        assert!(p.apply(&Setting::Traffic(TrafficMode::Event)));
+        assert!(!p.silent_within(lo, hi), "the first sample always goes out");
+        assert!(!p.process(&raw(REST)).is_empty());
+        assert!(p.silent_within(lo, hi));
+        // A threshold below the noise, or a reference far from the rest, may send.
+        let mut zero = p.clone();
+        assert!(zero.apply(&Setting::Delta { channel: 4, counts: 0 }));
+        assert!(!zero.silent_within(lo, hi));
+        let mut pressed = Processor::new();
+        assert!(pressed.apply(&Setting::Traffic(TrafficMode::Event)));
+        pressed.process(&raw([1_200, 90, 60, 70, 10, -20, 250, 1_000]));
+        assert!(!pressed.silent_within(lo, hi), "40 counts from the reference, 43 with noise");
+        // A calibration changes the offsets: not silent while it runs.
+        assert!(p.apply(&Setting::Calibrate));
+        assert!(!p.silent_within(lo, hi));
+    }
+
+    proptest! {
+        /// When the processor says it is silent for a range of inputs, any
+        /// run of such inputs, extremes included, sends nothing and leaves
+        /// the levels and the send-on-delta reference as they were; for
+        /// any filter cut-off (down to a tenth of a hertz and up to a
+        /// filter that passes the input unchanged) and force gain.
+        #[test]
+        fn silent_means_silent(
+            cutoff_hz in prop_oneof![Just(60.0f32), 0.1f32..1e4, Just(1e6)],
+            gain in 0.2f32..5.0,
+            history in proptest::collection::vec(proptest::collection::vec(-3i32..=3, 8), 1..40),
+            spread in proptest::collection::vec((0i32..5, 0i32..5), 8),
+            run in proptest::collection::vec(proptest::collection::vec(prop_oneof![Just(0.0f64), Just(1.0), 0.0f64..1.0], 8), 1..60),
+        ) {
+            let mut p = Processor::new();
+            for s in [Setting::Traffic(TrafficMode::Event), Setting::FilterCutoffHz(cutoff_hz), Setting::ForceGain { cell: 1, gain }] {
+                prop_assert!(p.apply(&s));
+            }
+            for noise in &history {
+                p.process(&raw(core::array::from_fn(|c| REST[c] + noise[c])));
+            }
+            let lo: [i32; 8] = core::array::from_fn(|c| REST[c] - spread[c].0);
+            let hi: [i32; 8] = core::array::from_fn(|c| REST[c] + spread[c].1);
+            if p.silent_within(lo, hi) {
+                let (levels, delta) = ((p.proximity, p.force), p.delta);
+                for t in run {
+                    let v = core::array::from_fn(|c| lo[c] + (t[c] * f64::from(hi[c] - lo[c])).round() as i32);
+                    prop_assert!(p.process(&raw(v)).is_empty(), "sent at {:?}", v);
+                }
+                prop_assert!((p.proximity, p.force) == levels && p.delta == delta);
+            }
+        }
     }
 }
