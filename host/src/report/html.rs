@@ -93,7 +93,9 @@ pub fn page(r: &Report) -> String {
     }
     s += "</table>\n";
     if let Some(g) = &r.grasps {
-        s += "<h2>Teaching and grasping</h2>\n<table>\n<tr><th>key pose</th><th>taught in (robot time)</th></tr>\n";
+        s += "<h2>Teaching and grasping</h2>\n";
+        let _ = writeln!(s, "<p>{}</p>", escape(&g.how));
+        s += "<table>\n<tr><th>key pose</th><th>taught in (robot time)</th></tr>\n";
         for l in &g.lessons {
             let _ = writeln!(s, "<tr><td>{}</td><td>{:.1} s</td></tr>", escape(&l.pose), l.time_s);
         }

@@ -160,6 +160,8 @@ impl LatencySection {
 /// Teaching and grasping.
 #[derive(Clone, Debug, Serialize)]
 pub struct GraspSection {
+    /// How they were run.
+    pub how: String,
     /// Each key pose taught.
     pub lessons: Vec<Lesson>,
     /// Each grasp (traces in the CSV and SVG files).
