@@ -237,8 +237,11 @@ impl Remote {
         self.link.tick()?;
         if !self.link.info.lockstep {
             let period = Duration::from_secs_f64(self.link.info.period_s);
-            let due = self.next_due.map_or_else(|| Instant::now() + period, |d| d + period);
-            if let Some(wait) = due.checked_duration_since(Instant::now()) {
+            let now = Instant::now();
+            // A host that fell behind by more than a period starts a new
+            // schedule rather than firing the missed commands at once.
+            let due = self.next_due.map_or(now + period, |d| (d + period).max(now));
+            if let Some(wait) = due.checked_duration_since(now) {
                 std::thread::sleep(wait);
             }
             self.next_due = Some(due);

@@ -500,3 +500,16 @@ impl Report {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::LatencySection;
+
+    #[test]
+    fn latency_quantiles_come_from_the_counts() {
+        let l = LatencySection::new(vec![(100, 50), (200, 49), (900, 1)], 3);
+        assert_eq!((l.frames, l.p50_us, l.p99_us, l.max_us, l.sensor_frames_lost), (100, 100, 200, 900, 3));
+        let empty = LatencySection::new(Vec::new(), 0);
+        assert_eq!((empty.frames, empty.p50_us, empty.max_us), (0, 0, 0));
+    }
+}
