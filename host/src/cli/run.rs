@@ -14,11 +14,12 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
-use skin_host::config::Config;
+use skin_host::config::{Config, Traffic};
 use skin_host::explore::ExploreConfig;
 use skin_host::interface::Interface;
 use skin_host::pipeline::OrganizeConfig;
 use skin_host::remote::{Remote, RobotLink};
+use skin_protocol::message::AccelRange;
 
 use super::job::{self, Steps};
 
@@ -88,14 +89,29 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         interface.local_addr()
     );
     let mut remote = Remote::new(link, interface);
+    // The exploration averages every sample: event-driven cells would fall
+    // silent while they rest.
+    let mut cells = config.cells.clone();
+    if cells.traffic == Traffic::Event {
+        tracing::info!(
+            "cells send every sample while the robot explores itself (the configuration asks for event-driven traffic)"
+        );
+        cells.traffic = Traffic::Clock;
+    }
+    // The range the accelerometers are set to is the one their counts are read in.
+    let range = match cells.accel_range_g {
+        8 => AccelRange::G8,
+        16 => AccelRange::G16,
+        _ => AccelRange::G2,
+    };
     let steps = Steps {
         organize: OrganizeConfig {
             expected_cells: args.cells,
             timeout_s: args.organize_timeout,
             ..OrganizeConfig::default()
         },
-        settings: config.cells.settings(),
-        explore: ExploreConfig::default(),
+        settings: cells.settings(),
+        explore: ExploreConfig { range, ..ExploreConfig::default() },
     };
     let found = job::run(&mut remote, &steps)?;
     let mut report = job::report(&remote, source, found);
