@@ -198,6 +198,8 @@ pub fn forest(
     }
     for (i, node) in nodes.iter().enumerate() {
         let r = if small { 11 } else { 22 };
+        // Opaque, so the edges end at the rim and do not cross the label.
+        root.draw(&Circle::new(pos(i), r, WHITE.filled()))?;
         root.draw(&Circle::new(pos(i), r, node.colour.mix(0.25).filled()))?;
         root.draw(&Circle::new(pos(i), r, node.colour.stroke_width(2)))?;
         root.draw(&Text::new(node.label.clone(), pos(i), centred(if small { 9 } else { 12 })))?;
