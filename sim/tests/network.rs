@@ -270,3 +270,87 @@ fn event_driven_grasp_serves_five_times_the_cells_of_clock_driven() {
     assert!(r.event_latency_us.max < 4_000 && r.latency_us.max < 4_000, "{}", r.summary());
     assert!(r.meets_rate && r.sensor_dropped_while_measuring == 0, "{}", r.summary());
 }
+
+/// Everything one run with scripted host actions shows: the datagrams to
+/// the host, what was measured (less the count of simulator events), the
+/// routers' counters, and how many events it took.
+fn scripted(topology: &Topology, stimulus: StimulusKind, skip: bool) -> (Vec<(u64, Vec<u8>)>, String, u64) {
+    use skin_protocol::interface::{self, DatagramHeader, MAX_DATAGRAM};
+    use skin_protocol::message::{ConfigWrite, Message, Setting};
+    use skin_protocol::{Address, Frame, Sample};
+    let config = NetworkConfig { skip_resting_cells: skip, ..config(TrafficMode::Event, stimulus, 7) };
+    let mut net = Network::new(topology, config).unwrap();
+    let mut host = Host::new();
+    let mut seen = Vec::new();
+    let mut run_to = |net: &mut Network, until_s: f64| {
+        while let Some(d) = net.step((until_s * 1e9) as u64) {
+            for reply in host.receive(&d.bytes) {
+                net.inject(&reply).unwrap();
+            }
+            seen.push((d.at_ns, d.bytes));
+        }
+    };
+    run_to(&mut net, 0.5);
+    net.measure_from();
+    // The last cell is far from where both stimuli start.
+    let far = topology.cells() - 1;
+    for (at_s, fault) in [(0.8, FaultKind::Reboot(far)), (1.0, FaultKind::Dead(far - 1))] {
+        net.schedule_fault((at_s * 1e9) as u64, fault).unwrap();
+    }
+    run_to(&mut net, 1.2);
+    // Settings for resting cells: one of them changes its processing.
+    assert!((far - 3..far - 1).all(|c| net.is_resting(c) == skip));
+    for (cell, setting) in
+        [(far - 2, Setting::Delta { channel: 1, counts: 30 }), (far - 3, Setting::Traffic(TrafficMode::Clock))]
+    {
+        let c = net.cell(cell).unwrap();
+        let write = Message::ConfigWrite(ConfigWrite { tag: 1, setting });
+        let frame = Frame::new(Address::HOST, c.id(), &write);
+        let header = DatagramHeader { interface: c.organizer().interface().unwrap(), seq: 0, timestamp_us: 0 };
+        let mut buf = [0u8; MAX_DATAGRAM];
+        let len = interface::encode(header, &[frame], &mut buf).unwrap();
+        net.inject(&buf[..len]).unwrap();
+    }
+    run_to(&mut net, 3.0);
+    // Readings from outside wake every cell.
+    let fed: Vec<Sample> =
+        (0..net.cells()).map(|_| Sample::saturating(1_300, [600; 3], [0, 0, 256], 1_000, 0)).collect();
+    net.feed(&fed).unwrap();
+    assert!((0..net.cells()).all(|c| !net.is_resting(c)));
+    run_to(&mut net, 3.1);
+    let mut m = net.measurements();
+    let events = std::mem::take(&mut m.events);
+    assert!(net.balanced());
+    (seen, format!("{m:?} {:?}", net.router_counters()), events)
+}
+
+/// Resting cells skip their samples, and the run is the same as without:
+/// every datagram, every count, with faults, settings and fed readings.
+#[test]
+fn resting_cells_change_nothing_but_the_cost() {
+    let wide = patch(4, 40, 2);
+    let tall = patch(40, 4, 2);
+    for (topology, stimulus) in
+        [(&wide, StimulusKind::Touch), (&tall, StimulusKind::Grasp), (&wide, StimulusKind::Quiet)]
+    {
+        let (skipping, measured, events) = scripted(topology, stimulus, true);
+        let (every, measured_every, events_every) = scripted(topology, stimulus, false);
+        assert!(skipping == every, "{stimulus:?}: the datagrams differ");
+        assert_eq!(measured, measured_every, "{stimulus:?}");
+        assert!(events * 10 < events_every * 9, "{stimulus:?}: {events} events, {events_every} without resting");
+    }
+    // And the reports of whole runs with faults.
+    let mut s = Scenario::new(wide.clone(), config(TrafficMode::Event, StimulusKind::Touch, 3), 1.0);
+    s.faults = vec![
+        Fault { at_s: 0.2, kind: FaultKind::Reboot(150) },
+        Fault { at_s: 0.3, kind: FaultKind::Cut(PortRef::new(100, skin_protocol::Port::P1)) },
+    ];
+    let report = |skip: bool| {
+        let mut s = s.clone();
+        s.config.skip_resting_cells = skip;
+        let mut r = run(&s);
+        (r.events, r.wall_time_s) = (0, 0.0);
+        serde_json::to_string(&r).unwrap()
+    };
+    assert_eq!(report(true), report(false));
+}

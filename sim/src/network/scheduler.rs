@@ -10,8 +10,14 @@
 //! goes into a ring of buckets of about a microsecond each, found through
 //! a bitmap; the rare later ones wait in a heap until the ring reaches
 //! them. The next event is the earliest of the lanes' heads and the
-//! ring's; events at the same time come out in the order they were
-//! scheduled, so a run depends on nothing but its inputs and its seed.
+//! ring's. Events due at the same time come out in the order they were
+//! scheduled, so a run depends on nothing but its inputs and its seed; an
+//! event may instead be given a rank, which puts it first among those
+//! scheduled at the same time (see [`Order`]), so that its place does not
+//! depend on what else was scheduled before it. An event can also be
+//! scheduled as if it had been scheduled earlier: its place is then the
+//! one it would have had, so a caller may skip events and schedule only the
+//! last of a chain without changing the order of anything else.
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, VecDeque};
@@ -24,17 +30,47 @@ const MASK: u64 = RING as u64 - 1;
 /// Fixed delays with a lane of their own; further delays share the ring.
 const LANES: usize = 8;
 
-/// An event with its time and sequence number.
+/// Where an event stands in the queue: by the time it is due; among
+/// events due at the same time, by the time it was scheduled; among those
+/// scheduled at the same time too, events with a rank first, by rank, and
+/// then the others in the order they were scheduled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Order {
+    /// When the event is due.
+    pub at_ns: u64,
+    /// When it was (or is taken to have been) scheduled.
+    pub scheduled_ns: u64,
+    /// Its rank, or [`UNRANKED`] plus its sequence number.
+    tie: u64,
+}
+
+/// Ties of unranked events start here; ranks stay below.
+const UNRANKED: u64 = 1 << 63;
+
+impl Order {
+    /// The place of an event due at `at_ns`, scheduled at `scheduled_ns`
+    /// with rank `rank` (below 2^63).
+    pub fn ranked(at_ns: u64, scheduled_ns: u64, rank: u64) -> Order {
+        debug_assert!(rank < UNRANKED);
+        Order { at_ns, scheduled_ns, tie: rank }
+    }
+
+    /// After every event due at or before `t_ns`.
+    fn end_of(t_ns: u64) -> Order {
+        Order { at_ns: t_ns, scheduled_ns: u64::MAX, tie: u64::MAX }
+    }
+}
+
+/// An event with its place.
 #[derive(Debug)]
 struct Item<E> {
-    at_ns: u64,
-    seq: u64,
+    order: Order,
     event: E,
 }
 
 impl<E> Item<E> {
-    fn key(&self) -> (u64, u64) {
-        (self.at_ns, self.seq)
+    fn key(&self) -> Order {
+        self.order
     }
 }
 
@@ -71,7 +107,7 @@ struct Calendar<E> {
     sorted: Option<u64>,
     later: BinaryHeap<Reverse<Later<E>>>,
     /// The key of the earliest event, when known: `Some(None)` when empty.
-    first: Option<Option<(u64, u64)>>,
+    first: Option<Option<Order>>,
 }
 
 impl<E> Default for Calendar<E> {
@@ -94,7 +130,7 @@ impl<E> Calendar<E> {
                 self.first = Some(Some(item.key()));
             }
         }
-        let bucket = item.at_ns >> SHIFT;
+        let bucket = item.order.at_ns >> SHIFT;
         if bucket >= self.base + RING as u64 {
             self.later.push(Reverse(Later(item)));
             return;
@@ -139,7 +175,7 @@ impl<E> Calendar<E> {
         }
         self.base = bucket;
         while let Some(Reverse(Later(first))) = self.later.peek() {
-            if first.at_ns >> SHIFT >= self.base + RING as u64 {
+            if first.order.at_ns >> SHIFT >= self.base + RING as u64 {
                 break;
             }
             let Some(Reverse(Later(item))) = self.later.pop() else { break };
@@ -157,8 +193,8 @@ impl<E> Calendar<E> {
         Some(bucket)
     }
 
-    /// Time and sequence number of the earliest event.
-    fn first_key(&mut self) -> Option<(u64, u64)> {
+    /// The place of the earliest event.
+    fn first_key(&mut self) -> Option<Order> {
         if let Some(first) = self.first {
             return first;
         }
@@ -186,7 +222,7 @@ impl<E> Calendar<E> {
 }
 
 /// The key of an empty lane's head: later than any event.
-const NONE: (u64, u64) = (u64::MAX, u64::MAX);
+const NONE: Order = Order { at_ns: u64::MAX, scheduled_ns: u64::MAX, tie: u64::MAX };
 
 /// A queue of events of type `E`, ordered by virtual time in nanoseconds.
 #[derive(Debug)]
@@ -195,11 +231,13 @@ pub struct Scheduler<E> {
     /// the delays, the events, and the key of each lane's first event.
     delays: Vec<u64>,
     lanes: Vec<VecDeque<Item<E>>>,
-    heads: [(u64, u64); LANES],
+    heads: [Order; LANES],
     calendar: Calendar<E>,
     len: usize,
     seq: u64,
     now_ns: u64,
+    /// Every event up to this place has been taken.
+    done: Order,
 }
 
 impl<E> Default for Scheduler<E> {
@@ -212,6 +250,7 @@ impl<E> Default for Scheduler<E> {
             len: 0,
             seq: 0,
             now_ns: 0,
+            done: Order { at_ns: 0, scheduled_ns: 0, tie: 0 },
         }
     }
 }
@@ -222,11 +261,12 @@ impl<E> Scheduler<E> {
         self.now_ns
     }
 
+    /// An unranked event due at `at_ns` (the past means now), scheduled now.
     fn item(&mut self, at_ns: u64, event: E) -> Item<E> {
-        let item = Item { at_ns: at_ns.max(self.now_ns), seq: self.seq, event };
+        let tie = UNRANKED + self.seq;
         self.seq += 1;
         self.len += 1;
-        item
+        Item { order: Order { at_ns: at_ns.max(self.now_ns), scheduled_ns: self.now_ns, tie }, event }
     }
 
     /// Schedules `event` at `at_ns`; a time in the past means now.
@@ -235,10 +275,30 @@ impl<E> Scheduler<E> {
         self.calendar.place(item);
     }
 
+    /// Schedules `event` at the place `order`, which must be later than the
+    /// event taken last: an event with a rank, and perhaps taken to have
+    /// been scheduled at another time than now.
+    pub fn at_order(&mut self, order: Order, event: E) {
+        debug_assert!(order > self.done && order.at_ns >= self.now_ns, "{order:?} is past");
+        self.len += 1;
+        self.calendar.place(Item { order, event });
+    }
+
     /// Schedules `event` `delay_ns` from now. Use it for the delays that
     /// recur (the first few get a lane); it orders events as [`Scheduler::at`].
     pub fn after(&mut self, delay_ns: u64, event: E) {
         let item = self.item(self.now_ns.saturating_add(delay_ns), event);
+        self.place_in_lane(delay_ns, item);
+    }
+
+    /// [`Scheduler::after`] for an event with rank `rank`.
+    pub fn after_ranked(&mut self, delay_ns: u64, rank: u64, event: E) {
+        let at_ns = self.now_ns.saturating_add(delay_ns);
+        self.len += 1;
+        self.place_in_lane(delay_ns, Item { order: Order::ranked(at_ns, self.now_ns, rank), event });
+    }
+
+    fn place_in_lane(&mut self, delay_ns: u64, item: Item<E>) {
         let k = match self.delays.iter().position(|d| *d == delay_ns) {
             Some(k) => k,
             None if self.lanes.len() < LANES => {
@@ -248,10 +308,12 @@ impl<E> Scheduler<E> {
             }
             None => return self.calendar.place(item),
         };
-        if self.lanes[k].is_empty() {
-            self.heads[k] = item.key();
-        }
-        self.lanes[k].push_back(item);
+        let lane = &mut self.lanes[k];
+        // In time order already; a ranked event may go before others
+        // scheduled at this same time.
+        let at = lane.iter().rposition(|x| x.key() < item.key()).map_or(0, |p| p + 1);
+        lane.insert(at, item);
+        self.heads[k] = lane[0].key();
     }
 
     /// Where the next event is: `Some(lane)` or `None` for the calendar,
@@ -263,7 +325,7 @@ impl<E> Scheduler<E> {
                 best = (Some(k), *head);
             }
         }
-        (best.1 != NONE).then_some((best.0, best.1 .0))
+        (best.1 != NONE).then_some((best.0, best.1.at_ns))
     }
 
     /// The time of the next event.
@@ -287,16 +349,34 @@ impl<E> Scheduler<E> {
             None => self.calendar.pop()?,
         };
         self.len -= 1;
-        self.now_ns = item.at_ns;
-        self.calendar.move_to(item.at_ns >> SHIFT);
+        self.now_ns = item.order.at_ns;
+        self.done = self.done.max(item.order);
+        self.calendar.move_to(self.now_ns >> SHIFT);
         Some(item.event)
     }
 
     /// Moves the clock to `t_ns` when no event comes before it.
     pub fn advance(&mut self, t_ns: u64) {
-        if self.next_ns().is_none_or(|n| n >= t_ns) {
+        let next = self.next_ns();
+        if next.is_none_or(|n| n >= t_ns) {
             self.now_ns = self.now_ns.max(t_ns);
         }
+        if next.is_none_or(|n| n > t_ns) {
+            self.done = self.done.max(Order::end_of(t_ns));
+        }
+    }
+
+    /// The place of the event taken last (or of the end of the time the
+    /// clock was advanced to): every event up to it has been taken.
+    pub fn done(&self) -> Order {
+        self.done
+    }
+
+    /// True when an event at place `order` would have been taken by now:
+    /// it comes no later than the event taken last (or than every event
+    /// due by the time the clock was advanced to).
+    pub fn is_done(&self, order: Order) -> bool {
+        order <= self.done
     }
 
     /// Events waiting.
@@ -336,6 +416,27 @@ mod tests {
         s.advance(50);
         assert_eq!(s.now_ns(), 50);
         assert!(s.is_empty());
+    }
+
+    #[test]
+    fn ranked_events_keep_their_place_whatever_was_scheduled_before() {
+        let mut s = Scheduler::default();
+        s.at(1_000, 'x');
+        s.pop_until(1_000);
+        // Scheduled at the same time: ranked ones first, by rank.
+        s.after(500, 'c');
+        s.after_ranked(500, 7, 'b');
+        s.after_ranked(500, 2, 'a');
+        // Due at the same time but taken to have been scheduled earlier.
+        s.at_order(Order::ranked(1_500, 900, 9), 'e');
+        s.at(1_500, 'd');
+        assert!(s.is_done(Order::ranked(1_000, 0, 0)) && !s.is_done(Order::ranked(1_500, 1_000, 0)));
+        let order: Vec<char> = std::iter::from_fn(|| s.pop_until(2_000)).collect();
+        assert_eq!(order, ['e', 'a', 'b', 'c', 'd']);
+        assert!(s.is_done(Order::ranked(1_500, 1_000, 8)), "after 'b'");
+        s.advance(1_700);
+        assert!(s.is_done(Order::ranked(1_700, 1_600, 1)), "everything due by 1700 is done");
+        assert!(!s.is_done(Order::ranked(1_701, 1_600, 1)));
     }
 
     proptest! {

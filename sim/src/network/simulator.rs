@@ -7,8 +7,19 @@
 //! happens on a fixed tick: a cell is visited when a frame reaches it, when
 //! its sensors are due, or at its own [`Cell::poll_at`]; a transmitter
 //! starts when a frame is queued for an idle port and asks for the next one
-//! when its frame has left. Quiet cells thus cost their sampling and their
-//! keep-alive only.
+//! when its frame has left.
+//!
+//! A cell at rest costs nothing: when the stimulus leaves it at rest for a
+//! while and its [`Processor`] proves that no reading within its noise
+//! bounds makes it send ([`Processor::silent_within`]), the cell skips its
+//! samples until the stimulus reaches it. The processor takes the skipped
+//! samples in one go when the cell wakes (or when something needs its
+//! state: a configuration write, readings fed from outside), reading the
+//! same noise it would have read, as every cell has a noise stream of its
+//! own: the run is the same as without skipping, frame for frame
+//! ([`NetworkConfig::skip_resting_cells`] turns skipping off to show it).
+//! Between them, a cell's sample due in the very nanosecond a frame reaches
+//! it or a fault strikes it is taken first.
 //!
 //! The simulator follows each upstream frame through the router queues by
 //! watching their lengths (they are FIFO), so it knows, without looking
@@ -30,7 +41,7 @@ use skin_protocol::Sample;
 use super::fault::{FaultKind, REBOOT_DOWN_NS};
 use super::ledger::{DropReason, Drops, Histogram, Ledger};
 use super::link::{BitErrors, LinkTiming};
-use super::scheduler::Scheduler;
+use super::scheduler::{Order, Scheduler};
 use super::stimulus::{Stimulus, StimulusKind};
 use super::topology::{PortRef, Topology};
 use super::NetworkError;
@@ -41,6 +52,8 @@ const BOOT_SPREAD_NS: u64 = 5_000_000;
 const OWN: usize = 4;
 /// Every port, as port bits.
 const ALL_PORTS: u8 = 0b1111;
+/// A cell rests only when it can skip at least this many samples.
+const MIN_REST_SAMPLES: u64 = 2;
 
 /// What a network is made of, besides its wiring.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -63,6 +76,9 @@ pub struct NetworkConfig {
     pub bit_error_rate: f64,
     /// Seed of boot order, sampling phases, sensor noise and bit errors.
     pub seed: u64,
+    /// Cells the stimulus leaves at rest skip their samples while they
+    /// provably send nothing (the same run, faster); off only to check that.
+    pub skip_resting_cells: bool,
 }
 
 impl Default for NetworkConfig {
@@ -76,6 +92,7 @@ impl Default for NetworkConfig {
             delta_counts: [None; 8],
             bit_error_rate: 0.0,
             seed: 0,
+            skip_resting_cells: true,
         }
     }
 }
@@ -163,7 +180,7 @@ enum Power {
 }
 
 /// What the simulator checks of a cell on every event: its power, its
-/// transmitters and its pending wake-up, in one cache line apart from the
+/// transmitters and its pending wake-ups, in one cache line apart from the
 /// firmware's state (a few kilobytes per cell), so that a stale wake-up or
 /// a sample that sends nothing does not reach for it.
 #[derive(Debug)]
@@ -175,6 +192,33 @@ struct Node {
     epoch: u32,
     busy_until_ns: [u64; 4],
     poll_ns: u64,
+    /// When the cell's sample event is due: its next sample, or the one
+    /// that ends its rest (`u64::MAX`: none).
+    sample_ns: u64,
+}
+
+/// A cell skipping its samples at rest, until its sample event.
+#[derive(Clone, Copy, Debug)]
+struct Rest {
+    /// The first sample its processor has not taken.
+    next_ns: u64,
+    /// The first sample not yet counted in [`Measurements::samples`].
+    count_ns: u64,
+    /// The sampling period.
+    period_ns: u64,
+}
+
+impl Rest {
+    /// How many skipped samples fall from `from_ns` through `through_ns`
+    /// (and before the sample event at `end_ns`), and the first one after.
+    fn span(&self, from_ns: u64, through_ns: u64, end_ns: u64) -> (u64, u64) {
+        let last = through_ns.min(end_ns.saturating_sub(1));
+        if from_ns > last {
+            return (0, from_ns);
+        }
+        let n = (last - from_ns) / self.period_ns + 1;
+        (n, from_ns + n * self.period_ns)
+    }
 }
 
 /// A simulated cell's firmware network stack, its ID store and the
@@ -286,6 +330,9 @@ pub struct Network {
     nodes: Vec<Node>,
     stacks: Vec<Stack>,
     processors: Vec<Processor>,
+    /// Cells at rest, and how many.
+    rests: Vec<Option<Rest>>,
+    resting: usize,
     peers: Vec<[Option<End>; 4]>,
     interfaces: Vec<Interface>,
     ethernet_busy_until_ns: u64,
@@ -302,6 +349,9 @@ pub struct Network {
     followed_on_wires: u64,
     followed_on_ethernet: u64,
     measure_from_ns: u64,
+    /// The place in the event order where measuring began: a skipped
+    /// sample counts when it comes later.
+    measure_from: Order,
     window: (u64, u64),
     m: Measurements,
 }
@@ -365,6 +415,7 @@ impl Network {
                     epoch: 0,
                     busy_until_ns: [0; 4],
                     poll_ns: u64::MAX,
+                    sample_ns: u64::MAX,
                 }
             })
             .collect();
@@ -377,6 +428,8 @@ impl Network {
             period_ns: processor.period_us() * 1000,
             stacks: (0..topology.cells()).map(|_| Stack::default()).collect(),
             processors: vec![processor; topology.cells()],
+            rests: vec![None; topology.cells()],
+            resting: 0,
             nodes,
             peers,
             interfaces,
@@ -393,6 +446,7 @@ impl Network {
             followed_on_wires: 0,
             followed_on_ethernet: 0,
             measure_from_ns: 0,
+            measure_from: Order::ranked(0, 0, 0),
             window: (0, 0),
             m,
             config,
@@ -439,6 +493,17 @@ impl Network {
         self.interfaces.len()
     }
 
+    /// True while cell `i` rests: the stimulus leaves it at rest, and its
+    /// processor provably sends nothing, so it skips its samples.
+    pub fn is_resting(&self, i: usize) -> bool {
+        self.rests.get(i).is_some_and(Option::is_some)
+    }
+
+    /// Cells resting now.
+    pub fn resting(&self) -> usize {
+        self.resting
+    }
+
     /// The network stack of cell `i` while it is powered.
     pub fn cell(&self, i: usize) -> Option<&Cell> {
         self.stacks.get(i).and_then(|s| s.cell.as_ref())
@@ -448,6 +513,7 @@ impl Network {
     /// from the start.
     pub fn measure_from(&mut self) {
         self.measure_from_ns = self.now_ns();
+        self.measure_from = self.events.done();
         self.window = (self.now_ns() / self.period_ns, 0);
         let ledger = std::mem::take(&mut self.m.ledger);
         self.m = Measurements {
@@ -465,6 +531,11 @@ impl Network {
     /// What was measured, up to now.
     pub fn measurements(&self) -> Measurements {
         let mut m = self.m.clone();
+        for (i, rest) in self.rests.iter().enumerate() {
+            if let Some(r) = rest {
+                m.samples += self.skipped_measured(i, r, self.taken_through(i, r)).0;
+            }
+        }
         m.peak_data_frames_per_period = m.peak_data_frames_per_period.max(self.window.1);
         m.interface_frames = self.interfaces.iter().map(|i| (i.from_cell, i.data_from_cell)).collect();
         m.measured_ns = self.now_ns() - self.measure_from_ns;
@@ -572,8 +643,13 @@ impl Network {
     /// Raw readings from outside, one per cell, that every cell samples
     /// from now on (until the next call) instead of the stimulus: what a
     /// simulated robot feels, carried by the network as the skin would.
+    /// Cells at rest wake up: the stimulus no longer says where it acts.
     pub fn feed(&mut self, raw: &[Sample]) -> Result<(), NetworkError> {
-        self.stimulus.feed(raw)
+        self.stimulus.feed(raw)?;
+        if self.resting > 0 {
+            (0..self.nodes.len()).for_each(|i| self.wake(i));
+        }
+        Ok(())
     }
 
     /// Who is on each port of cell `i` on the live wiring, as the cell
@@ -625,7 +701,9 @@ impl Network {
                 self.settle(i, ALL_PORTS);
             }
             Event::Sample(i, epoch) => {
-                if self.nodes[i].epoch == epoch && self.nodes[i].power == Power::On {
+                let n = &self.nodes[i];
+                // Stale when the cell rebooted, or woke from rest earlier.
+                if n.epoch == epoch && n.power == Power::On && n.sample_ns == self.events.now_ns() {
                     self.sample(i);
                 }
             }
@@ -674,7 +752,8 @@ impl Network {
         }
         n.power = Power::On;
         n.epoch += 1;
-        self.events.at(self.events.now_ns() + phase_ns, Event::Sample(i, n.epoch));
+        n.sample_ns = self.events.now_ns() + phase_ns;
+        self.events.at(n.sample_ns, Event::Sample(i, n.epoch));
         let s = &mut self.stacks[i];
         s.cell = Some(Cell::new(self.config.organize, &s.store, now_us));
         self.processors[i] = Self::processor(&self.config).expect("checked when the network was built");
@@ -734,14 +813,20 @@ impl Network {
         for p in Port::ALL.into_iter().filter(|p| ports & 1 << p.index() != 0) {
             self.kick_cell(i, p);
         }
-        let n = &mut self.nodes[i];
+        let n = &self.nodes[i];
         let Some(cell) = &self.stacks[i].cell else { return };
         debug_assert!(
             Port::ALL.iter().all(|p| !cell.has_pending(*p) || n.waking[p.index()]),
             "cell {i}: a transmitter with a frame will not be woken"
         );
-        n.has_id = cell.id().is_cell();
+        let has_id = cell.id().is_cell();
         let at = cell.poll_at().saturating_mul(1000).max(self.events.now_ns());
+        if n.has_id != has_id {
+            // The samples it skipped so far were taken with the old state.
+            self.count_skipped(i);
+            self.nodes[i].has_id = has_id;
+        }
+        let n = &mut self.nodes[i];
         if at < n.poll_ns {
             n.poll_ns = at;
             self.events.at(at, Event::Poll(i, n.epoch));
@@ -754,13 +839,17 @@ impl Network {
         master.map_or(0, |p| 1 << p.index())
     }
 
+    /// Cell `i` takes the sample due now (first the ones it skipped while
+    /// at rest), and perhaps rests from the next one on.
     fn sample(&mut self, i: usize) {
         let now_ns = self.events.now_ns();
+        if let Some(r) = self.rests[i] {
+            self.end_rest(i, r, now_ns - 1);
+        }
         let raw = self.stimulus.raw(i, now_ns as f64 * 1e-9);
+        let outs = self.processors[i].process(&raw);
+        self.schedule_sample(i);
         let n = &self.nodes[i];
-        let processor = &mut self.processors[i];
-        let outs = processor.process(&raw);
-        self.events.after(processor.period_us() * 1000, Event::Sample(i, n.epoch));
         let measuring = now_ns >= self.measure_from_ns;
         if measuring && n.has_id {
             self.m.samples += 1;
@@ -773,6 +862,124 @@ impl Network {
         if !outs.is_empty() {
             self.settle(i, self.master_port(i));
         }
+    }
+
+    /// Schedules cell `i`'s next sample, one period after the one it just
+    /// took; or, when it can rest, the sample that ends its rest (none when
+    /// the stimulus never reaches it).
+    fn schedule_sample(&mut self, i: usize) {
+        let now_ns = self.events.now_ns();
+        let period_ns = self.processors[i].period_us() * 1000;
+        let next_ns = now_ns + period_ns;
+        let epoch = self.nodes[i].epoch;
+        let Some(end_ns) = self.rest_end(i, next_ns, period_ns) else {
+            self.nodes[i].sample_ns = next_ns;
+            self.events.after_ranked(period_ns, i as u64, Event::Sample(i, epoch));
+            return;
+        };
+        self.rests[i] = Some(Rest { next_ns, count_ns: next_ns, period_ns });
+        self.resting += 1;
+        self.nodes[i].sample_ns = end_ns;
+        if end_ns < u64::MAX {
+            // Where it would have been in a run without rests.
+            let order = Order::ranked(end_ns, end_ns - period_ns, i as u64);
+            self.events.at_order(order, Event::Sample(i, epoch));
+        }
+    }
+
+    /// The sample at which cell `i` would wake when it rested from its
+    /// sample at `next_ns` on (`u64::MAX`: never), or `None` when it cannot
+    /// rest: its stimulus reaches it within a few samples, or its
+    /// processor might send something at rest.
+    fn rest_end(&self, i: usize, next_ns: u64, period_ns: u64) -> Option<u64> {
+        if !self.config.skip_resting_cells {
+            return None;
+        }
+        let until_s = self.stimulus.rest_until(i, next_ns as f64 * 1e-9);
+        // Rounding down: the rest ends no later than the stimulus says.
+        let until_ns = if until_s.is_finite() { (until_s * 1e9) as u64 } else { u64::MAX };
+        if until_ns < next_ns.saturating_add(MIN_REST_SAMPLES * period_ns) {
+            return None;
+        }
+        let (lo, hi) = self.stimulus.rest_bounds(i);
+        if !self.processors[i].silent_within(lo, hi) {
+            return None;
+        }
+        let samples = (until_ns - next_ns).div_ceil(period_ns);
+        Some(samples.checked_mul(period_ns).and_then(|d| d.checked_add(next_ns)).unwrap_or(u64::MAX))
+    }
+
+    /// The last time at which cell `i`'s skipped samples have been taken by
+    /// now, as events in a run without rests would have been: a sample due
+    /// in this very nanosecond only when it comes before the event taken last.
+    fn taken_through(&self, i: usize, r: &Rest) -> u64 {
+        let now_ns = self.events.now_ns();
+        let at_now = Order::ranked(now_ns, now_ns.saturating_sub(r.period_ns), i as u64);
+        if self.events.is_done(at_now) {
+            now_ns
+        } else {
+            now_ns.saturating_sub(1)
+        }
+    }
+
+    /// How many of cell `i`'s skipped samples not counted yet, through
+    /// `through_ns`, count in [`Measurements::samples`] (those of a cell
+    /// with an ID that come after measuring began), and the first sample
+    /// after them.
+    fn skipped_measured(&self, i: usize, r: &Rest, through_ns: u64) -> (u64, u64) {
+        let end_ns = self.nodes[i].sample_ns;
+        let (_, after) = r.span(r.count_ns, through_ns, end_ns);
+        if !self.nodes[i].has_id {
+            return (0, after);
+        }
+        let m = self.measure_from;
+        let first = if r.count_ns > m.at_ns {
+            r.count_ns
+        } else {
+            let t = r.count_ns + (m.at_ns - r.count_ns) / r.period_ns * r.period_ns;
+            let later = Order::ranked(t, t.saturating_sub(r.period_ns), i as u64) > m;
+            if t == m.at_ns && later {
+                t
+            } else {
+                t + r.period_ns
+            }
+        };
+        (r.span(first, through_ns, end_ns).0, after)
+    }
+
+    /// Counts the samples cell `i` skipped so far, if it rests.
+    fn count_skipped(&mut self, i: usize) {
+        let Some(mut r) = self.rests[i] else { return };
+        let (n, count_ns) = self.skipped_measured(i, &r, self.taken_through(i, &r));
+        self.m.samples += n;
+        r.count_ns = count_ns;
+        self.rests[i] = Some(r);
+    }
+
+    /// Ends cell `i`'s rest: its processor takes the samples it skipped
+    /// through `through_ns`, which provably send nothing; they are counted.
+    fn end_rest(&mut self, i: usize, r: Rest, through_ns: u64) -> u64 {
+        let (measured, _) = self.skipped_measured(i, &r, through_ns);
+        self.m.samples += measured;
+        let (n, next_ns) = r.span(r.next_ns, through_ns, self.nodes[i].sample_ns);
+        for _ in 0..n {
+            let raw = self.stimulus.rest(i);
+            let outs = self.processors[i].process(&raw);
+            assert!(outs.is_empty(), "cell {i} sent {outs:?} at rest");
+        }
+        self.rests[i] = None;
+        self.resting -= 1;
+        next_ns
+    }
+
+    /// Wakes cell `i` if it rests, now: it takes the samples it skipped
+    /// so far, and samples on from the next one.
+    fn wake(&mut self, i: usize) {
+        let Some(r) = self.rests[i] else { return };
+        let next_ns = self.end_rest(i, r, self.taken_through(i, &r));
+        self.nodes[i].sample_ns = next_ns;
+        let order = Order::ranked(next_ns, next_ns - r.period_ns, i as u64);
+        self.events.at_order(order, Event::Sample(i, self.nodes[i].epoch));
     }
 
     /// A cell sends one of its own messages upstream.
@@ -929,6 +1136,7 @@ impl Network {
                     lost(self, if full { DropReason::QueueFull } else { DropReason::Reroute });
                 }
                 if let Some((_, Message::ConfigWrite(w))) = delivered {
+                    self.wake(i);
                     let accepted = self.processors[i].apply(&w.setting);
                     let ack = Message::ConfigAck(ConfigAck { tag: w.tag, accepted });
                     self.send_own(i, &ack, false);
@@ -1059,8 +1267,13 @@ impl Network {
     }
 
     fn power_off(&mut self, c: usize, power: Power) {
+        // The samples it skipped so far were taken (their noise drawn).
+        if let Some(r) = self.rests[c] {
+            self.end_rest(c, r, self.taken_through(c, &r));
+        }
         self.nodes[c].power = power;
         self.nodes[c].poll_ns = u64::MAX;
+        self.nodes[c].sample_ns = u64::MAX;
         let n = &mut self.stacks[c];
         if let Some(cell) = n.cell.take() {
             add(&mut n.retired, cell.router().counters());

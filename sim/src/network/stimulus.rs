@@ -2,11 +2,18 @@
 //! quiet skin, a moving fingertip, or a whole-arm grasp.
 //!
 //! Each cell has its own baselines (proximity cross-talk, force-cell
-//! offset, gravity direction, temperature) and white sensor noise; contact
-//! adds force at the three force cells (Figure 3: 120 degrees apart, 7 mm
-//! off centre) and proximity that falls off with distance.
+//! offset, gravity direction, temperature) and its own stream of white
+//! sensor noise, Gaussian but bounded at three standard deviations (a draw
+//! beyond is drawn again); contact adds force at the three force cells
+//! (Figure 3: 120 degrees apart, 7 mm off centre) and proximity that falls
+//! off with distance, up to the proximity sensor's range.
+//!
+//! A stimulus knows where and when it acts: [`Stimulus::rest_until`] says
+//! how long a cell reads nothing but its baseline and noise, and
+//! [`Stimulus::rest_bounds`] what it can read meanwhile, so the network
+//! can skip the cells the stimulus leaves at rest.
 
-use rand::{Rng, SeedableRng};
+use rand::{Rng, RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use skin_protocol::sample::{Sample, FORCE_MAX, PROXIMITY_MAX};
@@ -22,8 +29,13 @@ const COUNTS_PER_C: f64 = 32.0;
 /// White noise, one standard deviation in counts: proximity (VCNL4010),
 /// force (capacitive), acceleration (BMA250: about 4 mg rms), temperature.
 pub const NOISE_COUNTS: [f64; 4] = [3.0, 2.0, 1.0, 1.0];
+/// Noise never exceeds this many standard deviations (0.27% of Gaussian
+/// draws would), so a cell's readings at rest have known bounds.
+pub const NOISE_BOUND_SD: f64 = 3.0;
 /// Distance over which proximity falls to 1/e.
 const PROXIMITY_DECAY_M: f64 = 0.015;
+/// Range of the proximity sensor (Table 1: 1-200 mm); beyond it, nothing.
+pub const PROXIMITY_RANGE_M: f64 = 0.2;
 /// Normalized proximity at touch (Table 3: close contact from 0.8).
 const PROXIMITY_AT_TOUCH: f64 = 0.85;
 /// Where the force cells sit: on a circle of 7 mm radius around the cell
@@ -33,8 +45,21 @@ const FORCE_CELLS_M: [[f64; 2]; 3] = [[0.007, 0.0], [-0.0035, 0.006_062], [-0.00
 const FORCE_CELL_RADIUS_M: f64 = 0.007;
 /// Contact radius of the fingertip.
 const FINGER_RADIUS_M: f64 = 0.012;
+/// Speed of the fingertip.
+const FINGER_SPEED_M_S: f64 = 0.1;
 /// Half the width of the band a grasped object presses.
 const HALF_BAND_M: f64 = 0.03;
+/// One grasp: approach, press, hold, let go, withdraw.
+const GRASP_CYCLE_S: f64 = 7.0;
+/// The grasped object approaches (and withdraws) at this speed for 2 s.
+const GRASP_SPEED_M_S: f64 = 0.025;
+/// When the grasped object is pressed in, and when it is taken back, in the cycle.
+const GRASP_CONTACT_S: std::ops::Range<f64> = 2.0..5.0;
+/// [`Stimulus::rest_until`] keeps this far from the stimulus's reach, so
+/// that rounding never decides.
+const REST_MARGIN_M: f64 = 0.001;
+// No force without proximity: the proximity range bounds where a stimulus acts.
+const _: () = assert!(FINGER_RADIUS_M + FORCE_CELL_RADIUS_M < PROXIMITY_RANGE_M);
 
 /// A stimulus the skin is exposed to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -81,7 +106,9 @@ pub struct Stimulus {
     baselines: Vec<Baseline>,
     lo: [f64; 2],
     hi: [f64; 2],
-    rng: ChaCha8Rng,
+    /// Each cell's noise, so that what one cell reads does not depend on
+    /// when the others read.
+    noise: Vec<Noise>,
     /// Readings fed from outside (a world model), one per cell, replacing
     /// the stimulus once given.
     fed: Option<Vec<Sample>>,
@@ -116,7 +143,7 @@ impl Stimulus {
             baselines,
             lo: [fold(f64::min, f64::MAX, 0), fold(f64::min, f64::MAX, 1)],
             hi: [fold(f64::max, f64::MIN, 0), fold(f64::max, f64::MIN, 1)],
-            rng,
+            noise: (0..positions_m.len()).map(|_| Noise(rng.next_u64())).collect(),
             fed: None,
         }
     }
@@ -126,35 +153,122 @@ impl Stimulus {
         self.kind
     }
 
+    fn mid(&self) -> [f64; 2] {
+        [(self.lo[0] + self.hi[0]) / 2.0, (self.lo[1] + self.hi[1]) / 2.0]
+    }
+
+    /// The width of skin the fingertip travels.
+    fn span_m(&self) -> f64 {
+        (self.hi[0] - self.lo[0]).max(0.01)
+    }
+
+    /// Where the fingertip is in its back and forth at `t_s`, in `[0, 2)`:
+    /// a fraction of the span on the way out, two less it on the way back.
+    fn finger_phase(&self, t_s: f64) -> f64 {
+        (t_s * FINGER_SPEED_M_S / self.span_m()) % 2.0
+    }
+
     /// Contact at a point of the skin at time `t_s`: force in newtons and
     /// distance of the object in metres.
     fn contact(&self, p: [f64; 2], t_s: f64) -> (f64, f64) {
-        let mid = [(self.lo[0] + self.hi[0]) / 2.0, (self.lo[1] + self.hi[1]) / 2.0];
+        let mid = self.mid();
         match self.kind {
             StimulusKind::Quiet => (0.0, f64::INFINITY),
             StimulusKind::Touch => {
-                // Triangle wave over the width of the skin at 0.1 m/s.
-                let span = (self.hi[0] - self.lo[0]).max(0.01);
-                let phase = (t_s * 0.1 / span) % 2.0;
-                let x = self.lo[0] + span * if phase < 1.0 { phase } else { 2.0 - phase };
+                // A triangle wave over the width of the skin.
+                let phase = self.finger_phase(t_s);
+                let x = self.lo[0] + self.span_m() * if phase < 1.0 { phase } else { 2.0 - phase };
                 let d = ((p[0] - x).powi(2) + (p[1] - mid[1]).powi(2)).sqrt();
                 let force = 2.0 * (1.0 - (d / FINGER_RADIUS_M).powi(2)).max(0.0);
                 (force, d)
             }
             StimulusKind::Grasp => {
-                let t = t_s % 7.0;
+                let t = t_s % GRASP_CYCLE_S;
                 let across = (p[1] - mid[1]).abs();
+                let (start, end) = (GRASP_CONTACT_S.start, GRASP_CONTACT_S.end);
                 let (gap_m, press) = match t {
-                    t if t < 2.0 => (0.025 * (2.0 - t), 0.0),
-                    t if t < 3.0 => (0.0, t - 2.0),
-                    t if t < 4.0 => (0.0, 1.0 - 0.1 * (std::f64::consts::PI * (t - 3.0)).sin()),
-                    t if t < 5.0 => (0.0, 0.9 * (5.0 - t)),
-                    t => (0.025 * (t - 5.0), 0.0),
+                    t if t < start => (GRASP_SPEED_M_S * (start - t), 0.0),
+                    t if t < start + 1.0 => (0.0, t - start),
+                    t if t < start + 2.0 => (0.0, 1.0 - 0.1 * (std::f64::consts::PI * (t - start - 1.0)).sin()),
+                    t if t < end => (0.0, 0.9 * (end - t)),
+                    t => (GRASP_SPEED_M_S * (t - end), 0.0),
                 };
                 let force = 3.0 * press * (1.0 - (across / HALF_BAND_M).powi(2)).max(0.0);
                 (force, gap_m + (across - HALF_BAND_M).max(0.0))
             }
         }
+    }
+
+    /// The first time from `t_s` on at which cell `cell` may read more than
+    /// its rest (baseline and noise): `t_s` itself when the stimulus
+    /// reaches it now or readings are fed from outside, infinity when it
+    /// never will. Its proximity sensor reaches farthest, so the cell is at
+    /// rest while the object stays beyond that range.
+    pub fn rest_until(&self, cell: usize, t_s: f64) -> f64 {
+        if self.fed.is_some() {
+            return t_s;
+        }
+        let p = self.positions_m[cell];
+        let mid = self.mid();
+        let reach_m = PROXIMITY_RANGE_M + REST_MARGIN_M;
+        match self.kind {
+            StimulusKind::Quiet => f64::INFINITY,
+            StimulusKind::Touch => {
+                // The fingertip passes within reach while its x is within
+                // `w` of the cell's: fractions `a..=b` of the span, which it
+                // enters at phase `a` on the way out and `2 - b` on the way back.
+                let dy = (p[1] - mid[1]).abs();
+                if dy > reach_m {
+                    return f64::INFINITY;
+                }
+                let w = (reach_m * reach_m - dy * dy).sqrt();
+                let span = self.span_m();
+                let (a, b) = (((p[0] - w - self.lo[0]) / span).max(0.0), ((p[0] + w - self.lo[0]) / span).min(1.0));
+                let phase = self.finger_phase(t_s);
+                let at = if phase < 1.0 { phase } else { 2.0 - phase };
+                if (a..=b).contains(&at) {
+                    return t_s;
+                }
+                let ahead = [a, 2.0 - b].map(|entry| (entry - phase).rem_euclid(2.0));
+                t_s + ahead[0].min(ahead[1]) * span / FINGER_SPEED_M_S
+            }
+            StimulusKind::Grasp => {
+                // The object is `gap + off` away; `gap` shrinks to 0 on
+                // approach and grows again on withdrawal.
+                let off = ((p[1] - mid[1]).abs() - HALF_BAND_M).max(0.0);
+                let gap = reach_m - off;
+                if gap < 0.0 {
+                    return f64::INFINITY;
+                }
+                let (near, far) =
+                    (GRASP_CONTACT_S.start - gap / GRASP_SPEED_M_S, GRASP_CONTACT_S.end + gap / GRASP_SPEED_M_S);
+                let t = t_s % GRASP_CYCLE_S;
+                match t {
+                    t if t < near => t_s + (near - t),
+                    t if t > far => t_s + (GRASP_CYCLE_S - t) + near,
+                    _ => t_s,
+                }
+            }
+        }
+    }
+
+    /// Per channel (in [`Sample::channels`] order), the lowest and the
+    /// highest reading of cell `cell` at rest: its baselines with the
+    /// noise at its bounds.
+    pub fn rest_bounds(&self, cell: usize) -> ([i32; 8], [i32; 8]) {
+        let bound = |sign: f64| {
+            let [np, nf, na, nt] = NOISE_COUNTS.map(|sd| sign * NOISE_BOUND_SD * sd);
+            reading(&self.baselines[cell], 0.0, [0.0; 3], [np, nf, nf, nf, na, na, na, nt]).channels()
+        };
+        (bound(-1.0), bound(1.0))
+    }
+
+    /// The raw sample of cell `cell` at rest: what it reads whenever
+    /// [`Stimulus::rest_until`] says it is at rest, as [`Stimulus::raw`]
+    /// would read it.
+    pub fn rest(&mut self, cell: usize) -> Sample {
+        let noise = self.noise[cell].draw();
+        reading(&self.baselines[cell], 0.0, [0.0; 3], noise)
     }
 
     /// True when a cell whose centre is `distance_m` from the object (as
@@ -193,10 +307,9 @@ impl Stimulus {
         if let Some(fed) = &self.fed {
             return fed[cell];
         }
-        let b = self.baselines[cell];
         let p = self.positions_m[cell];
         let (_, distance_m) = self.contact(p, t_s);
-        let proximity = if distance_m.is_finite() {
+        let proximity = if distance_m <= PROXIMITY_RANGE_M {
             PROXIMITY_AT_TOUCH * f64::from(PROXIMITY_MAX) * (-distance_m / PROXIMITY_DECAY_M).exp()
         } else {
             0.0
@@ -207,16 +320,60 @@ impl Stimulus {
             FORCE_CELLS_M
                 .map(|o| self.contact([p[0] + o[0], p[1] + o[1]], t_s).0 / FORCE_FULL_SCALE_N * f64::from(FORCE_MAX))
         };
+        let noise = self.noise[cell].draw();
+        reading(&self.baselines[cell], proximity, force, noise)
+    }
+}
+
+/// A cell's reading: baseline, what the stimulus adds (in counts), and
+/// noise per channel (in counts, [`Sample::channels`] order), rounded to
+/// counts and saturated as the ADCs do. Monotonic in every input.
+fn reading(b: &Baseline, proximity: f64, force: [f64; 3], noise: [f64; 8]) -> Sample {
+    let count = |v: f64| v.round();
+    Sample::saturating(
+        count(b.proximity + proximity + noise[0]).clamp(0.0, f64::from(PROXIMITY_MAX)) as u16,
+        std::array::from_fn(|k| count(b.force[k] + force[k] + noise[1 + k]).max(0.0) as u16),
+        std::array::from_fn(|k| count(b.gravity[k] + noise[4 + k]) as i16),
+        count(b.temperature + noise[7]) as i16,
+        0,
+    )
+}
+
+/// One cell's sensor noise: SplitMix64 (Steele, Lea and Flood, 2014), a
+/// generator of eight bytes of state, seeded from the skin's seed.
+#[derive(Clone, Copy, Debug)]
+struct Noise(u64);
+
+impl RngCore for Noise {
+    fn next_u32(&mut self) -> u32 {
+        (self.next_u64() >> 32) as u32
+    }
+
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    fn fill_bytes(&mut self, dst: &mut [u8]) {
+        rand::rand_core::impls::fill_bytes_via_next(self, dst)
+    }
+}
+
+impl Noise {
+    /// One reading's noise in counts, per channel in [`Sample::channels`]
+    /// order: Gaussian, drawn again beyond [`NOISE_BOUND_SD`].
+    fn draw(&mut self) -> [f64; 8] {
         let [np, nf, na, nt] = NOISE_COUNTS;
-        let mut noise = |sd: f64| sd * self.rng.sample::<f64, _>(StandardNormal);
-        let count = |v: f64| v.round();
-        Sample::saturating(
-            count(b.proximity + proximity + noise(np)).clamp(0.0, f64::from(PROXIMITY_MAX)) as u16,
-            std::array::from_fn(|k| count(b.force[k] + force[k] + noise(nf)).max(0.0) as u16),
-            std::array::from_fn(|k| count(b.gravity[k] + noise(na)) as i16),
-            count(b.temperature + noise(nt)) as i16,
-            0,
-        )
+        let sds = [np, nf, nf, nf, na, na, na, nt];
+        sds.map(|sd| loop {
+            let z: f64 = self.sample(StandardNormal);
+            if z.abs() <= NOISE_BOUND_SD {
+                break sd * z;
+            }
+        })
     }
 }
 
