@@ -130,6 +130,9 @@ impl Router {
     /// faces us). A port that stops being a child loses its queued
     /// downstream frames.
     pub fn set_child(&mut self, port: Port, child: bool) {
+        if self.children[port.index()] == child {
+            return;
+        }
         self.children[port.index()] = child;
         if !child {
             let q = &mut self.down[port.index()];
@@ -249,6 +252,11 @@ impl Router {
     pub fn queued(&self) -> usize {
         let lens = self.up.iter().map(Deque::len);
         lens.chain(self.down.iter().map(Deque::len)).chain(self.link.iter().map(Deque::len)).sum()
+    }
+
+    /// Frames waiting upstream in all inputs.
+    pub fn upstream_queued(&self) -> usize {
+        self.up_total
     }
 
     /// Frames waiting upstream, per input (ports 0..4, then own).
