@@ -19,36 +19,13 @@ use rand_chacha::ChaCha8Rng;
 use skin_host::control::areas::{parse_specs, Areas};
 use skin_host::control::cells::CellIndex;
 use skin_host::control::controller::{Controller, Input};
+use skin_host::control::dense::DenseMap;
 use skin_host::control::grasp::State;
 use skin_host::control::params::Params;
 use skin_host::control::teach::KeyPoses;
-use skin_host::control::MotorMap;
 use skin_protocol::{Address, Sample};
 
 const PERIOD_S: f64 = 0.004;
-
-/// A map of random weights in a few tiles.
-struct Map {
-    cells: Vec<Address>,
-    dofs: usize,
-    tiles: Vec<(Vec<f64>, Vec<f32>)>,
-}
-
-impl MotorMap for Map {
-    fn dofs(&self) -> usize {
-        self.dofs
-    }
-    fn cells(&self) -> &[Address] {
-        &self.cells
-    }
-    fn nearest_tile(&self, pose: &[f64]) -> Option<usize> {
-        let d = |p: &[f64]| p.iter().zip(pose).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
-        (0..self.tiles.len()).min_by(|a, b| d(&self.tiles[*a].0).total_cmp(&d(&self.tiles[*b].0)))
-    }
-    fn weights(&self, tile: usize, row: usize) -> &[f32] {
-        &self.tiles[tile].1[row * self.dofs..(row + 1) * self.dofs]
-    }
-}
 
 /// Traffic of a case: who sends a sample each period.
 #[derive(Clone, Copy, PartialEq)]
@@ -85,7 +62,7 @@ const CASES: [Case; 5] = [
 /// every area), and the samples of one period.
 struct Rig {
     controller: Controller,
-    map: Map,
+    map: DenseMap,
     pose: Vec<f64>,
     touched: Vec<(Address, Sample)>,
     quiet: Vec<(Address, Sample)>,
@@ -106,7 +83,7 @@ impl Rig {
             let weights = (0..n * d).map(|_| rng.random_range(-1.0f32..1.0)).collect();
             tiles.push((if k == 0 { vec![0.0; d] } else { pose }, weights));
         }
-        let map = Map { cells: cells.clone(), dofs: d, tiles };
+        let map = DenseMap::new(n, d, tiles);
         let q = n / 8;
         let specs = parse_specs(&format!(
             "[[area]]\nname='pat'\nkind='pat'\ncells=[1]\n\

@@ -52,6 +52,16 @@ impl Default for Bma250Config {
 }
 
 impl Bma250Config {
+    /// A sensor without offset, sensitivity or alignment errors, and without noise.
+    pub fn ideal() -> Self {
+        Bma250Config {
+            offset_max_mps2: 0.0,
+            sensitivity_tolerance: 0.0,
+            misalignment_max_rad: 0.0,
+            ..Bma250Config::default().with_noise_scale(0.0)
+        }
+    }
+
     /// The same sensor with `scale` times the noise (0 for a noise-free one).
     pub fn with_noise_scale(self, scale: f64) -> Self {
         Bma250Config { noise_density_g_per_sqrt_hz: self.noise_density_g_per_sqrt_hz * scale, ..self }
@@ -122,27 +132,18 @@ mod tests {
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 
-    fn ideal() -> Bma250Config {
-        Bma250Config {
-            offset_max_mps2: 0.0,
-            sensitivity_tolerance: 0.0,
-            misalignment_max_rad: 0.0,
-            ..Bma250Config::default().with_noise_scale(0.0)
-        }
-    }
-
     #[test]
     fn one_g_is_256_counts_at_2g() {
         assert_eq!(counts_per_g(AccelRange::G2), 256.0);
         assert_eq!(counts_per_g(AccelRange::G16), 32.0);
         let mut rng = ChaCha8Rng::seed_from_u64(0);
-        let mut s = Bma250::new(&ideal(), 0.004, &mut rng);
+        let mut s = Bma250::new(&Bma250Config::ideal(), 0.004, &mut rng);
         assert_eq!(s.sample(&Vector3::new(0.0, -G0, G0), &mut rng), [0, -256, 256]);
     }
 
     #[test]
     fn noise_has_the_configured_rms() {
-        let cfg = Bma250Config { range: AccelRange::G16, ..ideal() };
+        let cfg = Bma250Config { range: AccelRange::G16, ..Bma250Config::ideal() };
         let cfg = Bma250Config { noise_density_g_per_sqrt_hz: 0.02, ..cfg };
         let mut rng = ChaCha8Rng::seed_from_u64(1);
         let mut s = Bma250::new(&cfg, 0.004, &mut rng);

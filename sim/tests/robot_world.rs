@@ -28,19 +28,10 @@ name = "disc"
 cell = [{ xyz = [0.5, 0.0, 0.01], id = 2 }]
 "#;
 
-fn ideal() -> Bma250Config {
-    Bma250Config {
-        offset_max_mps2: 0.0,
-        sensitivity_tolerance: 0.0,
-        misalignment_max_rad: 0.0,
-        ..Bma250Config::default().with_noise_scale(0.0)
-    }
-}
-
 fn turntable(base: BaseConfig) -> World {
     let robot = Robot::from_urdf_str(TURNTABLE).unwrap();
     let skin = Skin::from_toml_str(&robot, CELLS).unwrap();
-    World::new(robot, skin, WorldConfig { base, accel: ideal(), ..WorldConfig::default() })
+    World::new(robot, skin, WorldConfig { base, accel: Bma250Config::ideal(), ..WorldConfig::default() })
 }
 
 /// Runs `ticks` ticks with the velocity command `omega(t)` and returns the last samples.

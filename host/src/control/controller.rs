@@ -252,7 +252,7 @@ impl Controller {
 mod tests {
     use super::*;
     use crate::control::areas::parse_specs;
-    use crate::control::testing::DenseMap;
+    use crate::control::dense::DenseMap;
 
     const DOFS: usize = 4;
     /// Cells 1 pat, 2 left CA, 3 right CA, 4 chest, 5 and 6 non-contact.

@@ -150,9 +150,8 @@ impl MotorMap for crate::explore::SensoryMotorMap {
     }
 }
 
-#[cfg(test)]
-pub(crate) mod testing {
-    //! A map given by its tiles, for tests.
+pub mod dense {
+    //! A map given by its tiles: synthetic skins for benchmarks and tests.
 
     use super::MotorMap;
     use skin_protocol::Address;
@@ -165,6 +164,10 @@ pub(crate) mod testing {
     }
 
     impl DenseMap {
+        /// A map of `cells` cells (addresses `1..=cells`) and `dofs` DoFs.
+        ///
+        /// # Panics
+        /// When a tile's pose or weights do not have those sizes.
         pub fn new(cells: usize, dofs: usize, tiles: Vec<(Vec<f64>, Vec<f32>)>) -> DenseMap {
             assert!(tiles.iter().all(|(p, w)| p.len() == dofs && w.len() == cells * dofs));
             DenseMap { cells: (1..=cells as u16).map(Address).collect(), dofs, tiles }

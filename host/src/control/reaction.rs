@@ -278,7 +278,7 @@ impl Reactions {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::control::testing::DenseMap;
+    use crate::control::dense::DenseMap;
 
     fn one_cell(weights: Vec<f32>, gains: CellGains) -> (DenseMap, Reactions) {
         let d = weights.len();
