@@ -1,12 +1,17 @@
-//! The simulated grasping experiment (sections 5.3 and 6.5).
+//! The grasping experiment (sections 5.3 and 6.5) on an explored robot.
 //!
-//! One run does what the paper did on HRP-2: the robot explores its body
-//! (section 4), a person teaches it the four key poses by proximity
-//! guidance, each key pose becomes a tile of the sensory-motor map, and
-//! then the robot grasps objects of Figure 16, launched and released by a
-//! pat on the shoulder, with one parameter set. The controller sees only
-//! samples and joint positions; the person and the objects live in the
-//! simulator, which alone knows where everything is.
+//! After the robot has explored its body (section 4), a person teaches it
+//! the key poses by proximity guidance, each key pose becomes a tile of the
+//! sensory-motor map, and then the robot grasps objects of Figure 16,
+//! launched and released by a pat on the shoulder, with one parameter set.
+//! The controller runs on any [`Robot`] + [`SampleSource`] (in `skin demo`
+//! and `skin grasp`, the simulated robot reached over UDP through
+//! [`crate::remote::Remote`]) and sees only samples and joint positions.
+//! The person, the objects and what only they can see are behind the
+//! [`Experimenter`]: the simulated person of the robot's endpoint
+//! ([`Running`]), who also names the cells of each touch area by the IDs
+//! the host gave them, as an operator writes them into the configuration
+//! of a real robot after touching the cells in `skin monitor`.
 //!
 //! [`write_traces`] writes what each grasp felt (Figure 18) as CSV and SVG.
 
@@ -15,14 +20,10 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 use skin_protocol::{Address, Sample};
-use skin_sim::robot::{hrp2, Robot as Model};
-use skin_sim::scene::experiment::{gap_to_chest_m, intended_pose, object_pose, Setup};
+use skin_sim::endpoint::Running;
 use skin_sim::scene::object::Object;
-use skin_sim::scene::person::{self, Guiding, Teacher};
-use skin_sim::scene::{Scene, SharedScene, SkinModel};
-use skin_sim::skin::SkinError;
-use skin_sim::world::{World, WorldConfig};
-use tracing::{debug, info};
+use skin_sim::scene::operator::{Note, Order};
+use tracing::info;
 
 use crate::control::areas::{parse_specs, AreaId, AreaKind, Areas};
 use crate::control::cells::CellIndex;
@@ -30,41 +31,46 @@ use crate::control::controller::{Controller, Input};
 use crate::control::grasp::{Cause, State};
 use crate::control::params::Params;
 use crate::control::teach::{Guidance, KeyPoses, KEY_POSES};
+use crate::control::trajectory::{Motion, Timing, Trajectory, TrajectoryEvent};
 use crate::control::ControlError;
-use crate::explore::{explore, ExploreConfig, ExploreError, Progress, SensoryMotorMap};
-use crate::robot::{Robot, RobotError, SampleSource, SimRobot};
+use crate::explore::{ExploreError, SensoryMotorMap};
+use crate::robot::{Robot, RobotError, SampleSource};
 
-/// Longest a person tries to teach one key pose, s.
-const TEACH_LIMIT_S: f64 = 60.0;
 /// Longest one grasp may take, from the launching pat, s.
 const GRASP_LIMIT_S: f64 = 180.0;
-/// When the person pats to launch, s after the start.
+/// Longest wait for the person to answer an order, robot time, s (a
+/// lesson may take a minute).
+const ANSWER_LIMIT_S: f64 = 90.0;
+/// When the person pats to launch, s after the object is placed.
 const LAUNCH_AT_S: f64 = 0.5;
-/// How long a pat lasts, s.
-const PAT_S: f64 = 0.3;
-/// How deep a pat presses, m.
-const PAT_DEPTH_M: f64 = 0.0015;
 /// How long the robot holds an object before the person pats to release it, s.
 const HOLD_S: f64 = 3.0;
 /// Trace rows per second (every control period is 250).
 const TRACE_HZ: f64 = 50.0;
+/// Longest the robot may take to go home between grasps, robot time, s.
+const HOME_LIMIT_S: f64 = 30.0;
+/// How the robot goes home between grasps: as to the open pose (Table 4).
+const HOME_MOTION: Motion = Motion { max_velocity: 0.4, accuracy: 0.01, stop_at_target: true };
 
 /// Why the experiment could not run.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum GraspError {
-    /// The self-exploration failed.
-    #[error("self-exploration failed: {0}")]
+    /// A map tile could not be explored.
+    #[error(transparent)]
     Explore(#[from] ExploreError),
     /// The controller refused its parameters, areas or poses.
     #[error(transparent)]
     Control(#[from] ControlError),
-    /// The simulated robot refused a command.
+    /// The robot refused a command or stopped answering.
     #[error(transparent)]
     Robot(#[from] RobotError),
-    /// The experiment's skin could not be built.
-    #[error(transparent)]
-    Skin(#[from] SkinError),
+    /// The robot did not get home between grasps.
+    #[error("the robot did not get home before a grasp: {0}")]
+    NotHome(String),
+    /// The person at the robot could not do what was asked, or is gone.
+    #[error("the person at the robot: {0}")]
+    Person(String),
     /// An object that is not in Figure 16.
     #[error("no object \"{0}\": choose trash_bin, sponge_rock, moving_box, box_lid, delivery_box, all or none")]
     UnknownObject(String),
@@ -76,6 +82,26 @@ pub enum GraspError {
         /// What went wrong.
         message: String,
     },
+}
+
+/// The experimenter's side: orders to the person at the robot, and what
+/// they say.
+pub trait Experimenter {
+    /// Asks the person to do something, from the next control period on.
+    fn order(&mut self, order: Order) -> Result<(), GraspError>;
+    /// Appends what the person said since the last call.
+    fn heard(&mut self, out: &mut Vec<Note>);
+}
+
+/// The simulated person of the robot's endpoint, over its side channel.
+impl Experimenter for Running {
+    fn order(&mut self, order: Order) -> Result<(), GraspError> {
+        Running::order(self, order).map_err(|e| GraspError::Person(e.to_string()))
+    }
+
+    fn heard(&mut self, out: &mut Vec<Note>) {
+        out.extend(self.notes());
+    }
 }
 
 /// A taught key pose.
@@ -99,10 +125,8 @@ pub struct Taught {
     pub poses: KeyPoses,
     /// How the teaching went.
     pub lessons: Vec<Lesson>,
-    /// Robot time of the self-exploration, s.
-    pub exploration_s: f64,
-    setup: Setup,
-    seed: u64,
+    /// The touch areas (the host's area file), cells by the host's IDs.
+    pub areas_toml: String,
 }
 
 /// One transition of the grasp.
@@ -166,152 +190,189 @@ pub fn objects(choice: &str) -> Result<Vec<Option<Object>>, GraspError> {
     }
 }
 
-/// The simulated robot, its skin and the scene, stepped together.
-struct Rig {
-    robot: SimRobot,
-    scene: SharedScene,
-    model: Model,
+/// The robot and the person, on the experimenter's clock.
+struct Lab<'a, R> {
+    robot: &'a mut R,
+    person: &'a mut dyn Experimenter,
     samples: Vec<(Address, Sample)>,
+    notes: Vec<Note>,
+    /// Robot time since the lab was opened, s.
+    time_s: f64,
 }
 
-impl Rig {
-    fn new(setup: &Setup, seed: u64, object: Option<&Object>) -> Rig {
-        let model = hrp2::robot();
-        let mut world = World::new(model.clone(), setup.skin.clone(), WorldConfig { seed, ..WorldConfig::default() });
-        let mut scene = Scene::new(SkinModel::default());
-        if let Some(o) = object {
-            scene.place(o.clone(), object_pose(o, scene.skin().surface_offset_m));
-        }
-        for (cell, points) in &setup.surface {
-            scene.add_bare_surface(*cell, points.clone());
-        }
-        let scene = SharedScene::new(scene);
-        world.set_tactile(scene.tactile(seed.wrapping_add(1)));
-        Rig { robot: SimRobot::new(world), scene, model, samples: Vec::new() }
+impl<'a, R: Robot + SampleSource> Lab<'a, R> {
+    fn new(robot: &'a mut R, person: &'a mut dyn Experimenter) -> Lab<'a, R> {
+        Lab { robot, person, samples: Vec::new(), notes: Vec::new(), time_s: 0.0 }
     }
 
-    fn time_s(&self) -> f64 {
-        self.robot.world().time_s()
-    }
-
-    /// One control period: the world advances, the controller takes what
-    /// arrived and commands the robot.
-    fn tick(&mut self, controller: &mut Controller, map: &SensoryMotorMap) -> Result<(), GraspError> {
+    /// One control period under the held command: its samples, and what
+    /// the person said meanwhile.
+    fn advance(&mut self) -> Result<(), GraspError> {
         self.samples.clear();
         self.robot.next_tick(&mut self.samples)?;
+        self.time_s += self.robot.tick_s();
+        self.notes.clear();
+        self.person.heard(&mut self.notes);
+        Ok(())
+    }
+
+    /// One control period: the controller takes what arrived and commands
+    /// the robot.
+    fn period(&mut self, controller: &mut Controller, map: &SensoryMotorMap) -> Result<(), GraspError> {
+        self.advance()?;
         for (cell, s) in &self.samples {
             controller.receive(*cell, &Input::Sample(*s));
         }
         let pose = self.robot.positions();
-        let command = controller.step(map, &pose, self.time_s())?;
+        let command = controller.step(map, &pose, self.time_s)?;
         self.robot.command_velocities(command)?;
+        Ok(())
+    }
+
+    /// Gives the person `order` and, with the robot held still, waits for
+    /// the note `answer` picks out.
+    fn ask<T>(&mut self, order: Order, answer: impl Fn(Note) -> Option<T>) -> Result<T, GraspError> {
+        self.person.order(order.clone())?;
+        self.robot.command_velocities(&vec![0.0; self.robot.dof_count()])?;
+        let start = self.time_s;
+        while self.time_s - start < ANSWER_LIMIT_S {
+            self.advance()?;
+            for note in self.notes.drain(..) {
+                if let Note::Refused(why) = note {
+                    return Err(GraspError::Person(why));
+                }
+                if let Some(t) = answer(note) {
+                    return Ok(t);
+                }
+            }
+        }
+        Err(GraspError::Person(format!("no answer to {order:?} within {ANSWER_LIMIT_S} s")))
+    }
+
+    /// Drives the robot home along a trajectory, as the controller drives it
+    /// to a key pose.
+    fn go_home(&mut self, home: &[f64], timing: Timing) -> Result<(), GraspError> {
+        let mut way = Trajectory::new("home", home, HOME_MOTION, timing)?;
+        let mut command = vec![0.0; home.len()];
+        let start = self.time_s;
+        loop {
+            match way.step(&self.robot.positions(), self.time_s, &mut command)? {
+                Some(TrajectoryEvent::Reached) => break,
+                Some(TrajectoryEvent::Stalled) => return Err(GraspError::NotHome("it stalled".into())),
+                None if self.time_s - start > HOME_LIMIT_S => {
+                    return Err(GraspError::NotHome(format!("it took over {HOME_LIMIT_S} s")))
+                }
+                None => {}
+            }
+            self.robot.command_velocities(&command)?;
+            self.advance()?;
+        }
+        self.robot.command_velocities(&command)?;
         Ok(())
     }
 }
 
-fn controller(setup: &Setup, map: &SensoryMotorMap, params: &Params) -> Result<Controller, GraspError> {
+fn controller(areas_toml: &str, map: &SensoryMotorMap, params: &Params) -> Result<Controller, GraspError> {
     let index = CellIndex::new(map.cells())?;
-    let areas = Areas::resolve(&parse_specs(&setup.areas_toml)?, &index, |_| None)?;
+    let areas = Areas::resolve(&parse_specs(areas_toml)?, &index, |_| None)?;
     let dofs = map.tiles().first().map_or(0, |t| t.pose().len());
     Ok(Controller::new(index, areas, dofs, params.clone())?)
 }
 
-/// Explores the robot and lets a person teach it the key poses by
-/// proximity guidance; each key pose becomes a map tile.
-pub fn learn(seed: u64, params: &Params, progress: &mut dyn FnMut(&str)) -> Result<Taught, GraspError> {
-    let setup = Setup::new(&hrp2::robot(), seed)?;
-    let mut rig = Rig::new(&setup, seed, None);
-    progress("self-exploration");
-    let exploration = explore(&mut rig.robot, &ExploreConfig::default(), &mut |_: Progress| ())?;
-    let mut map = exploration.smm;
-    let mut c = controller(&setup, &map, params)?;
+/// Lets the person name the touch areas and teach the key poses by
+/// proximity guidance, starting at home; each key pose becomes a tile of
+/// `map`, the robot's explored sensory-motor map.
+pub fn learn<R: Robot + SampleSource>(
+    robot: &mut R,
+    person: &mut dyn Experimenter,
+    mut map: SensoryMotorMap,
+    params: &Params,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Taught, GraspError> {
+    let mut lab = Lab::new(robot, person);
+    let areas_toml = lab.ask(Order::Areas, |n| if let Note::Areas(toml) = n { Some(toml) } else { None })?;
+    let mut c = controller(&areas_toml, &map, params)?;
     c.guide(Guidance::Proximity);
     let mut poses = KeyPoses::new();
-    poses.record("home", &rig.robot.positions())?;
+    poses.record("home", &lab.robot.positions())?;
     let mut lessons = Vec::new();
-    let sensor = rig.scene.get().skin().proximity;
-    let offset = rig.scene.get().skin().surface_offset_m;
     for name in KEY_POSES.into_iter().skip(1) {
         progress(&format!("teaching \"{name}\""));
-        let picture = intended_pose(&rig.model, name).expect("the person pictures every key pose");
-        let mut person =
-            Teacher::new(&rig.model, &setup.skin, &picture, setup.guided_cells.clone(), Guiding::default());
-        let start = rig.time_s();
-        while !person.satisfied(rig.robot.world().cell_poses()) && rig.time_s() - start < TEACH_LIMIT_S {
-            let hands = person.hands(rig.time_s(), rig.robot.world().cell_poses(), offset, &sensor);
-            rig.scene.get_mut().set_hands(hands);
-            rig.tick(&mut c, &map)?;
-            if rig.time_s() % 2.0 < rig.robot.tick_s() {
-                let error_m = person.error_m(rig.robot.world().cell_poses());
-                debug!(pose = name, time_s = rig.time_s() - start, ?error_m, "teaching");
+        lab.person.order(Order::Teach(name.to_owned()))?;
+        let start = lab.time_s;
+        let lesson = 'taught: loop {
+            lab.period(&mut c, &map)?;
+            for note in lab.notes.drain(..) {
+                match note {
+                    Note::Taught { pose, time_s, error_m } => break 'taught Lesson { pose, time_s, error_m },
+                    Note::Refused(why) => return Err(GraspError::Person(why)),
+                    _ => {}
+                }
             }
-        }
-        rig.scene.get_mut().set_hands(Vec::new());
-        // Hands away: the robot comes to rest.
-        for _ in 0..25 {
-            rig.tick(&mut c, &map)?;
-        }
-        let lesson = Lesson {
-            pose: name.to_owned(),
-            time_s: rig.time_s() - start,
-            error_m: person.error_m(rig.robot.world().cell_poses()),
+            if lab.time_s - start > ANSWER_LIMIT_S {
+                return Err(GraspError::Person(format!("did not finish teaching \"{name}\"")));
+            }
         };
         info!(pose = name, time_s = lesson.time_s, error_m = ?lesson.error_m, "taught");
         lessons.push(lesson);
-        let pose = rig.robot.positions();
+        let pose = lab.robot.positions();
         poses.record(name, &pose)?;
         progress(&format!("exploring a map tile at \"{name}\""));
-        map.add_tile(&mut rig.robot, &pose)?;
+        map.add_tile(&mut *lab.robot, &pose)?;
     }
-    Ok(Taught {
-        map,
-        poses,
-        lessons,
-        exploration_s: exploration.structure_time_s + exploration.smm_time_s,
-        setup,
-        seed,
-    })
+    Ok(Taught { map, poses, lessons, areas_toml })
 }
 
-/// Puts `object` (or nothing) between the arms of a fresh robot that knows
-/// what `taught` holds, and lets a person launch a grasp with a pat, and
-/// release the object with another once it has been held.
-pub fn grasp(taught: &Taught, object: Option<&Object>, params: &Params) -> Result<GraspRun, GraspError> {
-    let mut rig = Rig::new(&taught.setup, taught.seed, object);
-    let mut c = controller(&taught.setup, &taught.map, params)?;
+/// Brings the robot home, lets the person put `object` (or nothing)
+/// between its arms, launch a grasp with a pat, release the object with
+/// another once it has been held, and take it away.
+pub fn grasp<R: Robot + SampleSource>(
+    robot: &mut R,
+    person: &mut dyn Experimenter,
+    taught: &Taught,
+    object: Option<&Object>,
+    params: &Params,
+) -> Result<GraspRun, GraspError> {
+    let mut lab = Lab::new(robot, person);
+    lab.go_home(taught.poses.get("home")?, params.timing)?;
+    lab.person.order(Order::Place(object.cloned()))?;
+    let mut c = controller(&taught.areas_toml, &taught.map, params)?;
     c.start_grasp(taught.poses.clone())?;
-    let offset = rig.scene.get().skin().surface_offset_m;
     let areas = traced_areas(c.areas());
-    let launch = LAUNCH_AT_S;
-    let mut release_at: Option<f64> = None;
+    let start = lab.time_s;
+    let launch = start + LAUNCH_AT_S;
+    let (mut launched, mut release_at, mut released) = (false, None, false);
+    let mut seen = (0.0, None);
     let mut trace = Vec::new();
-    let mut next_row = 0.0;
+    let mut next_row = launch;
     let end = loop {
-        let t = rig.time_s();
-        let state = c.state().expect("grasp mode");
-        if state == State::Hold && release_at.is_none() {
+        let t = lab.time_s;
+        if c.state() == Some(State::Hold) && release_at.is_none() {
             release_at = Some(t + HOLD_S);
         }
-        let patting = |at: f64| t >= at && t < at + PAT_S;
-        let pat = patting(launch) || release_at.is_some_and(patting);
-        let hands = if pat {
-            vec![person::pat(&rig.robot.world().cell_poses()[taught.setup.pat_cell], offset, PAT_DEPTH_M)]
-        } else {
-            Vec::new()
-        };
-        rig.scene.get_mut().set_hands(hands);
-        rig.tick(&mut c, &taught.map)?;
-        let t = rig.time_s();
-        if t >= next_row + launch {
+        if (t >= launch && !std::mem::replace(&mut launched, true))
+            || (release_at.is_some_and(|at| t >= at) && !std::mem::replace(&mut released, true))
+        {
+            lab.person.order(Order::Pat)?;
+        }
+        lab.period(&mut c, &taught.map)?;
+        for note in lab.notes.drain(..) {
+            if let Note::Seen { max_force_n, object_gap_m, .. } = note {
+                seen = (max_force_n, object_gap_m);
+            }
+        }
+        let t = lab.time_s;
+        if t >= next_row {
             next_row += 1.0 / TRACE_HZ;
-            trace.push(row(&c, &areas, &rig, t - launch));
+            trace.push(row(&c, &areas, lab.robot.positions(), t - launch, seen.1));
         }
         let state = c.state().expect("grasp mode");
-        let over = t > launch + PAT_S && matches!(state, State::Done | State::Cancelled);
+        let over = launched && matches!(state, State::Done | State::Cancelled);
         if over || t - launch > GRASP_LIMIT_S {
             break state;
         }
     };
+    lab.person.order(Order::Place(None))?;
     let state_log: Vec<Logged> =
         c.transitions().iter().map(|tr| Logged { state: tr.to, time_s: tr.time_s - launch, cause: tr.cause }).collect();
     let run = GraspRun {
@@ -319,7 +380,7 @@ pub fn grasp(taught: &Taught, object: Option<&Object>, params: &Params) -> Resul
         succeeded: state_log.iter().any(|l| l.state == State::Hold),
         final_state: end,
         time_s: state_log.last().map_or(0.0, |l| l.time_s),
-        max_cell_force_n: rig.scene.get().max_force_n(),
+        max_cell_force_n: seen.0,
         pain_events: state_log.iter().filter(|l| l.cause == Cause::Pain).count(),
         state_log,
         trace,
@@ -334,7 +395,13 @@ fn traced_areas(areas: &Areas) -> [Option<AreaId>; 3] {
     [contact.next(), contact.next(), areas.of_kind(AreaKind::Chest).next()]
 }
 
-fn row(c: &Controller, areas: &[Option<AreaId>; 3], rig: &Rig, time_s: f64) -> TraceRow {
+fn row(
+    c: &Controller,
+    areas: &[Option<AreaId>; 3],
+    joints_rad: Vec<f64>,
+    time_s: f64,
+    object_gap_m: Option<f64>,
+) -> TraceRow {
     let mut force = [0.0; 3];
     let mut proximity = [0.0f64; 3];
     for (k, area) in areas.iter().enumerate() {
@@ -344,16 +411,7 @@ fn row(c: &Controller, areas: &[Option<AreaId>; 3], rig: &Rig, time_s: f64) -> T
             proximity[k] = proximity[k].max(s.proximity);
         }
     }
-    let scene = rig.scene.get();
-    let object_gap_m = scene.objects().first().map(|p| gap_to_chest_m(p, scene.skin().surface_offset_m));
-    TraceRow {
-        time_s,
-        state: c.state().expect("grasp mode"),
-        joints_rad: rig.robot.positions(),
-        force,
-        proximity,
-        object_gap_m,
-    }
+    TraceRow { time_s, state: c.state().expect("grasp mode"), joints_rad, force, proximity, object_gap_m }
 }
 
 /// Writes each run's trace as `<object>.csv` and `<object>.svg` into `dir`

@@ -11,7 +11,7 @@
 //! - [`registry`]: the cells heard: IDs, neighbours, patches, health; the ID authority.
 //! - [`config`]: the TOML configuration of the `skin` program.
 //! - [`control`]: whole-body tactile reactions, events, touch areas, key poses and the grasp.
-//! - [`grasping`]: the simulated experiment: exploration, teaching by proximity, grasps of Figure 16 objects.
+//! - [`grasping`]: the grasping experiment on an explored robot: teaching by proximity, grasps of Figure 16 objects.
 //! - [`remote`]: a robot and its skin over UDP: the robot link and the interface as one rig.
 //! - [`pipeline`]: the main job's steps: wait for the skin to organize, write the cell settings.
 //! - [`report`]: the report folder: figures as SVG, `report.json`, `index.html`.

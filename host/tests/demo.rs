@@ -96,7 +96,17 @@ fn the_quick_demo_writes_a_complete_and_true_report() {
     let runs = report["grasps"]["runs"].as_array().unwrap();
     assert_eq!(runs.len(), 1);
     assert_eq!(runs[0]["succeeded"], true, "{}", runs[0]);
-    assert_eq!(report["grasps"]["lessons"].as_array().unwrap().len(), 3, "open, closed and pulled taught");
+    let lessons = report["grasps"]["lessons"].as_array().unwrap();
+    assert_eq!(lessons.len(), 3, "open, closed and pulled taught");
+    // Teaching and grasping ran on the served skin: its network carried a
+    // sample of every cell for every period of them too.
+    let taught_s: f64 = lessons.iter().map(|l| l["time_s"].as_f64().unwrap()).sum();
+    let t = &report["timing"];
+    let robot_s = t["structure_robot_s"].as_f64().unwrap() + t["smm_robot_s"].as_f64().unwrap();
+    let periods =
+        (robot_s + taught_s + runs[0]["time_s"].as_f64().unwrap()) / report["robot"]["period_s"].as_f64().unwrap();
+    let frames = latency["frames"].as_f64().unwrap();
+    assert!(frames > 74.0 * periods, "{frames} sensor frames for {periods} periods of 74 cells");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -12,6 +12,15 @@
 //! runs as fast as the host can go; with [`Pacing::RealTime`] it advances
 //! on the wall clock, answering commands at once and stopping the arms when
 //! commands cease, as a real robot does.
+//!
+//! [`Endpoint::experiment`] serves the grasping experiment's world, where
+//! a simulated person ([`Operator`]) teaches, pats and puts objects in
+//! front of the robot. The experimenter gives them orders over an
+//! in-process side channel of [`Running`] ([`Running::order`],
+//! [`Running::notes`]), not over the robot's or the skin's wires: on a real
+//! robot a real person stands there. Orders are carried out at the next
+//! control period's start and notes sent before that period's feedback, so
+//! a lockstep run stays the same for a seed.
 
 use std::io::ErrorKind;
 use std::net::{SocketAddr, UdpSocket};
@@ -27,6 +36,8 @@ use skin_protocol::{Address, Sample};
 
 use crate::network::{Network, NetworkConfig, NetworkError, Topology};
 use crate::robot::hrp2;
+use crate::scene::experiment::Setup;
+use crate::scene::operator::{Note, Operator, Order};
 use crate::world::World;
 
 /// How long one wait for a request lasts before the stop flag is looked at.
@@ -107,6 +118,16 @@ pub struct Endpoint {
     samples: Vec<(Address, Sample)>,
     raw: Vec<Sample>,
     served: Served,
+    /// The person of an experiment.
+    operator: Option<Operator>,
+    /// The experimenter's side channel, when served by [`Running`].
+    side: Option<Side>,
+}
+
+/// The endpoint's end of the experimenter's side channel.
+struct Side {
+    orders: mpsc::Receiver<Order>,
+    notes: mpsc::Sender<Note>,
 }
 
 impl Endpoint {
@@ -116,11 +137,22 @@ impl Endpoint {
     /// chest patch on the chest.
     pub fn hrp2(seed: u64, config: EndpointConfig) -> Result<Endpoint, NetworkError> {
         let world = hrp2::world(seed);
-        let by_link = |prefix: &str| -> Vec<usize> {
-            (0..world.skin().cells().len()).filter(|&i| world.skin().cells()[i].link.starts_with(prefix)).collect()
-        };
-        let world_cell: Vec<usize> = ["RARM", "LARM", "CHEST"].iter().flat_map(|p| by_link(p)).collect();
+        let world_cell = hrp2_wiring(&world);
         Endpoint::new(world, &Topology::hrp2(), world_cell, config)
+    }
+
+    /// The grasping experiment (section 6.5): the built-in robot wearing
+    /// the experiment's skin ([`Setup`], seeded; 30 cells per arm and 14
+    /// on the chest, wired as [`Topology::hrp2`]), feeling a scene where a
+    /// person ([`Operator`]) acts on the experimenter's orders.
+    pub fn experiment(seed: u64, config: EndpointConfig) -> Result<Endpoint, NetworkError> {
+        let robot = hrp2::robot();
+        let setup = Setup::new(&robot, seed).map_err(|e| NetworkError::Topology(e.to_string()))?;
+        let (world, scene) = setup.world(robot.clone(), seed);
+        let world_cell = hrp2_wiring(&world);
+        let mut endpoint = Endpoint::new(world, &Topology::hrp2(), world_cell, config)?;
+        endpoint.operator = Some(Operator::new(robot, setup, scene));
+        Ok(endpoint)
     }
 
     /// `world` with its skin wired as `topology`; network cell `n` is the
@@ -172,6 +204,8 @@ impl Endpoint {
             last: None,
             samples: Vec::new(),
             served: Served::default(),
+            operator: None,
+            side: None,
         })
     }
 
@@ -304,8 +338,15 @@ impl Endpoint {
         }
         // Checked when it arrived: the right length, finite.
         self.world.command(&self.command).map_err(|e| NetworkError::Flag(e.to_string()))?;
+        self.take_orders();
         self.samples.clear();
         self.world.step(&mut self.samples);
+        if let (Some(op), Some(side)) = (&self.operator, &self.side) {
+            if let Some(note) = op.watch(&self.world) {
+                // The experimenter may have gone; the robot serves on.
+                let _ = side.notes.send(note);
+            }
+        }
         for (n, &w) in self.world_cell.iter().enumerate() {
             self.raw[n] = self.samples[w].1;
         }
@@ -318,6 +359,24 @@ impl Endpoint {
         }
         self.served.ticks += 1;
         Ok(())
+    }
+
+    /// Carries out the experimenter's orders, then lets the person act once.
+    fn take_orders(&mut self) {
+        let Some(side) = &self.side else { return };
+        let orders: Vec<Order> = side.orders.try_iter().collect();
+        let ids = if orders.is_empty() { Vec::new() } else { self.assigned_ids() };
+        let mut notes = Vec::new();
+        match &mut self.operator {
+            Some(op) => {
+                notes.extend(orders.into_iter().filter_map(|o| op.order(o, &self.world, &ids)));
+                notes.extend(op.act(&self.world));
+            }
+            None => notes.extend(orders.iter().map(|o| Note::Refused(format!("{o:?}: nobody is at this robot")))),
+        }
+        for note in notes {
+            let _ = side.notes.send(note);
+        }
     }
 
     /// Hands every datagram the host sent to an interface port to the network.
@@ -343,6 +402,14 @@ impl Endpoint {
     }
 }
 
+/// The network cell order of [`Topology::hrp2`]: the right arm's cells,
+/// the left arm's, then the chest's, each in the skin's order.
+fn hrp2_wiring(world: &World) -> Vec<usize> {
+    let cells = world.skin().cells();
+    let by_link = |prefix: &'static str| (0..cells.len()).filter(move |&i| cells[i].link.starts_with(prefix));
+    ["RARM", "LARM", "CHEST"].into_iter().flat_map(by_link).collect()
+}
+
 /// Shortest wait on the robot socket (a zero timeout would block forever).
 const MIN_WAIT: Duration = Duration::from_micros(100);
 
@@ -362,6 +429,8 @@ pub struct Running {
     pub interfaces: Vec<SocketAddr>,
     stop: Arc<AtomicBool>,
     thread: JoinHandle<Result<Truth, NetworkError>>,
+    orders: mpsc::Sender<Order>,
+    notes: mpsc::Receiver<Note>,
 }
 
 impl Running {
@@ -372,10 +441,13 @@ impl Running {
     ) -> Result<Running, NetworkError> {
         let stop = Arc::new(AtomicBool::new(false));
         let (tx, rx) = mpsc::channel();
+        let (orders, orders_rx) = mpsc::channel();
+        let (notes_tx, notes) = mpsc::channel();
         let flag = stop.clone();
         let thread = std::thread::Builder::new().name("simulated robot".into()).spawn(move || {
             let mut endpoint = match build().and_then(|e| Ok((e.robot_addr()?, e.interface_addrs()?, e))) {
-                Ok((robot, interfaces, e)) => {
+                Ok((robot, interfaces, mut e)) => {
+                    e.side = Some(Side { orders: orders_rx, notes: notes_tx });
                     let _ = tx.send(Ok((robot, interfaces)));
                     e
                 }
@@ -388,10 +460,21 @@ impl Running {
             Ok(endpoint.truth())
         })?;
         match rx.recv() {
-            Ok(Ok((robot, interfaces))) => Ok(Running { robot, interfaces, stop, thread }),
+            Ok(Ok((robot, interfaces))) => Ok(Running { robot, interfaces, stop, thread, orders, notes }),
             Ok(Err(e)) => Err(e),
             Err(_) => Err(NetworkError::Flag("the endpoint thread ended before it was ready".into())),
         }
+    }
+
+    /// Gives the person an order, carried out at the start of the next
+    /// control period (an endpoint without a person refuses it).
+    pub fn order(&self, order: Order) -> Result<(), NetworkError> {
+        self.orders.send(order).map_err(|_| NetworkError::Flag("the simulated robot has stopped".into()))
+    }
+
+    /// What the person said since the last call, oldest first.
+    pub fn notes(&self) -> impl Iterator<Item = Note> + '_ {
+        self.notes.try_iter()
     }
 
     /// Stops serving and returns what the simulator knows.

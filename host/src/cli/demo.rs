@@ -1,15 +1,19 @@
 //! `skin demo`: the main job on the built-in default, with no file, no
 //! network and no hardware.
 //!
-//! The simulated HRP-2-like robot and its 74-cell skin run as a separate
-//! endpoint on loopback UDP (a thread of their own, in lockstep), reached
-//! only through the interface datagrams and the robot link, so the host
-//! drives them exactly as it would drive the real ones. The skin organizes
-//! itself with IDs from the host, the robot explores its body, and then a
-//! simulated person teaches the key poses and the robot grasps the objects
-//! of Figure 16 (these run in-process: the person and the objects live in
-//! the simulator). Everything the simulator alone knows is used afterwards
-//! to check the host's results, and the report folder is written.
+//! The simulated HRP-2-like robot and the 74-cell skin of the grasping
+//! experiment run as a separate endpoint on loopback UDP (a thread of
+//! their own, in lockstep), reached only through the interface datagrams
+//! and the robot link, so the host drives them exactly as it would drive
+//! the real ones. The skin organizes itself with IDs from the host, the
+//! robot explores its body, a simulated person teaches the key poses and
+//! the robot grasps the objects of Figure 16, going home between grasps:
+//! one robot, one skin, one run. The person and the objects live in the
+//! endpoint, which alone knows where every cell is; the experimenter
+//! speaks with the person over an in-process side channel
+//! ([`Running::order`]), as with a person standing by a real robot.
+//! Everything the simulator alone knows is used afterwards to check the
+//! host's results, and the report folder is written.
 
 use std::io::Write;
 use std::net::SocketAddr;
@@ -20,16 +24,18 @@ use std::time::{Duration, Instant};
 use skin_host::config::{CellSettings, InterfaceConfig};
 use skin_host::control::params::Params;
 use skin_host::explore::check::check;
-use skin_host::explore::{Exploration, ExploreConfig};
-use skin_host::grasping::{grasp, learn, objects};
+use skin_host::explore::{Exploration, ExploreConfig, SensoryMotorMap};
+use skin_host::grasping::{grasp, learn, objects, GraspError, GraspRun, Taught};
 use skin_host::interface::Interface;
 use skin_host::pipeline::OrganizeConfig;
 use skin_host::remote::{Remote, RobotLink};
-use skin_host::report::{GraspSection, LatencySection, Report, TruthSection};
+use skin_host::report::{GraspSection, LatencySection, TruthSection};
 use skin_sim::endpoint::{Endpoint, EndpointConfig, Pacing, Running, Truth};
 use skin_sim::network::NetworkConfig;
 use skin_sim::robot::hrp2;
-use skin_sim::world::World;
+use skin_sim::scene::experiment::Setup;
+use skin_sim::scene::object::Object;
+use skin_sim::world::{World, WorldConfig};
 
 use super::job::{self, bar, Steps};
 
@@ -57,37 +63,36 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let wall = Instant::now();
-    let interface = Interface::bind(&InterfaceConfig { listen: LOOPBACK, ..InterfaceConfig::default() })?;
-    let host = interface.local_addr();
     let seed = args.seed;
-    let endpoint = Running::spawn(move || {
-        let network = NetworkConfig { seed, ..NetworkConfig::default() };
-        Endpoint::hrp2(seed, EndpointConfig { robot: LOOPBACK, host, pacing: Pacing::Lockstep, network })
-    })?;
-    let cells = hrp2::SKIN.iter().map(|(_, n)| n).sum();
-    let steps = Steps {
-        organize: OrganizeConfig { expected_cells: Some(cells), ..OrganizeConfig::default() },
-        settings: CellSettings::default().settings(),
-        explore: ExploreConfig::default(),
-    };
-    let mut remote = Remote::new(RobotLink::connect(endpoint.robot, LINK_TIMEOUT)?, interface);
+    let (mut endpoint, mut remote, steps) = serve_experiment(seed)?;
     let found = job::run(&mut remote, &steps)?;
+    let exploration = found.exploration.clone();
+    let grasp_wall = Instant::now();
+    let chosen = objects(if args.quick { "trash_bin" } else { "all" })?;
+    let (taught, runs) =
+        teach_and_grasp(&mut remote, &mut endpoint, exploration.smm.clone(), &Params::default(), &chosen)?;
+    let grasp_wall_s = grasp_wall.elapsed().as_secs_f64();
     let robot_addr = endpoint.robot;
     let truth = endpoint.stop()?;
-    let checked = truth_section(&remote, &truth, &found.exploration, seed)?;
+    let checked = truth_section(&remote, &truth, &exploration, seed)?;
+    let cells = truth.ids.len();
     let source = format!(
-        "The built-in simulated HRP-2-like robot ({} DoFs) and its {cells}-cell skin (seed {seed}), served on loopback UDP in lockstep: robot link {}, interface ports {}.",
+        "The built-in simulated HRP-2-like robot ({} DoFs) and the {cells}-cell skin of the grasping experiment (seed {seed}), served on loopback UDP in lockstep: robot link {}, interface ports {}.",
         remote.link().info().dof_names.len(),
         robot_addr,
         remote.interface().ports().iter().filter_map(|p| p.address()).map(|a| a.to_string()).collect::<Vec<_>>().join(", ")
     );
-    let exploration_cells = found.exploration.cells.len();
     let mut report = job::report(&remote, source, found);
     report.latency = Some(LatencySection::new(truth.latency_us, truth.sensor_frames_lost));
     report.truth = Some(checked);
-    let grasp_wall = Instant::now();
-    report.grasps = Some(grasps(seed, args.quick)?);
-    report.timing.grasp_wall_s = grasp_wall.elapsed().as_secs_f64();
+    report.grasps = Some(GraspSection {
+        how: format!(
+            "Over the same loopback UDP link and skin, on the map explored above (seed {seed}): a simulated person at the robot's endpoint names the cells of each touch area by the IDs the host assigned (on a real robot the operator writes them into the configuration after touching them in `skin monitor`), teaches the key poses by proximity guidance, then puts each object in front of the robot at home; the robot grasps it with one parameter set (Table 4), launched and released by a pat on the shoulder, and goes home before the next. The person gets orders and tells ground truth (forces, the object's gap) over an in-process side channel, as a person standing by a real robot would; the controller sees only the skin's datagrams and the robot link's feedback."
+        ),
+        lessons: taught.lessons,
+        runs,
+    });
+    report.timing.grasp_wall_s = grasp_wall_s;
     report.timing.total_wall_s = wall.elapsed().as_secs_f64();
     let written = report.write(&args.out)?;
     report.timing.total_wall_s = wall.elapsed().as_secs_f64();
@@ -96,34 +101,52 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
         other => other?,
     }
-    Ok(if all_good(&report, exploration_cells) { ExitCode::SUCCESS } else { ExitCode::FAILURE })
+    Ok(if all_good(&report, exploration.cells.len()) { ExitCode::SUCCESS } else { ExitCode::FAILURE })
 }
 
-/// Teaching by a simulated person and the grasps of Figure 16 (one object with `quick`).
-fn grasps(seed: u64, quick: bool) -> Result<GraspSection, Box<dyn std::error::Error>> {
-    let params = Params::default();
-    let chosen = objects(if quick { "trash_bin" } else { "all" })?;
-    let progress = bar("{msg:24} [{bar:30}] {pos}/{len} steps");
-    progress.set_length((4 + chosen.len()) as u64);
-    let taught = learn(seed, &params, &mut |step| {
-        progress.set_message(step.chars().take(24).collect::<String>());
+/// The grasping experiment's robot, skin and person served on loopback
+/// UDP in lockstep, the host's link to them, and the main job's steps.
+pub(super) fn serve_experiment(seed: u64) -> Result<(Running, Remote, Steps), Box<dyn std::error::Error>> {
+    let interface = Interface::bind(&InterfaceConfig { listen: LOOPBACK, ..InterfaceConfig::default() })?;
+    let host = interface.local_addr();
+    let endpoint = Running::spawn(move || {
+        let network = NetworkConfig { seed, ..NetworkConfig::default() };
+        Endpoint::experiment(seed, EndpointConfig { robot: LOOPBACK, host, pacing: Pacing::Lockstep, network })
+    })?;
+    let steps = Steps {
+        organize: OrganizeConfig {
+            expected_cells: Some(hrp2::SKIN.iter().map(|(_, n)| n).sum()),
+            ..OrganizeConfig::default()
+        },
+        settings: CellSettings::default().settings(),
+        explore: ExploreConfig::default(),
+    };
+    let remote = Remote::new(RobotLink::connect(endpoint.robot, LINK_TIMEOUT)?, interface);
+    Ok((endpoint, remote, steps))
+}
+
+/// Teaching by the person at the robot, then a grasp of each of `objects`.
+pub(super) fn teach_and_grasp(
+    remote: &mut Remote,
+    person: &mut Running,
+    map: SensoryMotorMap,
+    params: &Params,
+    objects: &[Option<Object>],
+) -> Result<(Taught, Vec<GraspRun>), GraspError> {
+    let progress = bar("{msg:32} [{bar:30}] {pos}/{len} steps");
+    progress.set_length((6 + objects.len()) as u64);
+    let taught = learn(remote, person, map, params, &mut |step| {
+        progress.set_message(step.to_owned());
         progress.inc(1);
     })?;
     let mut runs = Vec::new();
-    for object in &chosen {
+    for object in objects {
         progress.set_message(format!("grasping {}", object.as_ref().map_or("nothing", |o| o.name)));
-        runs.push(grasp(&taught, object.as_ref(), &params)?);
+        runs.push(grasp(remote, person, &taught, object.as_ref(), params)?);
         progress.inc(1);
     }
     progress.finish_and_clear();
-    Ok(GraspSection {
-        how: format!(
-            "In-process on the simulator (seed {seed}), where the person and the objects live: the robot explores itself again ({:.1} s robot time), a simulated person teaches the key poses by proximity guidance, and each object is grasped with one parameter set (Table 4), launched and released by a pat on the shoulder. The controller sees only samples and joint positions.",
-            taught.exploration_s
-        ),
-        lessons: taught.lessons,
-        runs,
-    })
+    Ok((taught, runs))
 }
 
 /// The host's results checked against the simulator's truth.
@@ -144,8 +167,9 @@ fn truth_section(
             .neighbours
             .iter()
             .all(|(id, table)| registry.get(*id).and_then(|c| c.neighbours()).is_some_and(|r| r.neighbours == *table));
-    let simulated = hrp2::world(seed);
-    let world = World::new(hrp2::robot(), simulated.skin().relabeled(&truth.ids)?, *simulated.config());
+    let setup = Setup::new(&hrp2::robot(), seed)?;
+    let world =
+        World::new(hrp2::robot(), setup.skin.relabeled(&truth.ids)?, WorldConfig { seed, ..WorldConfig::default() });
     let t = check(found, &world);
     Ok(TruthSection {
         cells_in_skin: truth.ids.len(),
@@ -160,7 +184,7 @@ fn truth_section(
 }
 
 /// Every cell organized and explored, the truth matched, every object held.
-fn all_good(r: &Report, explored: usize) -> bool {
+fn all_good(r: &skin_host::report::Report, explored: usize) -> bool {
     let truth_ok = r
         .truth
         .as_ref()

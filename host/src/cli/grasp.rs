@@ -1,18 +1,22 @@
 //! `skin grasp`: the simulated grasping experiment of section 6.5.
 //!
-//! Explores the built-in HRP-2-like robot, lets a simulated person teach
-//! the key poses by proximity guidance, then grasps objects of Figure 16
-//! (or nothing) with one parameter set, each launched and released by a
-//! pat on the shoulder.
+//! The grasping part of `skin demo` on its own, without the report: the
+//! experiment's robot and skin served on loopback UDP organize and explore
+//! themselves, a simulated person teaches the key poses by proximity
+//! guidance, then the robot grasps objects of Figure 16 (or nothing) with
+//! one parameter set, each launched and released by a pat on the
+//! shoulder, going home between grasps.
 
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use indicatif::{ProgressBar, ProgressStyle};
 use skin_host::control::grasp::State;
 use skin_host::control::params::Params;
-use skin_host::grasping::{grasp, learn, objects, write_traces, GraspRun, Taught};
+use skin_host::grasping::{objects, write_traces, GraspRun, Taught};
+
+use super::demo::{serve_experiment, teach_and_grasp};
+use super::job;
 
 /// Arguments of `skin grasp`.
 #[derive(clap::Args)]
@@ -40,29 +44,17 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         None => Params::default(),
     };
     let chosen = objects(&args.object)?;
-    let bar = ProgressBar::new((4 + chosen.len()) as u64).with_style(
-        ProgressStyle::with_template("{msg:40} [{bar:30}] {pos}/{len}")
-            .expect("a valid template")
-            .progress_chars("=> "),
-    );
-    let taught = learn(args.seed, &params, &mut |step| {
-        bar.set_message(step.to_owned());
-        if step.starts_with("teaching") || step.starts_with("self") {
-            bar.inc(1);
-        }
-    })?;
-    let mut runs = Vec::new();
-    for object in &chosen {
-        bar.set_message(format!("grasping {}", object.as_ref().map_or("nothing", |o| o.name)));
-        runs.push(grasp(&taught, object.as_ref(), &params)?);
-        bar.inc(1);
-    }
-    bar.finish_and_clear();
+    let (mut endpoint, mut remote, steps) = serve_experiment(args.seed)?;
+    let found = job::run(&mut remote, &steps)?;
+    let exploration_s = found.exploration.exploration_time_s();
+    let (taught, runs) = teach_and_grasp(&mut remote, &mut endpoint, found.exploration.smm, &params, &chosen)?;
+    endpoint.stop()?;
     let written = match &args.traces {
         Some(dir) => write_traces(dir, &runs)?,
         None => Vec::new(),
     };
-    let text = if args.json { serde_json::to_string_pretty(&runs)? } else { summary(&taught, &runs, &written) };
+    let text =
+        if args.json { serde_json::to_string_pretty(&runs)? } else { summary(exploration_s, &taught, &runs, &written) };
     match writeln!(std::io::stdout().lock(), "{text}") {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
         other => other?,
@@ -73,8 +65,8 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     Ok(if as_expected { ExitCode::SUCCESS } else { ExitCode::FAILURE })
 }
 
-fn summary(taught: &Taught, runs: &[GraspRun], written: &[PathBuf]) -> String {
-    let mut s = format!("self-exploration: {:.1} s robot time\n", taught.exploration_s);
+fn summary(exploration_s: f64, taught: &Taught, runs: &[GraspRun], written: &[PathBuf]) -> String {
+    let mut s = format!("self-exploration: {exploration_s:.1} s robot time\n");
     for l in &taught.lessons {
         s += &format!(
             "taught \"{}\" by proximity in {:.1} s (cells within {:.1} / {:.1} cm of the picture, right / left)\n",

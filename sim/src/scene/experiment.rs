@@ -16,10 +16,12 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::object::Object;
-use super::Placed;
+use super::{Placed, Scene, SharedScene, SkinModel};
 use crate::robot::kinematics::{self, BodyState, DofMotion};
 use crate::robot::{Robot, Shape as RobotShape, Surface};
 use crate::skin::{Skin, SkinError};
+use crate::world::{World, WorldConfig};
+use skin_protocol::Address;
 
 /// Where the object stands: centre height above the chest frame origin, m.
 pub const OBJECT_HEIGHT_M: f64 = 0.15;
@@ -58,8 +60,9 @@ struct Planned {
 pub struct Setup {
     /// The skin.
     pub skin: Skin,
-    /// The host's area file (TOML `[[area]]` tables) for this skin.
-    pub areas_toml: String,
+    /// The touch areas the operator assigned, by skin index: see
+    /// [`Setup::areas_toml`] for the host's area file.
+    pub areas: Vec<Area>,
     /// Skin indices of the cells a person guides each arm by (upper arm,
     /// upper arm and forearm; wrist and hand are left as they are), right
     /// then left.
@@ -69,6 +72,17 @@ pub struct Setup {
     /// The robot's surface, as points every 1.5 cm on its links' shapes,
     /// each link's points in the frame of one of its cells (skin index).
     pub surface: Vec<(usize, Vec<Point3<f64>>)>,
+}
+
+/// A touch area as the operator assigned it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Area {
+    /// What the operator calls it.
+    pub name: &'static str,
+    /// The host's area kind: `pat`, `contact` or `chest`.
+    pub kind: &'static str,
+    /// Its cells, by skin index.
+    pub cells: Vec<usize>,
 }
 
 /// The mirror image of a right-arm pose for the left arm: roll, yaw and
@@ -210,16 +224,6 @@ impl Setup {
                 .map(|(_, id)| *id)
                 .collect()
         };
-        let mut areas_toml = String::new();
-        for (name, kind, list) in [
-            ("shoulder pat", "pat", cells(Role::Pat, "")),
-            ("right arm", "contact", cells(Role::Contact, "RARM")),
-            ("left arm", "contact", cells(Role::Contact, "LARM")),
-            ("chest", "chest", cells(Role::Chest, "")),
-        ] {
-            writeln!(areas_toml, "[[area]]\nname = \"{name}\"\nkind = \"{kind}\"\ncells = {list:?}\n")
-                .expect("to a String");
-        }
         let index_of =
             |id: u16| skin.cells().iter().position(|c| c.id.0 == id).expect("every planned cell is in the skin");
         let guided = ["_LINK1", "_LINK2", "_LINK3"];
@@ -231,6 +235,19 @@ impl Setup {
                 .collect()
         };
         let pat_cell = index_of(cells(Role::Pat, "")[0]);
+        let areas = [
+            ("shoulder pat", "pat", Role::Pat, ""),
+            ("right arm", "contact", Role::Contact, "RARM"),
+            ("left arm", "contact", Role::Contact, "LARM"),
+            ("chest", "chest", Role::Chest, ""),
+        ]
+        .into_iter()
+        .map(|(name, kind, role, side)| Area {
+            name,
+            kind,
+            cells: cells(role, side).into_iter().map(index_of).collect(),
+        })
+        .collect();
         let surface = robot
             .links()
             .iter()
@@ -240,7 +257,35 @@ impl Setup {
                 Some((u, surface_points(&link.surface).into_iter().map(|p| to_cell * p).collect()))
             })
             .collect();
-        Ok(Setup { guided_cells: [arm("RARM"), arm("LARM")], pat_cell, areas_toml, surface, skin })
+        Ok(Setup { guided_cells: [arm("RARM"), arm("LARM")], pat_cell, areas, surface, skin })
+    }
+
+    /// The experiment's world: `robot` (the built-in one) with this skin,
+    /// feeling a scene that holds the robot's bare surface and, later, the
+    /// person's hands and the objects. Noise is drawn from `seed`.
+    pub fn world(&self, robot: Robot, seed: u64) -> (World, SharedScene) {
+        let mut world = World::new(robot, self.skin.clone(), WorldConfig { seed, ..WorldConfig::default() });
+        let mut scene = Scene::new(SkinModel::default());
+        for (cell, points) in &self.surface {
+            scene.add_bare_surface(*cell, points.clone());
+        }
+        let scene = SharedScene::new(scene);
+        world.set_tactile(scene.tactile(seed.wrapping_add(1)));
+        (world, scene)
+    }
+
+    /// The host's area file (TOML `[[area]]` tables) with the cells named
+    /// by `ids` (by skin index): the skin's own IDs, or those a network
+    /// assigned. On a real robot the operator writes this file after
+    /// touching each area's cells and reading their IDs in `skin monitor`.
+    pub fn areas_toml(&self, ids: &[Address]) -> String {
+        let mut toml = String::new();
+        for area in &self.areas {
+            let cells: Vec<u16> = area.cells.iter().map(|&u| ids[u].0).collect();
+            writeln!(toml, "[[area]]\nname = \"{}\"\nkind = \"{}\"\ncells = {cells:?}\n", area.name, area.kind)
+                .expect("writing to a String cannot fail");
+        }
+        toml
     }
 }
 
@@ -371,24 +416,24 @@ mod tests {
         // At the closed pose the contact cells of the upper arms and forearms
         // face the midline, where the object is, and the others face away.
         let bodies = body_poses(&robot, &intended_pose(&robot, "closed").unwrap());
-        let contact: Vec<u16> = s
-            .areas_toml
-            .lines()
-            .filter(|l| l.starts_with("cells"))
-            .skip(1)
-            .take(2)
-            .flat_map(|l| {
-                l[l.find('[').unwrap() + 1..l.find(']').unwrap()]
-                    .split(", ")
-                    .map(|x| x.parse::<u16>().unwrap())
-                    .collect::<Vec<_>>()
-            })
-            .collect();
+        let contact: Vec<usize> =
+            s.areas.iter().filter(|a| a.kind == "contact").flat_map(|a| a.cells.iter().copied()).collect();
         assert_eq!(contact.len(), 20);
-        for c in s.skin.cells().iter().filter(|c| c.link.ends_with("LINK2") || c.link.ends_with("LINK3")) {
+        for (u, c) in
+            s.skin.cells().iter().enumerate().filter(|(_, c)| c.link.ends_with("LINK2") || c.link.ends_with("LINK3"))
+        {
             let pose = bodies[c.body] * c.pose;
             let to_midline = -(pose * Point3::origin()).y.signum() * (pose.rotation * Vector3::z()).y;
-            assert_eq!(to_midline > 0.0, contact.contains(&c.id.0), "cell {} on {}", c.id, c.link);
+            assert_eq!(to_midline > 0.0, contact.contains(&u), "cell {} on {}", c.id, c.link);
         }
+        // The area file names the cells by the IDs given.
+        let ids: Vec<Address> = s.skin.cells().iter().map(|c| c.id).collect();
+        let toml = s.areas_toml(&ids);
+        let pat = ids[s.pat_cell].0;
+        assert!(
+            toml.starts_with(&format!("[[area]]\nname = \"shoulder pat\"\nkind = \"pat\"\ncells = [{pat}]\n")),
+            "{toml}"
+        );
+        assert_eq!(toml.matches("[[area]]").count(), 4);
     }
 }

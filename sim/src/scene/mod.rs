@@ -18,6 +18,7 @@ pub mod experiment;
 pub mod force;
 pub mod hand;
 pub mod object;
+pub mod operator;
 pub mod person;
 pub mod proximity;
 pub mod shape;
@@ -148,6 +149,11 @@ impl Scene {
     pub fn place(&mut self, object: Object, pose: Isometry3<f64>) -> usize {
         self.objects.push(Placed { object, pose });
         self.objects.len() - 1
+    }
+
+    /// Takes every object away.
+    pub fn clear_objects(&mut self) {
+        self.objects.clear();
     }
 
     /// The objects.

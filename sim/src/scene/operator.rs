@@ -1,0 +1,268 @@
+//! The person in the lab during the grasping experiment (sections 5.3
+//! and 6.5), as the simulated robot's endpoint hosts them.
+//!
+//! The experimenter tells the person what to do ([`Order`]); the person
+//! acts once per control period, looking at the robot as it is (only the
+//! simulator knows where every cell is): guides the arms into a key pose
+//! with their hands, puts an object in front of the robot or takes it
+//! away, pats the shoulder. They also tell the experimenter what only they
+//! can see ([`Note`]): how hard the skin was pressed, where the object is,
+//! how close the arms came to the pictured pose, and which cells make up
+//! each touch area, named by the IDs the network gave them. None of this
+//! is robot or skin data: on a real robot a real person stands there, and
+//! the experimenter writes the areas into the host's configuration after
+//! touching each area's cells in `skin monitor`.
+
+use skin_protocol::Address;
+
+use super::experiment::{gap_to_chest_m, intended_pose, object_pose, Setup};
+use super::object::Object;
+use super::person::{self, Guiding, Teacher};
+use super::SharedScene;
+use crate::robot::Robot;
+use crate::world::World;
+
+/// Longest a person tries to teach one key pose, s.
+const TEACH_LIMIT_S: f64 = 60.0;
+/// Control periods the person waits, hands away, for the robot to come to
+/// rest before judging a taught pose.
+const REST_TICKS: u32 = 25;
+/// How often teaching is logged, s.
+const LOG_EVERY_S: f64 = 2.0;
+/// How long a pat lasts, s.
+const PAT_S: f64 = 0.3;
+/// How deep a pat presses, m.
+const PAT_DEPTH_M: f64 = 0.0015;
+
+/// What the experimenter asks of the person.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum Order {
+    /// Teach the key pose of this name by proximity guidance, until the
+    /// arms look like the picture or a minute has passed; answered by
+    /// [`Note::Taught`] once the robot has come to rest.
+    Teach(String),
+    /// Put this object in front of the robot, or take the object away;
+    /// from then on every period is answered by [`Note::Seen`].
+    Place(Option<Object>),
+    /// Pat the top of the right shoulder once.
+    Pat,
+    /// Name the cells of each touch area; answered by [`Note::Areas`].
+    Areas,
+}
+
+/// What the person tells the experimenter.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum Note {
+    /// A key pose was taught.
+    Taught {
+        /// The key pose.
+        pose: String,
+        /// Robot time from the order until the robot came to rest, s.
+        time_s: f64,
+        /// How far each arm's guided cells are from where the person
+        /// pictured them (root mean square; right, left), m.
+        error_m: [f64; 2],
+    },
+    /// What the person sees after a control period.
+    Seen {
+        /// Robot time, s.
+        time_s: f64,
+        /// The largest force on any one force cell since the object was
+        /// placed (or taken away), N.
+        max_force_n: f64,
+        /// How far the object is from the chest's skin, m.
+        object_gap_m: Option<f64>,
+    },
+    /// The host's area file (TOML `[[area]]` tables), cells by network ID.
+    Areas(String),
+    /// An order the person cannot carry out, and why.
+    Refused(String),
+}
+
+/// What the person is doing.
+enum Act {
+    Idle,
+    /// Hands guiding the arms towards the picture of `pose`.
+    Teaching {
+        pose: String,
+        teacher: Teacher,
+        start_s: f64,
+    },
+    /// Hands away, waiting `ticks_left` more periods before judging.
+    Resting {
+        pose: String,
+        teacher: Teacher,
+        start_s: f64,
+        ticks_left: u32,
+    },
+    /// A hand on the shoulder until `until_s`.
+    Patting {
+        until_s: f64,
+    },
+}
+
+/// The person, the objects and what they see.
+pub struct Operator {
+    robot: Robot,
+    setup: Setup,
+    scene: SharedScene,
+    act: Act,
+    /// Since the first [`Order::Place`], every period is reported.
+    watching: bool,
+}
+
+impl Operator {
+    /// A person at `robot` (its model, to picture poses) wearing the skin
+    /// of `setup`, acting on `scene`, the world's tactile model.
+    pub fn new(robot: Robot, setup: Setup, scene: SharedScene) -> Operator {
+        Operator { robot, setup, scene, act: Act::Idle, watching: false }
+    }
+
+    /// Takes an order at a period boundary; `ids` are the cells' network
+    /// IDs by skin index. A new order ends what the person was doing.
+    pub fn order(&mut self, order: Order, world: &World, ids: &[Address]) -> Option<Note> {
+        self.scene.get_mut().set_hands(Vec::new());
+        self.act = Act::Idle;
+        match order {
+            Order::Teach(pose) => {
+                let Some(picture) = intended_pose(&self.robot, &pose) else {
+                    return Some(Note::Refused(format!("no key pose \"{pose}\": open, closed or pulled")));
+                };
+                let arms = self.setup.guided_cells.clone();
+                let teacher = Teacher::new(&self.robot, &self.setup.skin, &picture, arms, Guiding::default());
+                self.act = Act::Teaching { pose, teacher, start_s: world.time_s() };
+                None
+            }
+            Order::Place(object) => {
+                let mut scene = self.scene.get_mut();
+                scene.clear_objects();
+                if let Some(o) = object {
+                    let pose = object_pose(&o, scene.skin().surface_offset_m);
+                    scene.place(o, pose);
+                }
+                scene.reset_max_force();
+                self.watching = true;
+                None
+            }
+            Order::Pat => {
+                self.act = Act::Patting { until_s: world.time_s() + PAT_S };
+                None
+            }
+            Order::Areas => Some(match self.setup.areas.iter().find(|a| a.cells.iter().any(|&u| !ids[u].is_cell())) {
+                Some(a) => Note::Refused(format!("cells of \"{}\" have no ID yet: organize the skin first", a.name)),
+                None => Note::Areas(self.setup.areas_toml(ids)),
+            }),
+        }
+    }
+
+    /// Acts once, before the world's next period.
+    pub fn act(&mut self, world: &World) -> Option<Note> {
+        let (t, poses) = (world.time_s(), world.cell_poses());
+        let mut scene = self.scene.get_mut();
+        let offset = scene.skin().surface_offset_m;
+        match std::mem::replace(&mut self.act, Act::Idle) {
+            Act::Idle => {}
+            Act::Teaching { pose, mut teacher, start_s } => {
+                if teacher.satisfied(poses) || t - start_s >= TEACH_LIMIT_S {
+                    scene.set_hands(Vec::new());
+                    self.act = Act::Resting { pose, teacher, start_s, ticks_left: REST_TICKS - 1 };
+                } else {
+                    let ticks = ((t - start_s) / world.config().tick_s).round() as u64;
+                    if ticks % (LOG_EVERY_S / world.config().tick_s).round() as u64 == 0 {
+                        tracing::debug!(pose, time_s = t - start_s, error_m = ?teacher.error_m(poses), "teaching");
+                    }
+                    let sensor = scene.skin().proximity;
+                    scene.set_hands(teacher.hands(t, poses, offset, &sensor));
+                    self.act = Act::Teaching { pose, teacher, start_s };
+                }
+            }
+            Act::Resting { pose, teacher, start_s, ticks_left: 0 } => {
+                return Some(Note::Taught { pose, time_s: t - start_s, error_m: teacher.error_m(poses) });
+            }
+            Act::Resting { pose, teacher, start_s, ticks_left } => {
+                self.act = Act::Resting { pose, teacher, start_s, ticks_left: ticks_left - 1 };
+            }
+            Act::Patting { until_s } if t < until_s => {
+                scene.set_hands(vec![person::pat(&poses[self.setup.pat_cell], offset, PAT_DEPTH_M)]);
+                self.act = Act::Patting { until_s };
+            }
+            Act::Patting { .. } => scene.set_hands(Vec::new()),
+        }
+        None
+    }
+
+    /// What the person sees after a period, once watching.
+    pub fn watch(&self, world: &World) -> Option<Note> {
+        let scene = self.scene.get();
+        self.watching.then(|| Note::Seen {
+            time_s: world.time_s(),
+            max_force_n: scene.max_force_n(),
+            object_gap_m: scene.objects().first().map(|p| gap_to_chest_m(p, scene.skin().surface_offset_m)),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::robot::hrp2;
+    use crate::scene::experiment::OBJECT_GAP_M;
+
+    #[test]
+    fn orders_are_carried_out_at_period_boundaries_and_answered() {
+        let robot = hrp2::robot();
+        let setup = Setup::new(&robot, 4).unwrap();
+        let (mut world, scene) = setup.world(robot.clone(), 4);
+        let ids: Vec<Address> = setup.skin.cells().iter().map(|c| c.id).collect();
+        let mut op = Operator::new(robot, setup.clone(), scene.clone());
+        let mut samples = Vec::new();
+        let mut period = |op: &mut Operator, world: &mut World| {
+            let note = op.act(world);
+            world.step(&mut samples);
+            (note, op.watch(world))
+        };
+        assert_eq!(period(&mut op, &mut world), (None, None), "nothing to report before an object is placed");
+
+        // The areas by the IDs given; cells without one are refused.
+        assert_eq!(op.order(Order::Areas, &world, &ids), Some(Note::Areas(setup.areas_toml(&ids))));
+        let unassigned = vec![Address::UNASSIGNED; ids.len()];
+        assert!(matches!(op.order(Order::Areas, &world, &unassigned), Some(Note::Refused(_))));
+        assert!(matches!(op.order(Order::Teach("wave".into()), &world, &ids), Some(Note::Refused(_))));
+
+        // A placed object is seen where it was put; a pat presses for a while.
+        let bin = Object::by_name("trash_bin").unwrap();
+        assert_eq!(op.order(Order::Place(Some(bin)), &world, &ids), None);
+        let Some(Note::Seen { object_gap_m: Some(gap), max_force_n, .. }) = period(&mut op, &mut world).1 else {
+            panic!("seen after every period once an object is placed")
+        };
+        assert!((gap - OBJECT_GAP_M).abs() < 1e-9 && max_force_n == 0.0, "{gap} m, {max_force_n} N");
+        assert_eq!(op.order(Order::Pat, &world, &ids), None);
+        let start = world.time_s();
+        while world.time_s() - start < PAT_S {
+            period(&mut op, &mut world);
+            assert_eq!(scene.get().hands().len(), 1);
+        }
+        period(&mut op, &mut world);
+        assert!(scene.get().hands().is_empty(), "the hand is taken away");
+        let Some(Note::Seen { max_force_n, .. }) = period(&mut op, &mut world).1 else { panic!("seen") };
+        assert!(max_force_n > 0.1, "the pat pressed the shoulder: {max_force_n} N");
+        assert_eq!(op.order(Order::Place(None), &world, &ids), None);
+        assert!(matches!(period(&mut op, &mut world).1, Some(Note::Seen { object_gap_m: None, .. })));
+
+        // Home is where the robot is: taught once it has rested.
+        assert_eq!(op.order(Order::Teach("home".into()), &world, &ids), None);
+        let start = world.time_s();
+        let taught = loop {
+            if let (Some(note), _) = period(&mut op, &mut world) {
+                break note;
+            }
+        };
+        let Note::Taught { pose, time_s, error_m } = taught else { panic!("{taught:?}") };
+        let rest_s = f64::from(REST_TICKS) * world.config().tick_s;
+        assert_eq!(pose, "home");
+        assert!((time_s - rest_s).abs() < 1e-9 && (world.time_s() - start - rest_s - 0.004).abs() < 1e-9);
+        assert!(error_m.iter().all(|e| *e < 0.01), "{error_m:?}");
+    }
+}
