@@ -483,3 +483,52 @@ impl Running {
         self.thread.join().map_err(|_| NetworkError::Flag("the simulated robot's thread panicked".into()))?
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::object::Object;
+
+    /// One period with the robot held still, as a bare host asks for it.
+    fn period(link: &UdpSocket, robot: SocketAddr, seq: u32) {
+        let request = ToRobot::Command { seq, velocities: [0.0; 14].into_iter().collect() };
+        let mut buf = [0u8; robot_link::MAX_DATAGRAM];
+        let n = robot_link::encode(&request, &mut buf).unwrap();
+        link.send_to(&buf[..n], robot).unwrap();
+        let (n, _) = link.recv_from(&mut buf).expect("the endpoint answers");
+        assert!(matches!(robot_link::decode(&buf[..n]), Ok(FromRobot::State { .. })));
+    }
+
+    #[test]
+    fn orders_are_carried_out_in_the_next_period_and_answered_before_its_feedback() {
+        let host = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let config = EndpointConfig {
+            robot: "127.0.0.1:0".parse().unwrap(),
+            host: host.local_addr().unwrap(),
+            pacing: Pacing::Lockstep,
+            network: NetworkConfig::default(),
+        };
+        let link = UdpSocket::bind("127.0.0.1:0").unwrap();
+        link.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+
+        let running = Running::spawn(move || Endpoint::experiment(5, config)).unwrap();
+        running.order(Order::Place(Object::by_name("sponge_rock"))).unwrap();
+        assert_eq!(running.notes().count(), 0, "nothing happens between periods");
+        period(&link, running.robot, 1);
+        let notes: Vec<Note> = running.notes().collect();
+        assert!(matches!(notes[..], [Note::Seen { object_gap_m: Some(_), .. }]), "{notes:?}");
+        // No host has organized the skin: its cells have no IDs to name.
+        running.order(Order::Areas).unwrap();
+        period(&link, running.robot, 2);
+        let notes: Vec<Note> = running.notes().collect();
+        assert!(matches!(notes[..], [Note::Refused(_), Note::Seen { .. }]), "{notes:?}");
+        running.stop().unwrap();
+
+        let running = Running::spawn(move || Endpoint::hrp2(5, config)).unwrap();
+        running.order(Order::Pat).unwrap();
+        period(&link, running.robot, 1);
+        let notes: Vec<Note> = running.notes().collect();
+        assert!(matches!(&notes[..], [Note::Refused(why)] if why.contains("nobody")), "{notes:?}");
+        running.stop().unwrap();
+    }
+}
