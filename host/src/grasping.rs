@@ -342,7 +342,8 @@ pub fn grasp<R: Robot + SampleSource>(
     let start = lab.time_s;
     let launch = start + LAUNCH_AT_S;
     let (mut launched, mut release_at, mut released) = (false, None, false);
-    let mut seen = (0.0, None);
+    // What the person saw last: the largest force so far, the object's gap.
+    let mut seen = None;
     let mut trace = Vec::new();
     let mut next_row = launch;
     let end = loop {
@@ -358,13 +359,13 @@ pub fn grasp<R: Robot + SampleSource>(
         lab.period(&mut c, &taught.map)?;
         for note in lab.notes.drain(..) {
             if let Note::Seen { max_force_n, object_gap_m, .. } = note {
-                seen = (max_force_n, object_gap_m);
+                seen = Some((max_force_n, object_gap_m));
             }
         }
         let t = lab.time_s;
         if t >= next_row {
             next_row += 1.0 / TRACE_HZ;
-            trace.push(row(&c, &areas, lab.robot.positions(), t - launch, seen.1));
+            trace.push(row(&c, &areas, lab.robot.positions(), t - launch, seen.and_then(|s| s.1)));
         }
         let state = c.state().expect("grasp mode");
         let over = launched && matches!(state, State::Done | State::Cancelled);
@@ -373,6 +374,9 @@ pub fn grasp<R: Robot + SampleSource>(
         }
     };
     lab.person.order(Order::Place(None))?;
+    let Some((max_cell_force_n, _)) = seen else {
+        return Err(GraspError::Person("said nothing of what they saw during the grasp".into()));
+    };
     let state_log: Vec<Logged> =
         c.transitions().iter().map(|tr| Logged { state: tr.to, time_s: tr.time_s - launch, cause: tr.cause }).collect();
     let run = GraspRun {
@@ -380,7 +384,7 @@ pub fn grasp<R: Robot + SampleSource>(
         succeeded: state_log.iter().any(|l| l.state == State::Hold),
         final_state: end,
         time_s: state_log.last().map_or(0.0, |l| l.time_s),
-        max_cell_force_n: seen.0,
+        max_cell_force_n,
         pain_events: state_log.iter().filter(|l| l.cause == Cause::Pain).count(),
         state_log,
         trace,
