@@ -115,7 +115,7 @@ pub(super) fn serve_experiment(seed: u64) -> Result<(Running, Remote, Steps), Bo
     })?;
     let steps = Steps {
         organize: OrganizeConfig {
-            expected_cells: Some(hrp2::SKIN.iter().map(|(_, n)| n).sum()),
+            expected_cells: Some(Setup::new(&hrp2::robot(), seed)?.skin.cells().len()),
             ..OrganizeConfig::default()
         },
         settings: CellSettings::default().settings(),
