@@ -420,7 +420,8 @@ fn bind(addr: SocketAddr) -> Result<UdpSocket, NetworkError> {
 }
 
 /// An endpoint serving on a thread of its own (the world is not `Send`, so
-/// it is built there).
+/// it is built there), with the experimenter's side channel to the person
+/// at the robot ([`Running::order`], [`Running::notes`]).
 #[derive(Debug)]
 pub struct Running {
     /// The robot-link address.
