@@ -12,7 +12,7 @@
 //! trajectory at once and evades every contact slowly.
 //!
 //! Entry directives (gains per area, trajectory) are in
-//! [`States`](super::params::States); the controller applies them.
+//! [`States`]; the controller applies them.
 
 use serde::Serialize;
 
