@@ -59,6 +59,7 @@ fn ci_steps() -> Vec<Step> {
             "clippy (firmware, stm32f4 board)",
             "clippy -p skin-firmware --target thumbv7em-none-eabihf --features stm32f4 --bins -- -D warnings",
         ),
+        cargo("docs", r#"doc --workspace --no-deps --config build.rustdocflags=["-D","warnings"]"#),
         cargo("tests (host)", "test --workspace"),
         cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
         cargo(

@@ -15,7 +15,7 @@ struct Args {
     /// Cells in the patch (2 to 40).
     #[arg(long, default_value_t = 7)]
     cells: usize,
-    /// The cell-qemu firmware image [default: <target>/thumbv7em-none-eabihf/firmware/cell-qemu].
+    /// The cell-qemu firmware image [default: TARGET_DIR/thumbv7em-none-eabihf/firmware/cell-qemu].
     #[arg(long)]
     elf: Option<PathBuf>,
     /// Keep the run directory (sockets, stores, defmt logs of the cells).
