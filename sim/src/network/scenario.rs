@@ -393,7 +393,7 @@ impl Report {
              worst stay in a cell {hol:.0} us (head of line), {any:.0} us (any); model {fw} us, {fwc} us with control\n\
              traffic {frac:.1}% of clock-driven; peak {peak:.1} frames/s per cell; \
              max cells per interface port at {rate} Hz: {maxc}; meets the rate: {meets}\n\
-             simulated {sim:.3} s in {wall:.3} s wall ({speed:.0}x real time; {events} events measured)",
+             simulated {sim:.3} s in {wall:.3} s wall ({speed:.2}x real time; {events} events measured)",
             cells = self.cells,
             ifs = self.interfaces,
             rate = self.rate_hz,
