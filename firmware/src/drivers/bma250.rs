@@ -9,6 +9,8 @@ use embedded_hal::delay::DelayNs;
 use embedded_hal::spi::{Operation, SpiDevice};
 use skin_protocol::message::AccelRange;
 
+use super::Error;
+
 /// Registers used by this driver (datasheet, "Register map").
 pub mod reg {
     /// Chip ID.
@@ -41,23 +43,6 @@ pub fn range_code(range: AccelRange) -> u8 {
     }
 }
 
-/// What can go wrong with the BMA250.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[non_exhaustive]
-pub enum Error<E> {
-    /// The SPI bus failed.
-    Bus(E),
-    /// The chip ID register did not read as a BMA250.
-    WrongChip(u8),
-}
-
-impl<E> From<E> for Error<E> {
-    fn from(e: E) -> Self {
-        Error::Bus(e)
-    }
-}
-
 /// The BMA250 on an SPI device (bus plus its chip select).
 #[derive(Debug)]
 pub struct Bma250<S> {
@@ -73,7 +58,7 @@ impl<S: SpiDevice> Bma250<S> {
         let mut id = [0];
         spi.transaction(&mut [Operation::Write(&[READ | reg::CHIP_ID]), Operation::Read(&mut id)])?;
         if id[0] != CHIP_ID {
-            return Err(Error::WrongChip(id[0]));
+            return Err(Error::WrongChip(id[0].into()));
         }
         spi.write(&[reg::BANDWIDTH, BANDWIDTH_125_HZ])?;
         let mut chip = Bma250 { spi, range };

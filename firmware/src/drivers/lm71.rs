@@ -8,6 +8,8 @@
 
 use embedded_hal::spi::{Operation, SpiDevice};
 
+use super::Error;
+
 /// The register read in shutdown.
 pub const DEVICE_ID: u16 = 0x800F;
 /// Configuration word: continuous conversion.
@@ -17,23 +19,6 @@ const SHUTDOWN: [u8; 2] = [0xFF, 0xFF];
 /// A conversion takes this long; reading faster returns the same value
 /// (the sensor's 0-7 Hz bandwidth, Table 1).
 pub const CONVERSION_US: u64 = 300_000;
-
-/// What can go wrong with the LM71.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[non_exhaustive]
-pub enum Error<E> {
-    /// The SPI bus failed.
-    Bus(E),
-    /// In shutdown the chip did not read as an LM71.
-    WrongChip(u16),
-}
-
-impl<E> From<E> for Error<E> {
-    fn from(e: E) -> Self {
-        Error::Bus(e)
-    }
-}
 
 /// The LM71 on an SPI device (bus plus its chip select).
 #[derive(Debug)]

@@ -7,6 +7,8 @@
 
 use embedded_hal::i2c::I2c;
 
+use super::Error;
+
 /// 7-bit I2C address (fixed).
 pub const ADDRESS: u8 = 0x13;
 
@@ -34,23 +36,6 @@ const RATE_250_HZ: u8 = 7;
 /// Largest LED current code (200 mA).
 pub const MAX_LED_CURRENT: u8 = 20;
 
-/// What can go wrong with the VCNL4010.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[non_exhaustive]
-pub enum Error<E> {
-    /// The I2C bus failed.
-    Bus(E),
-    /// The product ID register did not read as a VCNL4010.
-    WrongChip(u8),
-}
-
-impl<E> From<E> for Error<E> {
-    fn from(e: E) -> Self {
-        Error::Bus(e)
-    }
-}
-
 /// The VCNL4010 on an I2C bus.
 #[derive(Debug)]
 pub struct Vcnl4010<I> {
@@ -64,7 +49,7 @@ impl<I: I2c> Vcnl4010<I> {
         let mut id = [0];
         i2c.write_read(ADDRESS, &[reg::PRODUCT_ID], &mut id)?;
         if id[0] >> 4 != PRODUCT {
-            return Err(Error::WrongChip(id[0]));
+            return Err(Error::WrongChip(id[0].into()));
         }
         i2c.write(ADDRESS, &[reg::LED_CURRENT, led_current.min(MAX_LED_CURRENT)])?;
         i2c.write(ADDRESS, &[reg::PROXIMITY_RATE, RATE_250_HZ])?;
