@@ -781,6 +781,7 @@ impl Network {
         // Queues only grow, and only a new master port clears one: when
         // neither happened, the shadow queues still match.
         if cell.router().master() == master && cell.router().upstream_queued() == total {
+            debug_assert_eq!(n.shadow.each_ref().map(VecDeque::len), cell.router().upstream_lens());
             return (r, full);
         }
         // The shadow queues have the router's upstream lengths before.
