@@ -13,8 +13,10 @@ use crate::node::Node;
 use crate::sensors::Sensors;
 use crate::store::Store;
 
-/// Timings of self-organization for cells on QEMU: about 10 times the
-/// defaults of [`Config::default`].
+/// Timings of self-organization for cells on QEMU: beacons and the parent's
+/// link timeout about 10 times the defaults of [`Config::default`], every
+/// link kept alive every 100 ms as by default (so every wave goes on every
+/// link).
 ///
 /// QEMU cells exchange frames through host sockets in wall time, and on a
 /// two-core machine running several QEMU processes, the test harness and
@@ -26,7 +28,8 @@ use crate::store::Store;
 /// they are sent every 100 ms. The harness's interface port uses the same
 /// timings.
 pub const QEMU_CONFIG: Config = Config {
-    probe_period_us: 100_000,
+    keepalive_period_us: 100_000,
+    keepalive_timeout_us: 400_000,
     link_timeout_us: 400_000,
     beacon_period_us: 100_000,
     route_timeout_us: 400_000,

@@ -59,8 +59,8 @@ fn any_message() -> impl Strategy<Value = Message> {
         }),
         (any::<u8>(), any::<bool>()).prop_map(|(tag, accepted)| Message::ConfigAck(ConfigAck { tag, accepted })),
         (any_address(), any_port()).prop_map(|(parent, port)| Message::IdRequest(IdRequest { parent, port })),
-        (any_port(), any_address(), any::<bool>(), any::<bool>())
-            .prop_map(|(port, id, master, known)| Message::Probe(Probe { port, id, master, known })),
+        (any_port(), any_address(), any::<bool>(), any::<bool>(), any::<bool>())
+            .prop_map(|(port, id, master, known, routed)| Message::Probe(Probe { port, id, master, known, routed })),
     ]
 }
 

@@ -185,23 +185,34 @@ mod tests {
         let mut cell = Cell::new(Config::default(), &store, 0);
         cell.poll(0);
         assert_eq!(probes_queued(&mut cell), [true; 4]);
-        // A sink on port 2 makes it the master; the cell's own traffic then
-        // keeps port 2 busy, and only the other ports are probed.
-        let beacon = Frame::new(
-            Address(0xFF00),
-            Address::BROADCAST,
-            &Message::Beacon(crate::message::Beacon { interface: 0, seq: 1, hops: 0 }),
-        );
-        cell.receive(Port::P2, beacon.as_bytes(), 1_000, &mut store);
+        // A sink on port 2 sends a wave every 10 ms and makes it the master.
+        let mut seq = 0;
+        let mut waves_until = |cell: &mut Cell, until_us: u64| {
+            while u64::from(seq) * 10_000 < until_us {
+                seq += 1;
+                let beacon = crate::message::Beacon { interface: 0, seq, hops: 0 };
+                let frame = Frame::new(Address(0xFF00), Address::BROADCAST, &Message::Beacon(beacon));
+                let now = u64::from(seq) * 10_000 - 9_000;
+                cell.receive(Port::P2, frame.as_bytes(), now, &mut store);
+                cell.poll(now);
+            }
+        };
+        waves_until(&mut cell, 1);
         assert_eq!(cell.organizer().master(), Some(Port::P2));
+        // The cell's own traffic keeps port 2 busy (the neighbour report and
+        // its repeat included), and only the other ports are probed.
+        waves_until(&mut cell, 60_000);
         let _ = probes_queued(&mut cell);
         cell.send(&Message::ConfigAck(ConfigAck { tag: 1, accepted: true })).unwrap();
         let sent: std::vec::Vec<Kind> = core::iter::from_fn(|| cell.transmit(Port::P2)).map(|f| f.kind()).collect();
         assert!(sent.contains(&Kind::ConfigAck), "{sent:?}");
-        cell.poll(10_000);
+        let period = Config::default().keepalive_period_us;
+        waves_until(&mut cell, period);
+        cell.poll(period);
         assert_eq!(probes_queued(&mut cell), [true, true, false, true]);
         // Nothing sent since: every port is probed again.
-        cell.poll(20_000);
+        waves_until(&mut cell, 2 * period);
+        cell.poll(2 * period);
         assert_eq!(probes_queued(&mut cell), [true; 4]);
     }
 }

@@ -45,9 +45,11 @@ impl Port {
 
 /// Phase 1 and 4: "I am here, on this port, with this ID".
 ///
-/// Sent as [`Message::Probe`] periodically on every port (it doubles as the
-/// link keep-alive) and answered at once with [`Message::ProbeAck`], so both
-/// sides learn the link is up and who is on the other end.
+/// Sent as [`Message::Probe`] on every port that has sent nothing else for a
+/// keep-alive period, and at once when the sender's place in the tree
+/// changes; answered at once with [`Message::ProbeAck`] when the sender does
+/// not know the receiver yet, so both sides learn the link is up and who is
+/// on the other end.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Probe {
@@ -62,6 +64,10 @@ pub struct Probe {
     /// needs no answer: on a settled link the periodic probes of both sides
     /// carry everything, and only a new or rebooted neighbour is answered.
     pub known: bool,
+    /// True when the sender has a route to an interface port. A neighbour
+    /// without one gets every beacon wave, a settled one only every
+    /// keep-alive period's (see [`crate::organize`]).
+    pub routed: bool,
 }
 
 /// Phase 2: one wave of a tree beacon, started by an interface port every

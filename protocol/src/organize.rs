@@ -4,9 +4,9 @@
 //! frame (or the passing of time) goes in, frames to send come out.
 //!
 //! 1. **Active ports.** Every cell probes each port on which it sent nothing
-//!    but probes for a probe period; a probe from a neighbour that does not
-//!    know us yet is answered at once. A port is active while frames arrive
-//!    on it, so a link busy with data or beacons needs no keep-alive.
+//!    but probes for a keep-alive period; a probe from a neighbour that does
+//!    not know us yet is answered at once. A port is active while frames
+//!    arrive on it, so a link busy with data or beacons needs no keep-alive.
 //! 2. **Master-port trees.** Every interface port ([`Sink`]) starts a beacon
 //!    wave each period. A cell takes as master port the port with the fewest
 //!    hops to an interface, and relays only the waves that reach it through
@@ -14,6 +14,16 @@
 //!    falls silent, and no stale route outlives it; newer waves replace older
 //!    ones, so routes are loop free (as in DSDV). Every interface port is the
 //!    sink of its own tree.
+//!
+//!    Only a cell's parent must be heard often: its waves are the cell's
+//!    route, so the master port times out after a few beacon periods and the
+//!    cell re-attaches at once. Every wave goes to children and to
+//!    neighbours without a route (they say so in their probes, and a cell
+//!    that loses its route probes every port at once); a settled neighbour
+//!    on a spare link gets one wave per keep-alive period, enough to keep the
+//!    link alive and to offer it a shorter route. Links other than the
+//!    master port time out after a few keep-alive periods. A settled, quiet
+//!    skin thus carries about one frame per cell per beacon period.
 //! 3. **Unique IDs.** A cell without an ID names itself by its parent and the
 //!    parent's port and asks the host ([`Allocator`]); the answer comes down
 //!    the tree to the parent, which hands it through that port. An ID held in
@@ -36,9 +46,14 @@ use crate::message::{Beacon, IdAssign, IdRequest, Message, Neighbour, NeighbourR
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Config {
-    /// Period of the probes on idle ports (the link keep-alive).
-    pub probe_period_us: u64,
-    /// A port with nothing received for this long is down.
+    /// Period of the probes on ports that sent nothing else (the link
+    /// keep-alive), and of the beacon waves relayed on spare links.
+    pub keepalive_period_us: u64,
+    /// A port other than the master port with nothing received for this
+    /// long is down.
+    pub keepalive_timeout_us: u64,
+    /// The master port with nothing received for this long is down (the
+    /// parent relays every beacon wave on it).
     pub link_timeout_us: u64,
     /// Period of the beacon waves started by interface ports.
     pub beacon_period_us: u64,
@@ -53,7 +68,8 @@ pub struct Config {
 impl Default for Config {
     fn default() -> Self {
         Config {
-            probe_period_us: 10_000,
+            keepalive_period_us: 100_000,
+            keepalive_timeout_us: 350_000,
             link_timeout_us: 35_000,
             beacon_period_us: 10_000,
             route_timeout_us: 35_000,
@@ -113,6 +129,8 @@ struct Link {
     last_rx_us: u64,
     neighbour: Option<Neighbour>,
     child: bool,
+    /// The neighbour has a route (it said so in its last probe).
+    routed: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -210,8 +228,10 @@ impl Organizer {
     /// the time of the last `poll`.
     pub fn poll_at(&self) -> u64 {
         let mut t = self.next_probe_us;
-        for l in self.links.iter().flatten() {
-            t = t.min(l.last_rx_us + self.config.link_timeout_us + 1);
+        for p in Port::ALL {
+            if let Some(l) = self.links[p.index()] {
+                t = t.min(l.last_rx_us + self.link_timeout(p) + 1);
+            }
         }
         if let Some(r) = self.route {
             t = t.min(r.heard_us + self.config.route_timeout_us + 1);
@@ -229,13 +249,44 @@ impl Organizer {
         self.next_probe_us
     }
 
+    /// How long `port` may stay silent before it is down.
+    fn link_timeout(&self, port: Port) -> u64 {
+        if self.master() == Some(port) {
+            self.config.link_timeout_us
+        } else {
+            self.config.keepalive_timeout_us
+        }
+    }
+
+    /// True when the neighbour on `port` takes every beacon wave: a child,
+    /// or a neighbour without a route (or not yet known to have one).
+    fn wants_every_wave(&self, port: Port) -> bool {
+        self.links[port.index()].is_some_and(|l| l.child || !l.routed || l.neighbour.is_none())
+    }
+
+    /// Probes every active port: the neighbours learn at once that this
+    /// cell has a route (or an ID) now.
+    fn probe_all(&self, outs: &mut impl Outbox) {
+        for p in Port::ALL {
+            if self.is_active(p) {
+                outs.send(Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
+            }
+        }
+    }
+
     /// The parent in the tree, once it has an address.
     fn parent(&self) -> Option<Neighbour> {
         self.master().and_then(|m| self.neighbour(m)).filter(|n| n.id != Address::UNASSIGNED)
     }
 
     fn probe(&self, port: Port) -> Probe {
-        Probe { port, id: self.id, master: self.master() == Some(port), known: self.neighbour(port).is_some() }
+        Probe {
+            port,
+            id: self.id,
+            master: self.master() == Some(port),
+            known: self.neighbour(port).is_some(),
+            routed: self.route.is_some(),
+        }
     }
 
     fn link_frame(&self, message: Message) -> Frame {
@@ -246,7 +297,7 @@ impl Organizer {
     pub fn heard(&mut self, port: Port, now_us: u64) {
         match &mut self.links[port.index()] {
             Some(l) => l.last_rx_us = now_us,
-            slot @ None => *slot = Some(Link { last_rx_us: now_us, neighbour: None, child: false }),
+            slot @ None => *slot = Some(Link { last_rx_us: now_us, neighbour: None, child: false, routed: false }),
         }
     }
 
@@ -271,6 +322,7 @@ impl Organizer {
                 if let Some(link) = &mut self.links[port.index()] {
                     link.neighbour = Some(Neighbour { id: p.id, port: p.port });
                     link.child = p.master;
+                    link.routed = p.routed;
                 }
                 self.report(outs, now_us);
                 self.request_id(outs, now_us);
@@ -306,7 +358,11 @@ impl Organizer {
         }
         let old = self.master();
         self.route = Some(candidate);
-        if old != Some(port) {
+        if old.is_none() {
+            // Neighbours stop sending us every wave; the parent learns it has
+            // a child.
+            self.probe_all(outs);
+        } else if old != Some(port) {
             // Tell the old and the new parent at once, so downstream traffic
             // follows the tree without waiting for the next probe.
             for p in [old, Some(port)].into_iter().flatten() {
@@ -315,10 +371,13 @@ impl Organizer {
                 }
             }
         }
-        let relay = Message::Beacon(Beacon { hops, ..b });
+        // One wave per keep-alive period on spare links.
+        let every = (self.config.keepalive_period_us / self.config.beacon_period_us.max(1)).max(1);
+        let spare_too = u64::from(b.seq) % every == 0;
+        let relay = self.link_frame(Message::Beacon(Beacon { hops, ..b }));
         for p in Port::ALL {
-            if p != port && self.is_active(p) {
-                outs.send(Out::Link(p, self.link_frame(relay)));
+            if p != port && self.is_active(p) && (spare_too || self.wants_every_wave(p)) {
+                outs.send(Out::Link(p, relay));
             }
         }
         self.report(outs, now_us);
@@ -339,11 +398,7 @@ impl Organizer {
             if self.id == Address::UNASSIGNED && self.master() == Some(port) && a.id.is_cell() {
                 self.id = a.id;
                 store.store(a.id);
-                for p in Port::ALL {
-                    if self.is_active(p) {
-                        outs.send(Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
-                    }
-                }
+                self.probe_all(outs);
                 self.report(outs, now_us);
             }
         } else if header.dst == self.id && self.id != Address::UNASSIGNED {
@@ -400,26 +455,30 @@ impl Organizer {
 
     /// Does what time demands: probes, link and route timeouts, ID retries,
     /// the report heartbeat. `busy` has bit `p` set for each port that sent
-    /// a frame since the last probe round: those need no probe, as the
-    /// neighbour heard from us anyway.
+    /// a frame other than a probe since the last probe round: those need no
+    /// probe, as the neighbour heard from us anyway.
     pub fn poll(&mut self, now_us: u64, busy: u8, outs: &mut impl Outbox) {
         for p in Port::ALL {
             let Some(l) = self.links[p.index()] else { continue };
-            if now_us > l.last_rx_us + self.config.link_timeout_us {
+            if now_us > l.last_rx_us + self.link_timeout(p) {
                 self.links[p.index()] = None;
             }
         }
+        let mut lost = false;
         if let Some(r) = self.route {
             if !self.is_active(r.port) || now_us > r.heard_us + self.config.route_timeout_us {
                 self.route = None;
+                lost = true;
             }
         }
-        if now_us >= self.next_probe_us {
-            self.next_probe_us = now_us + self.config.probe_period_us;
+        if lost || now_us >= self.next_probe_us {
+            self.next_probe_us = now_us + self.config.keepalive_period_us;
             // Every few rounds a busy port is probed too, so that a lost
             // probe cannot leave the neighbour's view of us stale for good.
+            // A cell that lost its route probes every port at once, so that
+            // every neighbour sends it the next wave.
             self.rounds = (self.rounds + 1) % REFRESH_ROUNDS;
-            let skip = if self.rounds == 0 { 0 } else { busy };
+            let skip = if lost || self.rounds == 0 { 0 } else { busy };
             for p in Port::ALL.into_iter().filter(|p| skip & (1 << p.index()) == 0) {
                 outs.send(Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
             }
@@ -475,7 +534,7 @@ impl Sink {
 
     /// True while the cell on the other end is talking.
     pub fn is_active(&self, now_us: u64) -> bool {
-        self.last_rx_us.is_some_and(|t| now_us <= t + self.config.link_timeout_us)
+        self.last_rx_us.is_some_and(|t| now_us <= t + self.config.keepalive_timeout_us)
     }
 
     /// Takes the bytes the cell sent.
@@ -490,7 +549,7 @@ impl Sink {
             return Ok(FromCell::Host(frame));
         }
         if let Message::Probe(Probe { known: false, .. }) = frame.message()? {
-            let ack = Probe { port: Port::P0, id: self.address, master: false, known: true };
+            let ack = Probe { port: Port::P0, id: self.address, master: false, known: true, routed: true };
             let _ = self.link.push_back(Frame::new(self.address, Address::BROADCAST, &Message::ProbeAck(ack)));
         }
         Ok(FromCell::Link)
@@ -615,5 +674,86 @@ mod allocator {
         pub fn used(&self) -> usize {
             self.used.len()
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    type Outs = Vec<Out, 64>;
+
+    /// A cell with ID 5 whose port 0 leads to an interface port; on port 1
+    /// is its child, on port 2 a settled neighbour (a spare link), on
+    /// port 3 a neighbour without a route.
+    fn settled() -> (Organizer, Option<Address>, Outs) {
+        let mut store = Some(Address(5));
+        let mut org = Organizer::new(Config::default(), &store, 0);
+        let mut outs = Outs::new();
+        for (port, master, routed) in [(Port::P1, true, true), (Port::P2, false, true), (Port::P3, false, false)] {
+            let probe = Probe { port: Port::P0, id: Address(10 + port.index() as u16), master, known: true, routed };
+            let frame = Frame::new(probe.id, Address::BROADCAST, &Message::Probe(probe));
+            org.heard(port, 0);
+            org.handle(port, frame.header(), &Message::Probe(probe), 0, &mut store, &mut outs);
+        }
+        (org, store, outs)
+    }
+
+    /// Wave `seq` of interface port 0, arriving on port 0 at `seq` * 10 ms.
+    fn wave(org: &mut Organizer, store: &mut Option<Address>, seq: u16, outs: &mut Outs) -> u64 {
+        let now = u64::from(seq) * 10_000;
+        let b = Message::Beacon(Beacon { interface: 0, seq, hops: 0 });
+        let frame = Frame::new(Address::interface(0).unwrap(), Address::BROADCAST, &b);
+        org.heard(Port::P0, now);
+        org.handle(Port::P0, frame.header(), &b, now, store, outs);
+        now
+    }
+
+    fn relays(outs: &Outs, port: Port) -> usize {
+        outs.iter()
+            .filter(|o| matches!(o, Out::Link(p, f) if *p == port && f.kind() == crate::frame::Kind::Beacon))
+            .count()
+    }
+
+    #[test]
+    fn every_wave_goes_to_children_and_routeless_neighbours_one_in_ten_to_spare_links() {
+        let (mut org, mut store, _) = settled();
+        let mut outs = Outs::new();
+        for seq in 1..=20 {
+            wave(&mut org, &mut store, seq, &mut outs);
+            outs.retain(|o| matches!(o, Out::Link(_, f) if f.kind() == crate::frame::Kind::Beacon));
+        }
+        assert_eq!(org.master(), Some(Port::P0));
+        assert_eq!([Port::P0, Port::P1, Port::P2, Port::P3].map(|p| relays(&outs, p)), [0, 20, 2, 20]);
+    }
+
+    #[test]
+    fn a_cell_that_loses_its_parent_asks_every_neighbour_at_once_and_keeps_the_others_longer() {
+        let (mut org, mut store, mut outs) = settled();
+        let last = wave(&mut org, &mut store, 1, &mut outs);
+        assert_eq!(org.master(), Some(Port::P0));
+        let config = Config::default();
+        // The parent falls silent: its port is down after the link timeout,
+        // and the cell tells every neighbour it has no route.
+        outs.clear();
+        org.poll(last + config.link_timeout_us + 1, 0, &mut outs);
+        assert!(!org.is_active(Port::P0));
+        assert_eq!(org.master(), None);
+        let asked: std::vec::Vec<Port> = outs
+            .iter()
+            .filter_map(|o| match o {
+                Out::Link(p, f) => match f.message() {
+                    Ok(Message::Probe(probe)) if !probe.routed => Some(*p),
+                    _ => None,
+                },
+                Out::Up(_) => None,
+            })
+            .collect();
+        assert_eq!(asked, Port::ALL);
+        // The other links, heard at 0, last a keep-alive timeout.
+        org.poll(config.keepalive_timeout_us, 0, &mut outs);
+        assert!(Port::ALL[1..].iter().all(|p| org.is_active(*p)));
+        org.poll(config.keepalive_timeout_us + 1, 0, &mut outs);
+        assert!(Port::ALL.iter().all(|p| !org.is_active(*p)));
     }
 }

@@ -60,12 +60,8 @@ fn channel() -> impl Strategy<Value = Channel> {
 }
 
 fn probe() -> impl Strategy<Value = Probe> {
-    (port(), address(), any::<bool>(), any::<bool>()).prop_map(|(port, id, master, known)| Probe {
-        port,
-        id,
-        master,
-        known,
-    })
+    (port(), address(), any::<bool>(), any::<bool>(), any::<bool>())
+        .prop_map(|(port, id, master, known, routed)| Probe { port, id, master, known, routed })
 }
 
 /// Every message kind with every field over its whole range.

@@ -56,7 +56,7 @@ fn a_summary_for_people_with_faults() {
         "ber:1e-5",
         "--delta",
         "proximity=655",
-        "--probe-ms",
+        "--keepalive-ms",
         "50",
         "--beacon-ms",
         "20",
@@ -67,7 +67,7 @@ fn a_summary_for_people_with_faults() {
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(
         text.starts_with(
-            "13 cells, 2 interface ports, 250 Hz event traffic, touch skin, seed 7; probes every 50 ms, beacons every 20 ms"
+            "13 cells, 2 interface ports, 250 Hz event traffic, touch skin, seed 7; keep-alive every 50 ms, beacons every 20 ms"
         ),
         "{text}"
     );
@@ -88,9 +88,9 @@ fn bad_flags_and_files_fail_with_a_message() {
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--udp", "10.1.2.3:9"], "127.0.0.1"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--delta", "nose=3"], "CHANNEL=COUNTS"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--delta", "force0=-1"], "CHANNEL=COUNTS"),
-        (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--probe-ms", "0"], "--probe-ms"),
+        (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--keepalive-ms", "0"], "--keepalive-ms"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--beacon-ms", "0.5"], "beacon period"),
-        (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--probe-ms", "NaN"], "--probe-ms"),
+        (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--keepalive-ms", "NaN"], "--keepalive-ms"),
     ] {
         let out = skin_sim(&args);
         assert!(!out.status.success(), "{args:?} succeeded");

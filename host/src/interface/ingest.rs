@@ -290,6 +290,7 @@ mod tests {
             id: Address(1),
             master: false,
             known: false,
+            routed: false,
         });
         let frames = [
             sample(1, 0),

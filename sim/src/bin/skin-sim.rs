@@ -77,13 +77,14 @@ struct NetworkArgs {
     /// az, temperature. Repeatable.
     #[arg(long = "delta", value_parser = parse_delta)]
     deltas: Vec<(u8, u16)>,
-    /// Period of the keep-alive probes on idle links, in ms; a link is
-    /// given up after 3.5 periods of silence. Longer periods suit large
-    /// skins: less control traffic, slower detection of a broken link.
-    #[arg(long, default_value_t = 10.0)]
-    probe_ms: f64,
-    /// Period of the beacon waves of the interface ports, in ms; a route
-    /// is given up after 3.5 periods without a wave.
+    /// Keep-alive period of settled links, in ms: probes on ports that sent
+    /// nothing else, beacon waves on spare links; such a link is given up
+    /// after 3.5 periods of silence.
+    #[arg(long, default_value_t = 100.0)]
+    keepalive_ms: f64,
+    /// Period of the beacon waves of the interface ports, in ms; a route,
+    /// and the link to the parent, are given up after 3.5 periods without
+    /// a wave.
     #[arg(long, default_value_t = 10.0)]
     beacon_ms: f64,
     /// Seed of everything random.
@@ -148,7 +149,7 @@ fn network(args: NetworkArgs) -> Result<(), NetworkError> {
         seed: args.seed,
         ..NetworkConfig::default()
     }
-    .with_periods(period_us("--probe-ms", args.probe_ms)?, period_us("--beacon-ms", args.beacon_ms)?)?;
+    .with_periods(period_us("--keepalive-ms", args.keepalive_ms)?, period_us("--beacon-ms", args.beacon_ms)?)?;
     for (channel, counts) in args.deltas {
         config.delta_counts[usize::from(channel)] = Some(counts);
     }

@@ -167,8 +167,8 @@ pub struct Report {
     pub max_cells_per_interface_at_rate: Option<u64>,
     /// The same before rounding down to whole cells.
     pub cells_per_interface: Option<f64>,
-    /// Keep-alive probe period of idle links.
-    pub probe_period_ms: f64,
+    /// Keep-alive period of settled links.
+    pub keepalive_period_ms: f64,
     /// Beacon wave period of the interface ports.
     pub beacon_period_ms: f64,
     /// The worst sensor latency stayed within one sampling period and no
@@ -312,7 +312,7 @@ impl Scenario {
             },
             max_cells_per_interface_at_rate: cells_per_interface.map(|n| n.floor() as u64),
             cells_per_interface,
-            probe_period_ms: c.organize.probe_period_us as f64 / 1e3,
+            keepalive_period_ms: c.organize.keepalive_period_us as f64 / 1e3,
             beacon_period_ms: c.organize.beacon_period_us as f64 / 1e3,
             meets_rate: (latency_us.max as f64) < period_s * 1e6 && l.sensor_dropped == m.sensor_dropped_before,
             model,
@@ -382,7 +382,7 @@ impl Report {
         };
         format!(
             "{cells} cells, {ifs} interface ports, {rate} Hz {mode} traffic, {stim} skin, seed {seed}; \
-             probes every {probe} ms, beacons every {beacon} ms\n\
+             keep-alive every {keepalive} ms, beacons every {beacon} ms\n\
              {org}; tree depth {depth}; IDs unique: {ids}; neighbour table correct: {neighbours}; \
              attached {att}/{reach}; IDs kept: {kept}\n\
              delivered {del}, dropped {drop} ({after} after organizing, {sensors} of them sensor frames; {reasons:?}), \
@@ -428,7 +428,7 @@ impl Report {
             maxc = self
                 .cells_per_interface
                 .map_or("unbounded (no sensor traffic)".into(), |n| format!("{} ({n:.2})", n.floor())),
-            probe = self.probe_period_ms,
+            keepalive = self.keepalive_period_ms,
             beacon = self.beacon_period_ms,
             meets = yes(self.meets_rate),
             sim = self.sim_time_s,

@@ -101,15 +101,15 @@ impl Default for NetworkConfig {
 const PERIOD_RANGE_US: std::ops::RangeInclusive<u64> = 1_000..=10_000_000;
 
 impl NetworkConfig {
-    /// The same network with keep-alive probes on idle links every
-    /// `probe_us` and beacon waves every `beacon_us`; a link (a route) is
-    /// given up after 3.5 periods without a frame (a wave), as with the
-    /// defaults of 10 ms. Longer periods cost a large skin less control
-    /// traffic (every idle link carries two frames per probe period, every
-    /// cell relays a wave per beacon period) and detect a broken link or
-    /// route later, after 3.5 periods.
-    pub fn with_periods(mut self, probe_us: u64, beacon_us: u64) -> Result<NetworkConfig, NetworkError> {
-        for (what, us) in [("probe", probe_us), ("beacon", beacon_us)] {
+    /// The same network with a keep-alive on settled links every
+    /// `keepalive_us` and beacon waves every `beacon_us`; a link is given
+    /// up after 3.5 keep-alive periods without a frame, a route and the link
+    /// to the parent after 3.5 beacon periods without a wave, as with the
+    /// defaults (100 ms, 10 ms). Longer periods cost a large skin less
+    /// control traffic (a settled skin carries about one wave relay per cell
+    /// per beacon period) and detect a broken link or route later.
+    pub fn with_periods(mut self, keepalive_us: u64, beacon_us: u64) -> Result<NetworkConfig, NetworkError> {
+        for (what, us) in [("keep-alive", keepalive_us), ("beacon", beacon_us)] {
             if !PERIOD_RANGE_US.contains(&us) {
                 return Err(NetworkError::Flag(format!(
                     "{what} period {} ms: use {} ms to {} ms",
@@ -119,8 +119,9 @@ impl NetworkConfig {
                 )));
             }
         }
-        self.organize.probe_period_us = probe_us;
-        self.organize.link_timeout_us = probe_us * 7 / 2;
+        self.organize.keepalive_period_us = keepalive_us;
+        self.organize.keepalive_timeout_us = keepalive_us * 7 / 2;
+        self.organize.link_timeout_us = beacon_us * 7 / 2;
         self.organize.beacon_period_us = beacon_us;
         self.organize.route_timeout_us = beacon_us * 7 / 2;
         Ok(self)
