@@ -75,6 +75,9 @@ pub struct Router {
     up_total: usize,
     down: [Deque<Frame, DOWN_QUEUE>; 4],
     link: [Deque<Frame, LINK_QUEUE>; 4],
+    /// Bit `p`: port `p`'s link-local or downstream queue holds a frame, so
+    /// that asking a port for work reads one byte, not two queues.
+    waiting: u8,
     next: usize,
     master: Option<Port>,
     children: [bool; 4],
@@ -98,6 +101,7 @@ impl Router {
             up_total: 0,
             down: Default::default(),
             link: Default::default(),
+            waiting: 0,
             next: 0,
             master: None,
             children: [false; 4],
@@ -138,6 +142,7 @@ impl Router {
             let q = &mut self.down[port.index()];
             self.counters.dropped_reroute += q.len() as u32;
             q.clear();
+            self.recount(port);
         }
     }
 
@@ -167,10 +172,11 @@ impl Router {
     /// were queued; a full child queue drops its copy.
     pub fn downstream(&mut self, frame: Frame) -> usize {
         let mut queued = 0;
-        for (child, q) in self.children.iter().zip(self.down.iter_mut()) {
+        for (p, (child, q)) in self.children.iter().zip(self.down.iter_mut()).enumerate() {
             if !*child {
                 continue;
             }
+            self.waiting |= 1 << p;
             match q.push_back(frame) {
                 Ok(()) => queued += 1,
                 Err(_) => self.counters.dropped_full += 1,
@@ -181,10 +187,19 @@ impl Router {
 
     /// Queues a link-local frame (probe, beacon, ...) for one port.
     pub fn link(&mut self, port: Port, frame: Frame) -> Result<(), Drop> {
+        self.waiting |= 1 << port.index();
         self.link[port.index()].push_back(frame).map_err(|_| {
             self.counters.dropped_full += 1;
             Drop::QueueFull
         })
+    }
+
+    /// Brings bit `port` of `waiting` up to date after its queues shrank.
+    fn recount(&mut self, port: Port) {
+        let p = port.index();
+        if self.link[p].is_empty() && self.down[p].is_empty() {
+            self.waiting &= !(1 << p);
+        }
     }
 
     /// The next frame to put on `port`'s wire, when its transmitter is free:
@@ -197,10 +212,12 @@ impl Router {
             if f.kind() != crate::frame::Kind::Probe {
                 self.sent |= 1 << p;
             }
+            self.recount(port);
             return Some(f);
         }
         let frame = self.next_data(port)?;
         self.sent |= 1 << p;
+        self.recount(port);
         Some(frame)
     }
 
@@ -229,7 +246,8 @@ impl Router {
     /// True when `port` has something to send.
     pub fn has_pending(&self, port: Port) -> bool {
         let p = port.index();
-        !self.link[p].is_empty() || !self.down[p].is_empty() || (self.master == Some(port) && self.up_total > 0)
+        debug_assert_eq!(self.waiting & 1 << p != 0, !self.link[p].is_empty() || !self.down[p].is_empty());
+        self.waiting & 1 << p != 0 || (self.master == Some(port) && self.up_total > 0)
     }
 
     /// Bit `p` set for each port with something to send.
