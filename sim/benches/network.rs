@@ -4,27 +4,44 @@
 //!   under a moving touch (the issue's target: 1,000 times real time).
 //! - A 10,000-cell skin (100x100 patch, 16 interface ports), event-driven
 //!   at 250 Hz under a moving touch (the issue's target: real time), with
-//!   the default 10 ms keep-alive and beacon periods, and with 100 ms ones,
-//!   the choice for a skin this large (a tenth of the control traffic; a
-//!   broken link is noticed after 350 ms instead of 35 ms).
+//!   the default periods (10 ms beacon waves, 100 ms keep-alive).
+//! - One hop of the protocol code alone (a cell takes a frame from a child
+//!   port and sends it on its master port), no simulator around it: the
+//!   HRP-2 run's frame arrivals per virtual second times this cost is the
+//!   ceiling of any simulator that runs the real protocol code.
 //!
 //! Each network is organized first; the benchmark then times further
 //! virtual time and prints the speed-up with the run's quality (latency,
-//! losses, the ledger) and its events per virtual second beside it.
+//! losses, the ledger) and its events and frame arrivals per virtual second
+//! beside it.
 //!
 //! `cargo bench -p skin-sim --bench network`
 
+use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode};
-use skin_protocol::message::TrafficMode;
+use skin_protocol::address::Address;
+use skin_protocol::cell::Cell;
+use skin_protocol::frame::Frame;
+use skin_protocol::message::{Beacon, Message, Port, Probe, TrafficMode};
+use skin_protocol::organize::Config;
+use skin_protocol::Sample;
 use skin_sim::network::scenario::pump;
 use skin_sim::network::stimulus::StimulusKind;
 use skin_sim::network::transport::Transport;
 use skin_sim::network::{Network, NetworkConfig, Topology};
 
-/// Builds and organizes a network, then reports speed over `slice_s` slices.
-fn speed(c: &mut Criterion, name: &str, topology: Topology, config: NetworkConfig, organize_s: f64, slice_s: f64) {
+/// Builds and organizes a network, then reports speed over `slice_s`
+/// slices; returns the frame arrivals per virtual second.
+fn speed(
+    c: &mut Criterion,
+    name: &str,
+    topology: Topology,
+    config: NetworkConfig,
+    organize_s: f64,
+    slice_s: f64,
+) -> f64 {
     let mut net = Network::new(&topology, config).expect("a valid network");
     let mut host = Transport::memory();
     let wall = Instant::now();
@@ -32,6 +49,7 @@ fn speed(c: &mut Criterion, name: &str, topology: Topology, config: NetworkConfi
     let organize_wall = wall.elapsed().as_secs_f64();
     let ids = (0..net.cells()).filter(|i| net.cell(*i).is_some_and(|c| c.id().is_cell())).count();
     net.measure_from();
+    let received_before = net.measurements().ledger.received;
     let (mut simulated, mut spent) = (0.0, 0.0);
     let mut group = c.benchmark_group("network");
     group.sampling_mode(SamplingMode::Flat);
@@ -51,31 +69,71 @@ fn speed(c: &mut Criterion, name: &str, topology: Topology, config: NetworkConfi
     group.finish();
     let m = net.measurements();
     let lat = m.latency.quantiles();
+    let virtual_s = m.measured_ns as f64 * 1e-9;
+    let arrivals = (m.ledger.received - received_before) as f64 / virtual_s;
     println!(
         "{name}: {cells} cells, {ids} with IDs after {organize_s} s virtual ({organize_wall:.2} s wall); \
          {simulated:.2} s simulated in {spent:.2} s wall = {x:.2}x real time \
-         ({events:.2}M events per virtual s, {ns:.0} ns per event); \
+         ({events:.2}M events and {arrivals_m:.2}M frame arrivals per virtual s, {ns:.0} ns per event); \
          sensor latency p99 {p99} us max {max} us; sensor frames lost {lost}; balanced {bal}",
         cells = net.cells(),
         x = simulated / spent,
-        events = m.events as f64 / (m.measured_ns as f64 * 1e-9) / 1e6,
+        events = m.events as f64 / virtual_s / 1e6,
+        arrivals_m = arrivals / 1e6,
         p99 = lat.p99,
         max = lat.max,
         ns = spent * 1e9 / m.events as f64,
         lost = m.ledger.sensor_dropped - m.sensor_dropped_before,
         bal = net.balanced(),
     );
+    arrivals
+}
+
+/// One hop of the protocol code alone: a settled cell takes a sample from
+/// its child on port 1 and sends it on its master port 0. Returns the cost
+/// in ns.
+fn hop(c: &mut Criterion) -> f64 {
+    let mut store = Some(Address(5));
+    let mut cell = Cell::new(Config::default(), &store, 0);
+    let sink = Address::interface(0).expect("interface 0");
+    let beacon = Frame::new(sink, Address::BROADCAST, &Message::Beacon(Beacon { interface: 0, seq: 1, hops: 0 }));
+    cell.receive_frame(Port::P0, beacon, 0, &mut store);
+    let probe = Probe { port: Port::P2, id: Address(9), master: true, known: true, routed: true };
+    cell.receive_frame(Port::P1, Frame::new(Address(9), Address::BROADCAST, &Message::Probe(probe)), 0, &mut store);
+    for p in Port::ALL {
+        while cell.transmit(p).is_some() {}
+    }
+    let sample = Frame::new(Address(9), Address::HOST, &Message::Sample(Sample::default()));
+    let (mut hops, mut spent) = (0u64, 0.0);
+    c.bench_function("protocol_hop", |b| {
+        b.iter_custom(|iters| {
+            let start = Instant::now();
+            for _ in 0..iters {
+                cell.receive_frame(Port::P1, black_box(sample), 1, &mut store);
+                black_box(cell.transmit(Port::P0));
+            }
+            let t = start.elapsed();
+            hops += iters;
+            spent += t.as_secs_f64();
+            t
+        })
+    });
+    spent * 1e9 / hops as f64
 }
 
 fn benches(c: &mut Criterion) {
     let hrp2 = NetworkConfig { traffic: TrafficMode::Clock, stimulus: StimulusKind::Touch, ..NetworkConfig::default() };
-    speed(c, "hrp2_74_cells_clock_250hz", Topology::hrp2(), hrp2, 1.0, 1.0);
+    let arrivals = speed(c, "hrp2_74_cells_clock_250hz", Topology::hrp2(), hrp2, 1.0, 1.0);
     let big = Topology::hex(100, 100).and_then(|t| t.with_interfaces(16)).expect("a valid patch");
     let event =
         NetworkConfig { traffic: TrafficMode::Event, stimulus: StimulusKind::Touch, ..NetworkConfig::default() };
-    speed(c, "hex_10000_cells_16_ports_event_250hz", big.clone(), event, 1.0, 0.1);
-    let slow = event.with_periods(100_000, 100_000).expect("valid periods");
-    speed(c, "hex_10000_cells_16_ports_event_250hz_probe_beacon_100ms", big, slow, 1.0, 0.2);
+    speed(c, "hex_10000_cells_16_ports_event_250hz", big, event, 1.0, 0.2);
+    let ns = hop(c);
+    println!(
+        "protocol_hop: {ns:.1} ns per hop of the protocol code alone; the HRP-2 skin's {arrivals:.0} frame \
+         arrivals per virtual s cap any simulator running that code at {cap:.0}x real time",
+        cap = 1e9 / (arrivals * ns),
+    );
 }
 
 criterion_group! {
