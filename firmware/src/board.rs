@@ -32,6 +32,7 @@ pub const QEMU_CONFIG: Config = Config {
     keepalive_timeout_us: 400_000,
     link_timeout_us: 400_000,
     beacon_period_us: 100_000,
+    wave_timeout_us: 150_000,
     route_timeout_us: 400_000,
     id_retry_us: 250_000,
     report_period_us: 4_000_000,

@@ -28,7 +28,7 @@ pub fn boot<'a>(slot: &'a mut MaybeUninit<CycleNode<'a>>, flash: &'a mut CycleFl
     let node = Node::boot(slot, Config::default(), store, 0);
     let interface = Address::interface(0)?;
     let beacon = Frame::new(interface, Address::BROADCAST, &Message::Beacon(Beacon { interface: 0, seq: 1, hops: 0 }));
-    let probe = Message::Probe(Probe { port: Port::P3, id: Address(9), master: true, known: false, routed: false });
+    let probe = Message::Probe(Probe { port: Port::P3, id: Address(9), master: true, known: false, lost: true });
     let child = Frame::new(Address(9), Address::BROADCAST, &probe);
     for (port, frame) in [(Port::P0, beacon), (Port::P1, child)] {
         for b in frame.as_bytes() {

@@ -60,7 +60,7 @@ fn any_message() -> impl Strategy<Value = Message> {
         (any::<u8>(), any::<bool>()).prop_map(|(tag, accepted)| Message::ConfigAck(ConfigAck { tag, accepted })),
         (any_address(), any_port()).prop_map(|(parent, port)| Message::IdRequest(IdRequest { parent, port })),
         (any_port(), any_address(), any::<bool>(), any::<bool>(), any::<bool>())
-            .prop_map(|(port, id, master, known, routed)| Message::Probe(Probe { port, id, master, known, routed })),
+            .prop_map(|(port, id, master, known, lost)| Message::Probe(Probe { port, id, master, known, lost })),
     ]
 }
 

@@ -64,10 +64,10 @@ pub struct Probe {
     /// needs no answer: on a settled link the periodic probes of both sides
     /// carry everything, and only a new or rebooted neighbour is answered.
     pub known: bool,
-    /// True when the sender has a route to an interface port. A neighbour
-    /// without one gets every beacon wave, a settled one only every
-    /// keep-alive period's (see [`crate::organize`]).
-    pub routed: bool,
+    /// True when the sender has no route to an interface port, or its
+    /// route missed its last waves: it gets every beacon wave, a settled
+    /// neighbour only one per keep-alive period (see [`crate::organize`]).
+    pub lost: bool,
 }
 
 /// Phase 2: one wave of a tree beacon, started by an interface port every

@@ -16,14 +16,18 @@
 //!    sink of its own tree.
 //!
 //!    Only a cell's parent must be heard often: its waves are the cell's
-//!    route, so the master port times out after a few beacon periods and the
-//!    cell re-attaches at once. Every wave goes to children and to
-//!    neighbours without a route (they say so in their probes, and a cell
-//!    that loses its route probes every port at once); a settled neighbour
-//!    on a spare link gets one wave per keep-alive period, enough to keep the
-//!    link alive and to offer it a shorter route. Links other than the
-//!    master port time out after a few keep-alive periods. A settled, quiet
-//!    skin thus carries about one frame per cell per beacon period.
+//!    route. Every wave goes to children and to lost neighbours: those
+//!    without a route, or whose next wave is half a period late (they say
+//!    so in their probes, sent on every port the moment they are lost). A
+//!    cell whose parent fell silent thus takes the very next wave from any
+//!    neighbour (a newer wave on another port wins), as soon as it would
+//!    have if every link carried every wave; a wave lost to a bit error
+//!    costs a few probes, not a stall. A settled neighbour on a spare link
+//!    gets one wave per keep-alive period, enough to keep the link alive
+//!    and to offer it a shorter route. The master port times out after a
+//!    few beacon periods, the others after a few keep-alive periods. A
+//!    settled, quiet skin thus carries about one frame per cell per beacon
+//!    period.
 //! 3. **Unique IDs.** A cell without an ID names itself by its parent and the
 //!    parent's port and asks the host ([`Allocator`]); the answer comes down
 //!    the tree to the parent, which hands it through that port. An ID held in
@@ -57,7 +61,12 @@ pub struct Config {
     pub link_timeout_us: u64,
     /// Period of the beacon waves started by interface ports.
     pub beacon_period_us: u64,
-    /// A master port that relayed no wave for this long is lost.
+    /// A route that relayed no wave for this long is lost: the cell asks
+    /// every neighbour for the next wave (its parent may be gone, or a bit
+    /// error took the wave), keeping the route meanwhile. One and a half
+    /// beacon periods: the ask reaches the neighbours before the next wave.
+    pub wave_timeout_us: u64,
+    /// A route that relayed no wave for this long is given up.
     pub route_timeout_us: u64,
     /// Time between repeated ID requests.
     pub id_retry_us: u64,
@@ -72,6 +81,7 @@ impl Default for Config {
             keepalive_timeout_us: 350_000,
             link_timeout_us: 35_000,
             beacon_period_us: 10_000,
+            wave_timeout_us: 15_000,
             route_timeout_us: 35_000,
             id_retry_us: 50_000,
             report_period_us: 4_000_000,
@@ -129,8 +139,8 @@ struct Link {
     last_rx_us: u64,
     neighbour: Option<Neighbour>,
     child: bool,
-    /// The neighbour has a route (it said so in its last probe).
-    routed: bool,
+    /// The neighbour is lost (it said so in its last probe).
+    lost: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -140,6 +150,8 @@ struct Route {
     seq: u16,
     hops: u16,
     heard_us: u64,
+    /// It missed its waves: the neighbours were asked for the next one.
+    lost: bool,
 }
 
 /// Serial-number order of wrapping wave numbers: how far `a` is ahead of `b`.
@@ -234,7 +246,8 @@ impl Organizer {
             }
         }
         if let Some(r) = self.route {
-            t = t.min(r.heard_us + self.config.route_timeout_us + 1);
+            let timeout = if r.lost { self.config.route_timeout_us } else { self.config.wave_timeout_us };
+            t = t.min(r.heard_us + timeout + 1);
         }
         if self.id != Address::UNASSIGNED {
             t = t.min(self.next_report_us);
@@ -259,13 +272,18 @@ impl Organizer {
     }
 
     /// True when the neighbour on `port` takes every beacon wave: a child,
-    /// or a neighbour without a route (or not yet known to have one).
+    /// a lost neighbour, or one that has not said yet.
     fn wants_every_wave(&self, port: Port) -> bool {
-        self.links[port.index()].is_some_and(|l| l.child || !l.routed || l.neighbour.is_none())
+        self.links[port.index()].is_some_and(|l| l.child || l.lost || l.neighbour.is_none())
+    }
+
+    /// No route, or one that missed its waves.
+    fn lost(&self) -> bool {
+        self.route.is_none_or(|r| r.lost)
     }
 
     /// Probes every active port: the neighbours learn at once that this
-    /// cell has a route (or an ID) now.
+    /// cell has a route (or an ID) again.
     fn probe_all(&self, outs: &mut impl Outbox) {
         for p in Port::ALL {
             if self.is_active(p) {
@@ -285,7 +303,7 @@ impl Organizer {
             id: self.id,
             master: self.master() == Some(port),
             known: self.neighbour(port).is_some(),
-            routed: self.route.is_some(),
+            lost: self.lost(),
         }
     }
 
@@ -297,7 +315,7 @@ impl Organizer {
     pub fn heard(&mut self, port: Port, now_us: u64) {
         match &mut self.links[port.index()] {
             Some(l) => l.last_rx_us = now_us,
-            slot @ None => *slot = Some(Link { last_rx_us: now_us, neighbour: None, child: false, routed: false }),
+            slot @ None => *slot = Some(Link { last_rx_us: now_us, neighbour: None, child: false, lost: false }),
         }
     }
 
@@ -322,7 +340,7 @@ impl Organizer {
                 if let Some(link) = &mut self.links[port.index()] {
                     link.neighbour = Some(Neighbour { id: p.id, port: p.port });
                     link.child = p.master;
-                    link.routed = p.routed;
+                    link.lost = p.lost;
                 }
                 self.report(outs, now_us);
                 self.request_id(outs, now_us);
@@ -338,7 +356,7 @@ impl Organizer {
             return; // a child never leads toward the interface
         }
         let hops = b.hops.saturating_add(1);
-        let candidate = Route { port, interface: b.interface, seq: b.seq, hops, heard_us: now_us };
+        let candidate = Route { port, interface: b.interface, seq: b.seq, hops, heard_us: now_us, lost: false };
         let take = match self.route {
             None => true,
             Some(r) if r.interface != b.interface => hops < r.hops || (hops == r.hops && b.interface < r.interface),
@@ -348,7 +366,8 @@ impl Organizer {
                     ahead > 0 || (ahead == 0 && hops < r.hops)
                 } else {
                     // Another port: better in the same or a newer wave, or
-                    // the master has missed a whole wave.
+                    // the master has missed a whole wave (a lost cell gets
+                    // every wave from every neighbour).
                     (ahead >= 0 && hops < r.hops) || ahead >= 2
                 }
             }
@@ -356,9 +375,9 @@ impl Organizer {
         if !take {
             return;
         }
-        let old = self.master();
+        let (old, was_lost) = (self.master(), self.lost());
         self.route = Some(candidate);
-        if old.is_none() {
+        if was_lost {
             // Neighbours stop sending us every wave; the parent learns it has
             // a child.
             self.probe_all(outs);
@@ -464,18 +483,18 @@ impl Organizer {
                 self.links[p.index()] = None;
             }
         }
-        let mut lost = false;
+        let was_lost = self.lost();
         if let Some(r) = self.route {
-            if !self.is_active(r.port) || now_us > r.heard_us + self.config.route_timeout_us {
-                self.route = None;
-                lost = true;
-            }
+            let gone = !self.is_active(r.port) || now_us > r.heard_us + self.config.route_timeout_us;
+            let missed = now_us > r.heard_us + self.config.wave_timeout_us;
+            self.route = (!gone).then_some(Route { lost: r.lost || missed, ..r });
         }
+        let lost = self.lost() && !was_lost;
         if lost || now_us >= self.next_probe_us {
             self.next_probe_us = now_us + self.config.keepalive_period_us;
             // Every few rounds a busy port is probed too, so that a lost
             // probe cannot leave the neighbour's view of us stale for good.
-            // A cell that lost its route probes every port at once, so that
+            // A cell that just got lost probes every port at once, so that
             // every neighbour sends it the next wave.
             self.rounds = (self.rounds + 1) % REFRESH_ROUNDS;
             let skip = if lost || self.rounds == 0 { 0 } else { busy };
@@ -549,7 +568,7 @@ impl Sink {
             return Ok(FromCell::Host(frame));
         }
         if let Message::Probe(Probe { known: false, .. }) = frame.message()? {
-            let ack = Probe { port: Port::P0, id: self.address, master: false, known: true, routed: true };
+            let ack = Probe { port: Port::P0, id: self.address, master: false, known: true, lost: false };
             let _ = self.link.push_back(Frame::new(self.address, Address::BROADCAST, &Message::ProbeAck(ack)));
         }
         Ok(FromCell::Link)
@@ -685,13 +704,13 @@ mod tests {
 
     /// A cell with ID 5 whose port 0 leads to an interface port; on port 1
     /// is its child, on port 2 a settled neighbour (a spare link), on
-    /// port 3 a neighbour without a route.
+    /// port 3 a lost neighbour.
     fn settled() -> (Organizer, Option<Address>, Outs) {
         let mut store = Some(Address(5));
         let mut org = Organizer::new(Config::default(), &store, 0);
         let mut outs = Outs::new();
-        for (port, master, routed) in [(Port::P1, true, true), (Port::P2, false, true), (Port::P3, false, false)] {
-            let probe = Probe { port: Port::P0, id: Address(10 + port.index() as u16), master, known: true, routed };
+        for (port, master, lost) in [(Port::P1, true, false), (Port::P2, false, false), (Port::P3, false, true)] {
+            let probe = Probe { port: Port::P0, id: Address(10 + port.index() as u16), master, known: true, lost };
             let frame = Frame::new(probe.id, Address::BROADCAST, &Message::Probe(probe));
             org.heard(port, 0);
             org.handle(port, frame.header(), &Message::Probe(probe), 0, &mut store, &mut outs);
@@ -699,13 +718,13 @@ mod tests {
         (org, store, outs)
     }
 
-    /// Wave `seq` of interface port 0, arriving on port 0 at `seq` * 10 ms.
-    fn wave(org: &mut Organizer, store: &mut Option<Address>, seq: u16, outs: &mut Outs) -> u64 {
+    /// Wave `seq` of interface port 0, arriving on `port` at `seq` * 10 ms.
+    fn wave(org: &mut Organizer, store: &mut Option<Address>, port: Port, seq: u16, outs: &mut Outs) -> u64 {
         let now = u64::from(seq) * 10_000;
         let b = Message::Beacon(Beacon { interface: 0, seq, hops: 0 });
         let frame = Frame::new(Address::interface(0).unwrap(), Address::BROADCAST, &b);
-        org.heard(Port::P0, now);
-        org.handle(Port::P0, frame.header(), &b, now, store, outs);
+        org.heard(port, now);
+        org.handle(port, frame.header(), &b, now, store, outs);
         now
     }
 
@@ -715,12 +734,25 @@ mod tests {
             .count()
     }
 
+    /// The ports probed in `outs`, with the probes' `lost` flag.
+    fn probes(outs: &Outs) -> std::vec::Vec<(Port, bool)> {
+        outs.iter()
+            .filter_map(|o| match o {
+                Out::Link(p, f) => match f.message() {
+                    Ok(Message::Probe(probe)) => Some((*p, probe.lost)),
+                    _ => None,
+                },
+                Out::Up(_) => None,
+            })
+            .collect()
+    }
+
     #[test]
-    fn every_wave_goes_to_children_and_routeless_neighbours_one_in_ten_to_spare_links() {
+    fn every_wave_goes_to_children_and_lost_neighbours_one_in_ten_to_spare_links() {
         let (mut org, mut store, _) = settled();
         let mut outs = Outs::new();
         for seq in 1..=20 {
-            wave(&mut org, &mut store, seq, &mut outs);
+            wave(&mut org, &mut store, Port::P0, seq, &mut outs);
             outs.retain(|o| matches!(o, Out::Link(_, f) if f.kind() == crate::frame::Kind::Beacon));
         }
         assert_eq!(org.master(), Some(Port::P0));
@@ -728,28 +760,34 @@ mod tests {
     }
 
     #[test]
-    fn a_cell_that_loses_its_parent_asks_every_neighbour_at_once_and_keeps_the_others_longer() {
+    fn a_cell_whose_parent_falls_silent_asks_every_neighbour_and_takes_the_next_wave() {
         let (mut org, mut store, mut outs) = settled();
-        let last = wave(&mut org, &mut store, 1, &mut outs);
-        assert_eq!(org.master(), Some(Port::P0));
         let config = Config::default();
-        // The parent falls silent: its port is down after the link timeout,
-        // and the cell tells every neighbour it has no route.
+        let last = wave(&mut org, &mut store, Port::P0, 1, &mut outs);
+        org.poll(last, 0, &mut outs); // the first keep-alive round
         outs.clear();
+        // A wave missed: the cell keeps its route but asks every port.
+        org.poll(last + config.wave_timeout_us + 1, 0, &mut outs);
+        assert_eq!(org.master(), Some(Port::P0));
+        assert_eq!(probes(&outs), Port::ALL.map(|p| (p, true)));
+        // The next wave, from the spare neighbour, is taken at once, and
+        // every neighbour hears that the cell is settled again.
+        outs.clear();
+        wave(&mut org, &mut store, Port::P2, 4, &mut outs);
+        assert_eq!(org.master(), Some(Port::P2));
+        assert_eq!(probes(&outs), [(Port::P0, false), (Port::P1, false), (Port::P2, false), (Port::P3, false)]);
+    }
+
+    #[test]
+    fn the_master_port_times_out_after_the_link_timeout_the_others_after_the_keepalive_timeout() {
+        let (mut org, mut store, mut outs) = settled();
+        let config = Config::default();
+        let last = wave(&mut org, &mut store, Port::P0, 1, &mut outs);
+        org.poll(last + config.link_timeout_us, 0, &mut outs);
+        assert!(org.is_active(Port::P0));
         org.poll(last + config.link_timeout_us + 1, 0, &mut outs);
         assert!(!org.is_active(Port::P0));
         assert_eq!(org.master(), None);
-        let asked: std::vec::Vec<Port> = outs
-            .iter()
-            .filter_map(|o| match o {
-                Out::Link(p, f) => match f.message() {
-                    Ok(Message::Probe(probe)) if !probe.routed => Some(*p),
-                    _ => None,
-                },
-                Out::Up(_) => None,
-            })
-            .collect();
-        assert_eq!(asked, Port::ALL);
         // The other links, heard at 0, last a keep-alive timeout.
         org.poll(config.keepalive_timeout_us, 0, &mut outs);
         assert!(Port::ALL[1..].iter().all(|p| org.is_active(*p)));

@@ -60,8 +60,13 @@ fn channel() -> impl Strategy<Value = Channel> {
 }
 
 fn probe() -> impl Strategy<Value = Probe> {
-    (port(), address(), any::<bool>(), any::<bool>(), any::<bool>())
-        .prop_map(|(port, id, master, known, routed)| Probe { port, id, master, known, routed })
+    (port(), address(), any::<bool>(), any::<bool>(), any::<bool>()).prop_map(|(port, id, master, known, lost)| Probe {
+        port,
+        id,
+        master,
+        known,
+        lost,
+    })
 }
 
 /// Every message kind with every field over its whole range.

@@ -98,7 +98,7 @@ fn hop(c: &mut Criterion) -> f64 {
     let sink = Address::interface(0).expect("interface 0");
     let beacon = Frame::new(sink, Address::BROADCAST, &Message::Beacon(Beacon { interface: 0, seq: 1, hops: 0 }));
     cell.receive_frame(Port::P0, beacon, 0, &mut store);
-    let probe = Probe { port: Port::P2, id: Address(9), master: true, known: true, routed: true };
+    let probe = Probe { port: Port::P2, id: Address(9), master: true, known: true, lost: false };
     cell.receive_frame(Port::P1, Frame::new(Address(9), Address::BROADCAST, &Message::Probe(probe)), 0, &mut store);
     for p in Port::ALL {
         while cell.transmit(p).is_some() {}

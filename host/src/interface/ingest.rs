@@ -290,7 +290,7 @@ mod tests {
             id: Address(1),
             master: false,
             known: false,
-            routed: false,
+            lost: false,
         });
         let frames = [
             sample(1, 0),

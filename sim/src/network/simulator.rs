@@ -104,10 +104,11 @@ impl NetworkConfig {
     /// The same network with a keep-alive on settled links every
     /// `keepalive_us` and beacon waves every `beacon_us`; a link is given
     /// up after 3.5 keep-alive periods without a frame, a route and the link
-    /// to the parent after 3.5 beacon periods without a wave, as with the
-    /// defaults (100 ms, 10 ms). Longer periods cost a large skin less
-    /// control traffic (a settled skin carries about one wave relay per cell
-    /// per beacon period) and detect a broken link or route later.
+    /// to the parent after 3.5 beacon periods without a wave (the cell asks
+    /// its neighbours for waves after 1.5), as with the defaults (100 ms,
+    /// 10 ms). Longer periods cost a large skin less control traffic (a
+    /// settled skin carries about one wave relay per cell per beacon
+    /// period) and detect a broken link or route later.
     pub fn with_periods(mut self, keepalive_us: u64, beacon_us: u64) -> Result<NetworkConfig, NetworkError> {
         for (what, us) in [("keep-alive", keepalive_us), ("beacon", beacon_us)] {
             if !PERIOD_RANGE_US.contains(&us) {
@@ -123,6 +124,7 @@ impl NetworkConfig {
         self.organize.keepalive_timeout_us = keepalive_us * 7 / 2;
         self.organize.link_timeout_us = beacon_us * 7 / 2;
         self.organize.beacon_period_us = beacon_us;
+        self.organize.wave_timeout_us = beacon_us * 3 / 2;
         self.organize.route_timeout_us = beacon_us * 7 / 2;
         Ok(self)
     }
