@@ -194,7 +194,12 @@ struct Node {
     waking: [bool; 4],
     epoch: u32,
     busy_until_ns: [u64; 4],
+    /// When the cell's wake-up event is due (`u64::MAX`: none).
     poll_ns: u64,
+    /// The cell's [`Cell::poll_at`] as of the last time it was touched: a
+    /// deadline put off since the wake-up was scheduled (each wave puts off
+    /// the route's) only moves the wake-up, without reading the cell.
+    deadline_ns: u64,
     /// When the cell's sample event is due: its next sample, or the one
     /// that ends its rest (`u64::MAX`: none).
     sample_ns: u64,
@@ -418,6 +423,7 @@ impl Network {
                     epoch: 0,
                     busy_until_ns: [0; 4],
                     poll_ns: u64::MAX,
+                    deadline_ns: u64::MAX,
                     sample_ns: u64::MAX,
                 }
             })
@@ -697,10 +703,14 @@ impl Network {
                 if n.epoch != epoch || n.power != Power::On || n.poll_ns != self.events.now_ns() {
                     return;
                 }
-                n.poll_ns = u64::MAX;
-                if self.stacks[i].cell.as_ref().is_some_and(|c| c.poll_at() <= now_us) {
-                    self.touch(i, None, false, |c, _, now| c.poll(now));
+                if n.deadline_ns > n.poll_ns {
+                    n.poll_ns = n.deadline_ns;
+                    self.events.at(n.poll_ns, Event::Poll(i, epoch));
+                    return;
                 }
+                n.poll_ns = u64::MAX;
+                debug_assert!(self.stacks[i].cell.as_ref().is_some_and(|c| c.poll_at() <= now_us));
+                self.touch(i, None, false, |c, _, now| c.poll(now));
                 self.settle(i, ALL_PORTS);
             }
             Event::Sample(i, epoch) => {
@@ -836,6 +846,7 @@ impl Network {
             self.nodes[i].has_id = has_id;
         }
         let n = &mut self.nodes[i];
+        n.deadline_ns = at;
         if at < n.poll_ns {
             n.poll_ns = at;
             self.events.at(at, Event::Poll(i, n.epoch));
