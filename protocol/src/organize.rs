@@ -172,6 +172,8 @@ pub struct Organizer {
     repeats: u8,
     next_report_us: u64,
     next_probe_us: u64,
+    /// From when the next wave goes to spare links too.
+    next_spare_us: u64,
     /// Probe rounds since the last one that probed every port.
     rounds: u8,
     next_id_request_us: u64,
@@ -196,6 +198,7 @@ impl Organizer {
             repeats: 0,
             next_report_us: now_us + config.report_period_us,
             next_probe_us: now_us,
+            next_spare_us: now_us,
             rounds: 0,
             next_id_request_us: now_us,
         }
@@ -390,9 +393,13 @@ impl Organizer {
                 }
             }
         }
-        // One wave per keep-alive period on spare links.
-        let every = (self.config.keepalive_period_us / self.config.beacon_period_us.max(1)).max(1);
-        let spare_too = u64::from(b.seq) % every == 0;
+        // One wave per keep-alive period on spare links (half a beacon
+        // period early, so that jitter does not make it one wave later).
+        let spare_too = now_us >= self.next_spare_us;
+        if spare_too {
+            let period = self.config.keepalive_period_us.saturating_sub(self.config.beacon_period_us / 2);
+            self.next_spare_us = now_us + period;
+        }
         let relay = self.link_frame(Message::Beacon(Beacon { hops, ..b }));
         for p in Port::ALL {
             if p != port && self.is_active(p) && (spare_too || self.wants_every_wave(p)) {
