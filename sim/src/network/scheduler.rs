@@ -23,9 +23,9 @@ use std::collections::{BinaryHeap, VecDeque};
 
 /// A bucket spans 2^12 ns.
 const SHIFT: u32 = 12;
-/// The ring holds 2^14 buckets: 67 ms ahead, past the 35 ms timeouts that
-/// every cell of a settled skin keeps re-arming (in the heap, they cost a
-/// fifth of a 10,000-cell run's time).
+/// The ring holds 2^14 buckets: 67 ms ahead, past the 15-35 ms wave, route
+/// and link timeouts that every cell of a settled skin keeps re-arming (in
+/// the heap, they cost a fifth of a 10,000-cell run's time).
 const RING: usize = 1 << 14;
 const MASK: u64 = RING as u64 - 1;
 /// Fixed delays with a lane of their own; further delays share the ring.
