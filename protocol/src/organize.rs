@@ -288,11 +288,14 @@ impl Organizer {
     /// Probes every active port: the neighbours learn at once that this
     /// cell has a route (or an ID) again.
     fn probe_all(&self, outs: &mut impl Outbox) {
-        for p in Port::ALL {
-            if self.is_active(p) {
-                outs.send(Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
-            }
+        for p in Port::ALL.into_iter().filter(|p| self.is_active(*p)) {
+            self.send_probe(p, outs);
         }
+    }
+
+    /// Queues a probe on `port`.
+    fn send_probe(&self, port: Port, outs: &mut impl Outbox) {
+        outs.send(Out::Link(port, self.link_frame(Message::Probe(self.probe(port)))));
     }
 
     /// The parent in the tree, once it has an address.
@@ -387,10 +390,8 @@ impl Organizer {
         } else if old != Some(port) {
             // Tell the old and the new parent at once, so downstream traffic
             // follows the tree without waiting for the next probe.
-            for p in [old, Some(port)].into_iter().flatten() {
-                if self.is_active(p) {
-                    outs.send(Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
-                }
+            for p in [old, Some(port)].into_iter().flatten().filter(|p| self.is_active(*p)) {
+                self.send_probe(p, outs);
             }
         }
         // One wave per keep-alive period on spare links (half a beacon
@@ -506,7 +507,7 @@ impl Organizer {
             self.rounds = (self.rounds + 1) % REFRESH_ROUNDS;
             let skip = if lost || self.rounds == 0 { 0 } else { busy };
             for p in Port::ALL.into_iter().filter(|p| skip & (1 << p.index()) == 0) {
-                outs.send(Out::Link(p, self.link_frame(Message::Probe(self.probe(p)))));
+                self.send_probe(p, outs);
             }
         }
         self.report(outs, now_us);

@@ -11,6 +11,16 @@ use skin_sim::endpoint::{Endpoint, EndpointConfig, Pacing, Running, Served};
 use skin_sim::network::host::Host;
 use skin_sim::network::NetworkConfig;
 
+/// An endpoint on loopback in lockstep, sending the skin's datagrams to `host`.
+fn lockstep(host: SocketAddr) -> EndpointConfig {
+    EndpointConfig {
+        robot: "127.0.0.1:0".parse().unwrap(),
+        host,
+        pacing: Pacing::Lockstep,
+        network: NetworkConfig::default(),
+    }
+}
+
 fn ask(robot: &UdpSocket, to: SocketAddr, request: &ToRobot) -> FromRobot {
     let mut buf = [0u8; robot_link::MAX_DATAGRAM];
     let n = robot_link::encode(request, &mut buf).unwrap();
@@ -27,12 +37,7 @@ fn command(seq: u32, velocities: &[f64]) -> ToRobot {
 fn a_bare_host_organizes_the_skin_and_moves_the_robot_in_lockstep() {
     let interface = UdpSocket::bind("127.0.0.1:0").unwrap();
     interface.set_nonblocking(true).unwrap();
-    let config = EndpointConfig {
-        robot: "127.0.0.1:0".parse().unwrap(),
-        host: interface.local_addr().unwrap(),
-        pacing: Pacing::Lockstep,
-        network: NetworkConfig::default(),
-    };
+    let config = lockstep(interface.local_addr().unwrap());
     let running = Running::spawn(move || Endpoint::hrp2(3, config)).unwrap();
     let (robot_addr, ports) = (running.robot, running.interfaces.clone());
     assert_eq!(ports.len(), 5, "the five interface ports of HRP-2");
@@ -114,12 +119,7 @@ fn a_bare_host_organizes_the_skin_and_moves_the_robot_in_lockstep() {
 
 #[test]
 fn addresses_beyond_this_machine_are_refused() {
-    let config = EndpointConfig {
-        robot: "127.0.0.1:0".parse().unwrap(),
-        host: "192.0.2.1:7700".parse().unwrap(),
-        pacing: Pacing::Lockstep,
-        network: NetworkConfig::default(),
-    };
+    let config = lockstep("192.0.2.1:7700".parse().unwrap());
     let e = Endpoint::hrp2(0, config).err().expect("a host off this machine is refused");
     assert!(e.to_string().contains("127.0.0.1"), "{e}");
 }
@@ -127,12 +127,7 @@ fn addresses_beyond_this_machine_are_refused() {
 #[test]
 fn any_bytes_on_the_robot_link_are_counted_and_change_nothing() {
     use rand::{Rng, SeedableRng};
-    let config = EndpointConfig {
-        robot: "127.0.0.1:0".parse().unwrap(),
-        host: "127.0.0.1:9".parse().unwrap(),
-        pacing: Pacing::Lockstep,
-        network: NetworkConfig::default(),
-    };
+    let config = lockstep("127.0.0.1:9".parse().unwrap());
     let running = Running::spawn(move || Endpoint::hrp2(0, config)).unwrap();
     let robot = UdpSocket::bind("127.0.0.1:0").unwrap();
     robot.set_read_timeout(Some(Duration::from_secs(5))).unwrap();

@@ -82,9 +82,9 @@ struct NetworkArgs {
     /// after 3.5 periods of silence.
     #[arg(long, default_value_t = 100.0)]
     keepalive_ms: f64,
-    /// Period of the beacon waves of the interface ports, in ms; a route,
-    /// and the link to the parent, are given up after 3.5 periods without
-    /// a wave.
+    /// Period of the beacon waves of the interface ports, in ms; a cell
+    /// whose wave is 1.5 periods late asks its neighbours for the next one,
+    /// and gives up its route and the link to its parent after 3.5.
     #[arg(long, default_value_t = 10.0)]
     beacon_ms: f64,
     /// Seed of everything random.
