@@ -40,10 +40,25 @@ impl From<WorldError> for RobotError {
     }
 }
 
-/// A robot with revolute DoFs under velocity control.
+/// How a DoF moves what it carries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum DofKind {
+    /// Turns about an axis: positions in rad, velocities in rad/s.
+    Revolute,
+    /// Slides along an axis (torso lifts, grippers, linear axes): m and m/s.
+    Prismatic,
+}
+
+/// A robot with DoFs under velocity control.
 pub trait Robot {
     /// Names of the DoFs, in the order of commands and feedback.
     fn dof_names(&self) -> Vec<String>;
+
+    /// What kind each DoF is; a robot that does not say has revolute DoFs
+    /// only, as the paper's robot interface assumes (section 3.2).
+    fn dof_kinds(&self) -> Vec<DofKind> {
+        vec![DofKind::Revolute; self.dof_count()]
+    }
 
     /// Number of revolute DoFs.
     fn dof_count(&self) -> usize {

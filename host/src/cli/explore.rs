@@ -15,7 +15,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{json, Value};
 use skin_host::explore::check::{check, TruthReport};
 use skin_host::explore::smm::Evaluation;
-use skin_host::explore::{explore, Exploration, ExploreConfig, ExploreError, SmmConfig, StructureConfig};
+use skin_host::explore::{explore, Basis, Exploration, ExploreConfig, ExploreError, SmmConfig, StructureConfig};
 use skin_host::robot::SimRobot;
 use skin_sim::accel::Bma250Config;
 use skin_sim::robot::{hrp2, Robot, UrdfError};
@@ -49,6 +49,15 @@ pub struct Args {
     /// The paper's structural timing (0.5 s settling, 1.0 s averaging, two runs) instead of the fast default.
     #[arg(long)]
     paper: bool,
+    /// Declare that in the start posture no skin cell lies closer than this
+    /// to the axis line of a joint that moves it, m. Settles cells that show
+    /// no lever to a vertical axis no posture can tilt (a yaw joint on the
+    /// fixed base); without it they are reported as undecided.
+    #[arg(long, value_name = "M", default_value_t = 0.0, allow_negative_numbers = true)]
+    axis_clearance: f64,
+    /// Robot time the structural exploration may spend on undecided entries, s.
+    #[arg(long, value_name = "S", default_value_t = StructureConfig::default().budget_s, allow_negative_numbers = true)]
+    time_budget: f64,
     /// How sensory-motor weights are read from the pattern's accelerations.
     #[arg(long, value_enum, default_value_t = SmmEvaluation::Regression)]
     smm: SmmEvaluation,
@@ -88,11 +97,23 @@ pub enum Error {
     /// A flag value out of range.
     #[error("--noise-scale must be a finite number >= 0, not {0}")]
     NoiseScale(f64),
+    /// A flag value out of range.
+    #[error("--axis-clearance must be a finite length >= 0 m, not {0}")]
+    AxisClearance(f64),
+    /// A flag value out of range.
+    #[error("--time-budget must be a finite number of seconds > 0, not {0}")]
+    TimeBudget(f64),
 }
 
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     if !(args.noise_scale.is_finite() && args.noise_scale >= 0.0) {
         return Err(Error::NoiseScale(args.noise_scale).into());
+    }
+    if !(args.axis_clearance.is_finite() && args.axis_clearance >= 0.0) {
+        return Err(Error::AxisClearance(args.axis_clearance).into());
+    }
+    if !(args.time_budget.is_finite() && args.time_budget > 0.0) {
+        return Err(Error::TimeBudget(args.time_budget).into());
     }
     let robot = match &args.urdf {
         Some(path) => Robot::from_urdf_file(path).map_err(Error::from)?,
@@ -126,8 +147,9 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         SmmEvaluation::Amplitudes => Evaluation::Amplitudes,
         SmmEvaluation::Regression => Evaluation::Regression,
     };
+    let structure = if args.paper { StructureConfig::paper() } else { StructureConfig::default() };
     let cfg = ExploreConfig {
-        structure: if args.paper { StructureConfig::paper() } else { StructureConfig::default() },
+        structure: StructureConfig { axis_clearance_m: args.axis_clearance, budget_s: args.time_budget, ..structure },
         smm: SmmConfig { evaluation, ..SmmConfig::default() },
         ..ExploreConfig::default()
     };
@@ -162,9 +184,15 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 let dofs: Vec<String> = rig.world().robot().dofs().iter().map(|d| d.name.clone()).collect();
                 let links: Value =
                     rig.world().skin().cells().iter().map(|c| (c.id.0.to_string(), json!(c.link))).collect();
+                let undecided: Vec<Value> = match &e {
+                    ExploreError::Undecided(entries) => {
+                        entries.iter().map(|u| json!({"cell": u.cell.0, "dof": u.dof, "reason": u.reason})).collect()
+                    }
+                    _ => Vec::new(),
+                };
                 println!(
                     "{:#}",
-                    json!({"robot": name, "dofs": dofs, "error": e.to_string(), "truth": {"cell_links": links}})
+                    json!({"robot": name, "dofs": dofs, "error": e.to_string(), "undecided": undecided, "truth": {"cell_links": links}})
                 );
                 Ok(ExitCode::FAILURE)
             } else {
@@ -208,6 +236,9 @@ fn report(name: &str, found: &Exploration, truth: &TruthReport, wall_time_s: f64
             "parent_body_part": j.parent,
             "child_body_part": j.child,
         })).collect::<Vec<_>>(),
+        "dof_kinds": found.dof_kinds.iter().map(|k| format!("{k:?}").to_lowercase()).collect::<Vec<_>>(),
+        "postures": found.postures,
+        "evidence": evidence(found),
         "leaves": tree.leaves(),
         "inner_nodes": tree.inner_nodes(),
         "limbs": tree.limbs(),
@@ -220,6 +251,23 @@ fn report(name: &str, found: &Exploration, truth: &TruthReport, wall_time_s: f64
             "smm_mean_abs_error_moved": truth.smm_mean_abs_error_moved,
         },
     })
+}
+
+/// How many activity entries each kind of evidence decided.
+fn evidence(found: &Exploration) -> Value {
+    let (mut by_static, mut dynamic, mut tree, mut clearance) = (0, 0, 0, 0);
+    for u in 0..found.activity.cells() {
+        for d in 0..found.activity.dofs() {
+            match found.activity.basis(u, d) {
+                Some(Basis::Static { .. }) => by_static += 1,
+                Some(Basis::Dynamic { .. }) => dynamic += 1,
+                Some(Basis::Tree) => tree += 1,
+                Some(Basis::Clearance) => clearance += 1,
+                None => {}
+            }
+        }
+    }
+    json!({"static": by_static, "dynamic": dynamic, "tree": tree, "clearance": clearance})
 }
 
 /// Writes `text` and a newline to stdout; a reader that went away (a
@@ -242,6 +290,10 @@ fn summary(name: &str, found: &Exploration, truth: &TruthReport, wall_time_s: f6
         s += &format!("{part:>4} {marks}\n");
     }
     s += "\n";
+    let tilted = found.postures.len() - 1;
+    if tilted > 0 {
+        s += &format!("postures chosen to tilt gravity-aligned axes: {tilted}\n");
+    }
     s += &format!(
         "robot time: structure {:.1} s (the paper: about {PAPER_STRUCTURE_S:.0} s) + sensory-motor map {:.1} s = {:.1} s; wall time {:.2} s\n",
         found.structure_time_s,

@@ -9,21 +9,30 @@
 //!   so all of them see the same change `g |step| sin(beta)`, `beta` the angle
 //!   between the axis and gravity; cells it does not move see none. The
 //!   threshold is half that common change (at least the paper's 10 % of
-//!   `g |step|`), estimated from the cells that clearly changed.
+//!   `g |step|`), estimated from the cells that clearly changed. Because the
+//!   change does not depend on where a cell sits, a cell clearly below the
+//!   threshold is still wherever it is: the static test has the power to
+//!   decide "still" for every cell, once one cell has shown the change.
 //! - *dynamic* (equations 1-2, past the paper): during the step, the
 //!   acceleration not explained by the slowly turning gravity is regressed
 //!   on the DoF's angular acceleration. The coefficient is the cell's lever
 //!   arm `axis x r` in its own frame (metres), non-zero for every moved cell
 //!   off the axis, even when the axis is vertical and the static test is
-//!   blind (UR5's and Panda's first joint).
+//!   blind (UR5's and Panda's first joint). Its power depends on the place:
+//!   a cell on the axis shows nothing whether it moved or not, so a small
+//!   lever never decides "still" for a revolute DoF. For a prismatic DoF
+//!   the coefficient is the axis itself, of length 1 wherever the cell is,
+//!   so it decides both ways.
 //!
 //! Both tests are decided with a margin of `confidence_sigmas` standard
 //! deviations of their own noise; what neither can decide stays
-//! [`Activity::Unknown`] and is measured again, never guessed.
+//! [`Activity::Unknown`] with the [`Doubt`] that kept it there, and is
+//! measured again, never guessed.
 
 use super::fit::LeastSquares;
 use super::session::{Trace, Window};
 use super::StructureConfig;
+use crate::robot::DofKind;
 use skin_sim::accel::G0;
 
 /// One entry of the activity matrix.
@@ -50,26 +59,63 @@ impl Activity {
     }
 }
 
-/// Cells x DoFs of [`Activity`] entries.
+/// What decided an entry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Basis {
+    /// The gravity vector turned with the DoF (or clearly did not) in the
+    /// posture of that index (see [`Exploration::postures`](super::Exploration::postures)).
+    Static {
+        /// Index of the posture.
+        posture: usize,
+    },
+    /// The tangential acceleration of a step in that posture.
+    Dynamic {
+        /// Index of the posture.
+        posture: usize,
+    },
+    /// Implied by decided entries: in a kinematic tree, the cells two DoFs
+    /// move are nested or disjoint.
+    Tree,
+    /// No lever to the DoF's untiltable, gravity-aligned axis, and the
+    /// user declared that no cell sits that close to a moving axis.
+    Clearance,
+}
+
+/// Why an entry is still undecided.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Doubt {
+    /// The evidence is within the noise of a threshold: more averaging or a
+    /// larger step decides it.
+    Noise,
+    /// The DoF's axis is aligned with gravity (the static test is blind)
+    /// and the cell shows no lever to it: it is still, or on the axis.
+    /// Only tilting the axis decides it.
+    NearAxis,
+    /// The accelerometer saturated during the measurement.
+    Saturated,
+}
+
+/// Cells x DoFs of [`Activity`] entries, each with what decided it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ActivityMatrix {
     cells: usize,
     dofs: usize,
     entries: Vec<Activity>,
+    basis: Vec<Option<Basis>>,
 }
 
 impl ActivityMatrix {
     /// All entries [`Activity::Unknown`].
     pub fn unknown(cells: usize, dofs: usize) -> ActivityMatrix {
-        ActivityMatrix { cells, dofs, entries: vec![Activity::Unknown; cells * dofs] }
+        ActivityMatrix { cells, dofs, entries: vec![Activity::Unknown; cells * dofs], basis: vec![None; cells * dofs] }
     }
 
     /// A decided matrix from rows of booleans (one row per cell).
     pub fn from_rows(rows: &[Vec<bool>]) -> ActivityMatrix {
         let dofs = rows.first().map_or(0, Vec::len);
-        let entries =
+        let entries: Vec<Activity> =
             rows.iter().flat_map(|r| r.iter().map(|&m| if m { Activity::Moved } else { Activity::Still })).collect();
-        ActivityMatrix { cells: rows.len(), dofs, entries }
+        ActivityMatrix { cells: rows.len(), dofs, basis: vec![None; entries.len()], entries }
     }
 
     /// Number of cells (rows).
@@ -87,15 +133,32 @@ impl ActivityMatrix {
         self.entries[u * self.dofs + d]
     }
 
-    /// Ors `a` into the entry of cell `u` and DoF `d`.
-    pub fn or(&mut self, u: usize, d: usize, a: Activity) {
-        let e = &mut self.entries[u * self.dofs + d];
-        *e = e.or(a);
+    /// What decided the entry of cell `u` and DoF `d` (`None` while undecided).
+    pub fn basis(&self, u: usize, d: usize) -> Option<Basis> {
+        self.basis[u * self.dofs + d]
+    }
+
+    /// Ors `a` into the entry of cell `u` and DoF `d`, noting `basis` when
+    /// it changes the entry; true if it did.
+    pub fn or(&mut self, u: usize, d: usize, a: Activity, basis: Basis) -> bool {
+        let i = u * self.dofs + d;
+        let new = self.entries[i].or(a);
+        if new == self.entries[i] {
+            return false;
+        }
+        self.entries[i] = new;
+        self.basis[i] = Some(basis);
+        true
     }
 
     /// True where the DoF moves the cell (the binary matrix `AM`).
     pub fn is_moved(&self, u: usize, d: usize) -> bool {
         self.get(u, d) == Activity::Moved
+    }
+
+    /// True where the DoF surely does not move the cell.
+    pub fn is_still(&self, u: usize, d: usize) -> bool {
+        self.get(u, d) == Activity::Still
     }
 
     /// The binary rows, `Unknown` read as not moved.
@@ -110,6 +173,11 @@ impl ActivityMatrix {
             .filter(|&(u, d)| self.get(u, d) == Activity::Unknown)
             .collect()
     }
+
+    /// DoF `d` has undecided entries.
+    pub fn column_undecided(&self, d: usize) -> bool {
+        (0..self.cells).any(|u| self.get(u, d) == Activity::Unknown)
+    }
 }
 
 /// The evidence one step gives about one cell.
@@ -119,7 +187,8 @@ pub(crate) struct Evidence {
     pub static_mps2: f64,
     /// Standard deviation of one axis of that difference, m/s^2.
     pub static_sigma: f64,
-    /// Lever arm `|axis x r|` seen through the tangential acceleration, m.
+    /// Lever arm `|axis x r|` seen through the tangential acceleration, m
+    /// (for a prismatic DoF: the length of the axis in the cell frame, 1).
     pub lever_m: f64,
     /// Standard deviation of one axis of the lever estimate, m.
     pub lever_sigma: f64,
@@ -129,11 +198,22 @@ pub(crate) struct Evidence {
     pub trace_saturated: bool,
 }
 
+/// What one step says about one cell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Reading {
+    /// Moved, by the static (`true`) or dynamic test.
+    Moved { by_static: bool },
+    /// Still, by the static (`true`) or dynamic test.
+    Still { by_static: bool },
+    /// Undecided, and why.
+    Unknown(Doubt),
+}
+
 /// What one step of one DoF says about every cell.
 pub(crate) struct Step {
     /// Evidence per cell.
     pub evidence: Vec<Evidence>,
-    /// The step the DoF really made (position feedback), rad.
+    /// The step the DoF really made (position feedback), rad or m.
     pub moved_rad: f64,
 }
 
@@ -172,18 +252,22 @@ impl Step {
         Step { evidence, moved_rad }
     }
 
-    /// Decides every cell, and tells whether the DoF was static-blind
-    /// (no cell showed a gravity change above the paper's threshold: its
-    /// axis is within about 6 degrees of vertical in this posture).
-    pub fn decide(&self, cfg: &StructureConfig) -> (Vec<Activity>, bool) {
+    /// Reads every cell, and tells whether the DoF was static-blind (no
+    /// cell showed a gravity change above the paper's threshold: a
+    /// revolute axis within about 6 degrees of vertical in this posture, or
+    /// a prismatic DoF, which turns nothing).
+    pub fn decide(&self, cfg: &StructureConfig, kind: DofKind) -> (Vec<Reading>, bool) {
         let k = cfg.confidence_sigmas;
         let floor = cfg.static_fraction * G0 * self.moved_rad.abs();
-        let mut changed: Vec<f64> = self
-            .evidence
-            .iter()
-            .filter(|e| !e.static_saturated && e.static_mps2 - k * e.static_sigma > floor)
-            .map(|e| e.static_mps2)
-            .collect();
+        let mut changed: Vec<f64> = if kind == DofKind::Prismatic {
+            Vec::new()
+        } else {
+            self.evidence
+                .iter()
+                .filter(|e| !e.static_saturated && e.static_mps2 - k * e.static_sigma > floor)
+                .map(|e| e.static_mps2)
+                .collect()
+        };
         let blind = changed.is_empty();
         let threshold = if blind {
             floor
@@ -191,25 +275,40 @@ impl Step {
             changed.sort_by(f64::total_cmp);
             (changed[changed.len() / 2] / 2.0).max(floor)
         };
-        let decisions = self
+        // A lever below this can be the base rocking, not a movement. With
+        // the axis vertical the reaction is about the vertical and the base
+        // does not rock, so a smaller lever shows a movement.
+        let lever_moved = match kind {
+            DofKind::Prismatic => 0.5,
+            DofKind::Revolute if blind => cfg.axis_lever_m,
+            DofKind::Revolute => cfg.lever_threshold_m,
+        };
+        let readings = self
             .evidence
             .iter()
             .map(|e| {
                 let static_known = !e.static_saturated && !blind;
                 let static_hi = static_known && e.static_mps2 - k * e.static_sigma > threshold;
                 let static_lo = static_known && e.static_mps2 + k * e.static_sigma < threshold;
-                let lever_hi = e.lever_m - k * e.lever_sigma > cfg.lever_threshold_m;
-                let lever_lo = !e.trace_saturated && e.lever_m + k * e.lever_sigma < cfg.lever_threshold_m;
+                let lever_hi = e.lever_m - k * e.lever_sigma > lever_moved;
+                let lever_lo = !e.trace_saturated && e.lever_m + k * e.lever_sigma < lever_moved;
                 if static_hi || lever_hi {
-                    Activity::Moved
-                } else if static_lo || (blind && lever_lo) {
-                    Activity::Still
+                    Reading::Moved { by_static: static_hi }
+                } else if static_lo {
+                    Reading::Still { by_static: true }
+                } else if kind == DofKind::Prismatic && lever_lo {
+                    // A moved cell shows the whole axis wherever it sits.
+                    Reading::Still { by_static: false }
+                } else if e.static_saturated || e.trace_saturated {
+                    Reading::Unknown(Doubt::Saturated)
+                } else if blind && lever_lo {
+                    Reading::Unknown(Doubt::NearAxis)
                 } else {
-                    Activity::Unknown
+                    Reading::Unknown(Doubt::Noise)
                 }
             })
             .collect();
-        (decisions, blind)
+        (readings, blind)
     }
 }
 
@@ -302,8 +401,10 @@ mod tests {
             let len = accel.len().min(q.len());
             let t = trace(accel[..len].to_vec(), q[..len].to_vec());
             let step = Step::measure(&window(mean0, var, n, saturated), &window(mean1, var, n, false), &t, 0.004, 0.038);
-            let (decisions, _) = step.decide(&StructureConfig::default());
-            prop_assert_eq!(decisions.len(), 1);
+            for kind in [DofKind::Revolute, DofKind::Prismatic] {
+                let (readings, _) = step.decide(&StructureConfig::default(), kind);
+                prop_assert_eq!(readings.len(), 1);
+            }
         }
 
         #[test]
@@ -312,8 +413,10 @@ mod tests {
         ) {
             let still = trace(vec![g.map(|x| x as f32); ticks], vec![0.0; ticks]);
             let step = Step::measure(&window(g, var, n, false), &window(g, var, n, false), &still, 0.004, 0.038);
-            let (decisions, _) = step.decide(&StructureConfig::default());
-            prop_assert_ne!(decisions[0], Activity::Moved);
+            for kind in [DofKind::Revolute, DofKind::Prismatic] {
+                let (readings, _) = step.decide(&StructureConfig::default(), kind);
+                prop_assert!(!matches!(readings[0], Reading::Moved { .. }), "{:?}", readings[0]);
+            }
         }
     }
 
@@ -323,7 +426,70 @@ mod tests {
         let t = trace(vec![[f32::NAN; 3]; 40], (0..40).map(|k| 0.0025 * f64::from(k)).collect());
         let step =
             Step::measure(&window(nan, f64::NAN, 50, false), &window(nan, f64::NAN, 50, false), &t, 0.004, 0.038);
-        assert_eq!(step.decide(&StructureConfig::default()).0, vec![Activity::Unknown]);
+        for kind in [DofKind::Revolute, DofKind::Prismatic] {
+            assert!(matches!(step.decide(&StructureConfig::default(), kind).0[..], [Reading::Unknown(_)]));
+        }
+    }
+
+    /// A still window at rest with gravity along `g`, datasheet-like noise.
+    fn rest(g: [f64; 3]) -> Window {
+        window(g, 0.03 * 0.03, 50, false)
+    }
+
+    /// A raised-cosine step of `delta` over 50 ticks, the cell seeing
+    /// `lever` m of tangential acceleration along x (no noise).
+    fn stepped(delta: f64, lever: f64, g: [f64; 3]) -> Trace {
+        let (tick, n) = (0.004, 50usize);
+        let duration = tick * n as f64;
+        let q: Vec<f64> = (1..=n)
+            .map(|k| {
+                let tau = (k as f64 * tick / duration).min(1.0);
+                delta * (tau - (std::f64::consts::TAU * tau).sin() / std::f64::consts::TAU)
+            })
+            .collect();
+        let t = Trace { accel: Vec::new(), q0: 0.0, q: q.clone(), saturated: vec![false] };
+        let (_, _, alpha) = t.motion(tick);
+        let accel = alpha.iter().map(|a| [(g[0] + lever * a) as f32, g[1] as f32, g[2] as f32]).collect();
+        Trace { accel, ..t }
+    }
+
+    #[test]
+    fn a_cell_on_a_vertical_axis_is_unknown_never_still() {
+        // Gravity along the cell's z; a vertical axis turns nothing the
+        // accelerometer sees, so the static test is blind.
+        let g = [0.0, 0.0, G0];
+        let cfg = StructureConfig::default();
+        for lever in [0.0, 1e-4, 2e-4] {
+            let step = Step::measure(&rest(g), &rest(g), &stepped(0.2, lever, g), 0.004, 0.038);
+            let (readings, blind) = step.decide(&cfg, DofKind::Revolute);
+            assert!(blind);
+            assert_eq!(readings[0], Reading::Unknown(Doubt::NearAxis), "lever {lever} m");
+        }
+        // A lever of 1 cm is a movement, with or without gravity's help.
+        let step = Step::measure(&rest(g), &rest(g), &stepped(0.2, 0.01, g), 0.004, 0.038);
+        assert_eq!(step.decide(&cfg, DofKind::Revolute).0[0], Reading::Moved { by_static: false });
+    }
+
+    #[test]
+    fn a_prismatic_dof_decides_still_from_the_missing_axis() {
+        let g = [0.0, 0.0, G0];
+        let cfg = StructureConfig::default();
+        let still = Step::measure(&rest(g), &rest(g), &stepped(0.02, 0.0, g), 0.004, 0.038);
+        assert_eq!(still.decide(&cfg, DofKind::Prismatic).0[0], Reading::Still { by_static: false });
+        let moved = Step::measure(&rest(g), &rest(g), &stepped(0.02, 1.0, g), 0.004, 0.038);
+        assert_eq!(moved.decide(&cfg, DofKind::Prismatic).0[0], Reading::Moved { by_static: false });
+    }
+
+    #[test]
+    fn a_saturated_cell_is_never_still_by_its_lever() {
+        let g = [0.0, 0.0, G0];
+        let mut trace = stepped(0.2, 0.0, g);
+        trace.saturated = vec![true];
+        let step = Step::measure(&rest(g), &rest(g), &trace, 0.004, 0.038);
+        assert_eq!(
+            step.decide(&StructureConfig::default(), DofKind::Revolute).0[0],
+            Reading::Unknown(Doubt::Saturated)
+        );
     }
 
     #[test]

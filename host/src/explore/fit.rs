@@ -44,6 +44,27 @@ impl<const N: usize> LeastSquares<N> {
         Some(std::array::from_fn(|i| (0..N).map(|j| self.inverse[i][j] * xy[j]).sum()))
     }
 
+    /// Coefficients for the samples `y` and the standard error of each,
+    /// from the residual variance; `None` if a sample is missing or there
+    /// are no more samples than regressors.
+    pub fn fit_with_errors(&self, y: &[f64]) -> Option<([f64; N], [f64; N])> {
+        if y.len() <= N {
+            return None;
+        }
+        let c = self.fit(y.iter().copied())?;
+        let rss: f64 = self
+            .rows
+            .iter()
+            .zip(y)
+            .map(|(x, v)| {
+                let r = v - x.iter().zip(&c).map(|(xi, ci)| xi * ci).sum::<f64>();
+                r * r
+            })
+            .sum();
+        let var = rss / (y.len() - N) as f64;
+        Some((c, std::array::from_fn(|i| (var * self.inverse[i][i].max(0.0)).sqrt())))
+    }
+
     /// Variance of coefficient `i` per unit sample variance.
     pub fn variance_factor(&self, i: usize) -> f64 {
         self.inverse[i][i]
@@ -100,6 +121,13 @@ mod tests {
         assert!((c[0] - 2.0).abs() < 1e-9 && (c[1] + 3.0).abs() < 1e-9 && (c[2] - 0.5).abs() < 1e-9, "{c:?}");
         assert!(fit.variance_factor(1) > 0.0);
         assert_eq!(fit.fit(rows.iter().map(|_| f64::NAN)), None);
+        // An exact sum has no residual, so no error; noise gives some.
+        let exact: Vec<f64> = rows.iter().map(|x| 2.0 - 3.0 * x[1] + 0.5 * x[2]).collect();
+        let (_, errors) = fit.fit_with_errors(&exact).unwrap();
+        assert!(errors.iter().all(|e| *e < 1e-6), "{errors:?}");
+        let noisy: Vec<f64> = exact.iter().enumerate().map(|(k, v)| v + if k % 2 == 0 { 0.1 } else { -0.1 }).collect();
+        let (_, errors) = fit.fit_with_errors(&noisy).unwrap();
+        assert!(errors.iter().all(|e| *e > 1e-4 && e.is_finite()), "{errors:?}");
     }
 
     #[test]

@@ -22,12 +22,12 @@ pub mod tree;
 use skin_protocol::message::AccelRange;
 use skin_protocol::Address;
 
-pub use activity::{Activity, ActivityMatrix};
+pub use activity::{Activity, ActivityMatrix, Basis, Doubt};
 pub use smm::{SensoryMotorMap, SmmConfig, Tile};
 pub use structure::StructureConfig;
 pub use tree::{KinematicTree, TreeError};
 
-use crate::robot::{Robot, RobotError, SampleSource};
+use crate::robot::{DofKind, Robot, RobotError, SampleSource};
 use session::Session;
 
 /// Everything the exploration needs to know.
@@ -63,19 +63,47 @@ pub enum ExploreError {
     /// A DoF did not follow its commands in either direction.
     #[error("DoF {0} does not move when commanded (limits, brakes or wiring?)")]
     Stuck(String),
-    /// Entries of the activity matrix that stayed undecided after every retry.
-    #[error(
-        "{} activity entries stay undecided (noise, saturation, or a cell close to a gravity-aligned axis), e.g. {}: average longer, step further, or tilt the base",
-        .0.len(),
-        .0.iter().take(5).map(|(c, d)| format!("{c} / {d}")).collect::<Vec<_>>().join(", ")
-    )]
-    Undecided(Vec<(Address, String)>),
+    /// Entries of the activity matrix that no reachable posture decided
+    /// within the robot-time budget, each with the reason.
+    #[error("{} activity entries stay undecided: {}", .0.len(), describe(.0))]
+    Undecided(Vec<Undecided>),
     /// The activity matrix is not a kinematic tree.
     #[error("the activity matrix is not a kinematic tree: {0}")]
     NotATree(#[from] TreeError),
     /// A configuration value out of range.
     #[error("bad exploration setting: {0}")]
     Config(String),
+}
+
+/// An entry of the activity matrix that no reachable posture decided.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Undecided {
+    /// The cell.
+    pub cell: Address,
+    /// The DoF's name.
+    pub dof: String,
+    /// Why, in words: what was tried and what the evidence allows.
+    pub reason: String,
+}
+
+/// The undecided entries grouped by DoF and reason, cells listed.
+fn describe(undecided: &[Undecided]) -> String {
+    let mut groups: Vec<(&str, &str, Vec<String>)> = Vec::new();
+    for e in undecided {
+        match groups.iter_mut().find(|(d, r, _)| *d == e.dof && *r == e.reason) {
+            Some((_, _, cells)) => cells.push(e.cell.0.to_string()),
+            None => groups.push((&e.dof, &e.reason, vec![e.cell.0.to_string()])),
+        }
+    }
+    groups
+        .iter()
+        .map(|(dof, reason, cells)| {
+            let shown = cells.iter().take(12).cloned().collect::<Vec<_>>().join(", ");
+            let more = if cells.len() > 12 { format!(" and {} more", cells.len() - 12) } else { String::new() };
+            format!("cells {shown}{more} / DoF {dof}: {reason}")
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// Where the exploration is, for progress bars.
@@ -94,7 +122,12 @@ pub struct Exploration {
     pub cells: Vec<Address>,
     /// DoF names, interface order.
     pub dof_names: Vec<String>,
-    /// The or-ed activity matrix.
+    /// DoF kinds, interface order.
+    pub dof_kinds: Vec<DofKind>,
+    /// Every posture the structure was measured in (DoF positions, the
+    /// start first); [`Basis`] entries refer to them by index.
+    pub postures: Vec<Vec<f64>>,
+    /// The or-ed activity matrix, with what decided each entry.
     pub activity: ActivityMatrix,
     /// The kinematic tree.
     pub tree: KinematicTree,
@@ -124,37 +157,92 @@ pub fn explore<R: Robot + SampleSource>(
     cfg.structure.check()?;
     cfg.smm.check(rig.tick_s())?;
     let dof_names = rig.dof_names();
+    let dof_kinds = rig.dof_kinds();
+    if dof_kinds.len() != dof_names.len() {
+        return Err(ExploreError::Config(format!("{} DoF kinds for {} DoFs", dof_kinds.len(), dof_names.len())));
+    }
     let start = rig.positions();
     let mut session = Session::discover(rig, cfg.range)?;
     let dofs = session.dofs();
-    let total = (cfg.structure.runs + 1) * dofs;
-    let structure::Outcome { activity, blind } =
-        structure::explore(&mut session, &cfg.structure, &dof_names, &mut |done| progress(Progress { done, total }))?;
+    let outcome = structure::explore(&mut session, &cfg.structure, &dof_kinds, &mut |done, total| {
+        progress(Progress { done, total: total + dofs })
+    })?;
     session.move_to(&start, cfg.smm.move_speed_rad_s, cfg.smm.pose_tolerance_rad, 30.0)?;
     let structure_time_s = session.elapsed_s();
 
     let cells = session.cells().to_vec();
-    let undecided: Vec<(Address, String)> =
-        activity.undecided().into_iter().map(|(u, d)| (cells[u], dof_names[d].clone())).collect();
+    let activity = outcome.activity.clone();
+    let undecided: Vec<Undecided> = activity
+        .undecided()
+        .into_iter()
+        .map(|(u, d)| Undecided {
+            cell: cells[u],
+            dof: dof_names[d].clone(),
+            reason: reason(&outcome, &cfg.structure, &dof_names, u, d),
+        })
+        .collect();
     if !undecided.is_empty() {
         return Err(ExploreError::Undecided(undecided));
     }
     let merged = merge::merge(&activity.rows());
     let tree = KinematicTree::new(&merged, &cells, &dof_names)?;
-    let warnings = blind
-        .iter()
-        .map(|&d| {
-            format!(
-                "DoF {}: axis within about 6 degrees of gravity in every posture tried; its cells were found from dynamic accelerations only, so a cell closer than {} m to this axis could not be seen",
-                dof_names[d], cfg.structure.lever_threshold_m
-            )
+    let warnings = (0..dofs)
+        .filter_map(|d| {
+            let by_clearance =
+                (0..cells.len()).filter(|&u| matches!(activity.basis(u, d), Some(Basis::Clearance))).count();
+            (by_clearance > 0).then(|| {
+                format!(
+                    "DoF {}: {by_clearance} cells showed no lever to its gravity-aligned axis, which no posture tilted, and are taken as still on the declared mounting clearance of {} m",
+                    dof_names[d], cfg.structure.axis_clearance_m
+                )
+            })
         })
         .collect();
 
-    let done = cfg.structure.runs * dofs;
-    let smm = SensoryMotorMap::explore(&mut session, activity.clone(), cfg.range, cfg.smm, &start, &mut |d| {
-        progress(Progress { done: done + d + 1, total })
-    })?;
+    let done = outcome.measurements;
+    let total = done + dofs;
+    let smm =
+        SensoryMotorMap::explore(&mut session, activity.clone(), &dof_kinds, cfg.range, cfg.smm, &start, &mut |d| {
+            progress(Progress { done: done + d + 1, total })
+        })?;
     let smm_time_s = session.elapsed_s() - structure_time_s;
-    Ok(Exploration { cells, dof_names, activity, tree, smm, structure_time_s, smm_time_s, warnings })
+    Ok(Exploration {
+        cells,
+        dof_names,
+        dof_kinds,
+        postures: outcome.postures,
+        activity,
+        tree,
+        smm,
+        structure_time_s,
+        smm_time_s,
+        warnings,
+    })
+}
+
+/// Why entry (`u`, `d`) stayed undecided, in words.
+fn reason(outcome: &structure::Outcome, cfg: &StructureConfig, names: &[String], u: usize, d: usize) -> String {
+    let dofs = names.len();
+    match outcome.doubts[u * dofs + d] {
+        Some(Doubt::NearAxis) => {
+            let tilts = &outcome.tilted_by[d];
+            let tried = if tilts.is_empty() {
+                "no DoF was found that carries it and could tilt it (it comes first from the base)".to_owned()
+            } else {
+                let turned: Vec<&str> = tilts.iter().map(|&p| names[p].as_str()).collect();
+                format!("turning {} did not tilt it", turned.join(", "))
+            };
+            format!(
+                "no lever above {} mm to its axis, which stayed within about 6 degrees of gravity ({tried}): the cell is still or within {} mm of the axis; declare the skin's mounting clearance (--axis-clearance) if no cell sits that close",
+                cfg.axis_lever_m * 1e3,
+                cfg.axis_lever_m * 1e3
+            )
+        }
+        Some(Doubt::Noise) => format!(
+            "the evidence stays within the noise after steps averaged up to {:.1} s (robot-time budget {:.0} s)",
+            outcome.longest_average_s, cfg.budget_s
+        ),
+        Some(Doubt::Saturated) => "the accelerometer saturated in every measurement (use a larger range)".to_owned(),
+        None => format!("not measured again: the robot-time budget of {:.0} s is spent", cfg.budget_s),
+    }
 }

@@ -136,6 +136,10 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
         self.mps2_per_count
     }
 
+    pub fn dof_name(&self, d: usize) -> String {
+        self.rig.dof_names().get(d).cloned().unwrap_or_else(|| format!("#{d}"))
+    }
+
     pub fn positions(&self) -> Vec<f64> {
         self.rig.positions()
     }

@@ -17,6 +17,12 @@
 //! removed instead of neglected, and takes the normal share of the
 //! tangential term: a quarter of the amplitudes' error against the truth.
 //!
+//! A weight is only as good as the motion behind it: where the fitted
+//! tangential term is within the noise (a cell near the DoF's axis), the
+//! regression gives the weight the defined value 0 and an infinite
+//! standard error instead of a ratio of noise, so two explorations agree
+//! on it; every other weight carries its standard error.
+//!
 //! Sign convention (that of equation 11): a weight of +1 means a positive
 //! velocity of the DoF moves the cell into its surface, away from a touch,
 //! so `omega = w * reaction` is an evasive motion.
@@ -29,7 +35,7 @@ use super::fit::LeastSquares;
 use super::lowpass::Butterworth;
 use super::session::{Session, Trace};
 use super::ExploreError;
-use crate::robot::{Robot, SampleSource};
+use crate::robot::{DofKind, Robot, SampleSource};
 
 /// How a pattern's accelerations become a weight.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -45,6 +51,8 @@ pub enum Evaluation {
 pub struct SmmConfig {
     /// Velocity amplitude `A` of equation (6), rad/s.
     pub amplitude_rad_s: f64,
+    /// The same for a prismatic DoF, m/s.
+    pub amplitude_m_s: f64,
     /// Pattern frequency `f`, Hz.
     pub frequency_hz: f64,
     /// Window length `T` of equation (9), s.
@@ -69,6 +77,7 @@ impl Default for SmmConfig {
     fn default() -> Self {
         SmmConfig {
             amplitude_rad_s: 0.4,
+            amplitude_m_s: 0.04,
             frequency_hz: 2.0,
             duration_s: 0.5,
             lowpass_hz: 25.0,
@@ -85,8 +94,14 @@ impl Default for SmmConfig {
 impl SmmConfig {
     /// Refuses values the method cannot work with.
     pub fn check(&self, tick_s: f64) -> Result<(), ExploreError> {
-        let positive =
-            [self.amplitude_rad_s, self.frequency_hz, self.duration_s, self.move_speed_rad_s, self.pose_tolerance_rad];
+        let positive = [
+            self.amplitude_rad_s,
+            self.amplitude_m_s,
+            self.frequency_hz,
+            self.duration_s,
+            self.move_speed_rad_s,
+            self.pose_tolerance_rad,
+        ];
         if !positive.iter().all(|v| v.is_finite() && *v > 0.0) {
             return Err(ExploreError::Config(
                 "the pattern amplitude, frequency, duration, speed and tolerance must be positive".into(),
@@ -108,10 +123,15 @@ impl SmmConfig {
         Ok(())
     }
 
-    /// Position of equation (5) cut by the rectangular window of (9), rad.
-    fn position(&self, t: f64) -> f64 {
+    /// Position of equation (5) cut by the rectangular window of (9), rad
+    /// or m.
+    fn position(&self, kind: DofKind, t: f64) -> f64 {
+        let amplitude = match kind {
+            DofKind::Revolute => self.amplitude_rad_s,
+            DofKind::Prismatic => self.amplitude_m_s,
+        };
         let w = std::f64::consts::TAU * self.frequency_hz;
-        self.amplitude_rad_s / w * (1.0 - (w * t.min(self.duration_s)).cos())
+        amplitude / w * (1.0 - (w * t.min(self.duration_s)).cos())
     }
 }
 
@@ -121,6 +141,7 @@ pub struct Tile {
     pose: Vec<f64>,
     dofs: usize,
     raw: Vec<f32>,
+    sigma: Option<Vec<f32>>,
     weights: Vec<f32>,
     time_s: f64,
 }
@@ -140,6 +161,13 @@ impl Tile {
     /// The weights of equation (12) of cell `u`, before decoupling.
     pub fn raw_weights(&self, u: usize) -> &[f32] {
         &self.raw[u * self.dofs..(u + 1) * self.dofs]
+    }
+
+    /// Standard errors of cell `u`'s raw weights, where the evaluation
+    /// gives them (the regression): infinite where the motion was within
+    /// the noise and the weight is the defined 0.
+    pub fn raw_weight_sigmas(&self, u: usize) -> Option<&[f32]> {
+        self.sigma.as_ref().map(|s| &s[u * self.dofs..(u + 1) * self.dofs])
     }
 
     /// Robot time spent exploring this tile, s.
@@ -164,6 +192,7 @@ impl Tile {
 #[derive(Clone, Debug)]
 pub struct SensoryMotorMap {
     cells: Vec<Address>,
+    kinds: Vec<DofKind>,
     activity: ActivityMatrix,
     range: AccelRange,
     cfg: SmmConfig,
@@ -175,13 +204,21 @@ impl SensoryMotorMap {
     pub(crate) fn explore<R: Robot + SampleSource>(
         session: &mut Session<'_, R>,
         activity: ActivityMatrix,
+        kinds: &[DofKind],
         range: AccelRange,
         cfg: SmmConfig,
         pose: &[f64],
         progress: &mut dyn FnMut(usize),
     ) -> Result<SensoryMotorMap, ExploreError> {
         cfg.check(session.tick_s())?;
-        let mut map = SensoryMotorMap { cells: session.cells().to_vec(), activity, range, cfg, tiles: Vec::new() };
+        let mut map = SensoryMotorMap {
+            cells: session.cells().to_vec(),
+            kinds: kinds.to_vec(),
+            activity,
+            range,
+            cfg,
+            tiles: Vec::new(),
+        };
         map.explore_tile(session, pose, progress)?;
         Ok(map)
     }
@@ -233,9 +270,14 @@ impl SensoryMotorMap {
         let (u_count, dofs) = (self.cells.len(), session.dofs());
         let lowpass = Butterworth::new(cfg.lowpass_hz, 1.0 / session.tick_s()).expect("checked with the config");
         let mut raw = vec![0.0f32; u_count * dofs];
+        let mut sigma = match cfg.evaluation {
+            Evaluation::Amplitudes => None,
+            Evaluation::Regression => Some(vec![f32::INFINITY; u_count * dofs]),
+        };
         for d in 0..dofs {
             session.hold(cfg.settle_s)?;
-            let trace = session.trace(d, cfg.duration_s + cfg.tail_s, |t| cfg.position(t))?;
+            let kind = self.kinds[d];
+            let trace = session.trace(d, cfg.duration_s + cfg.tail_s, |t| cfg.position(kind, t))?;
             let (phi, omega, alpha) = trace.motion(session.tick_s());
             match cfg.evaluation {
                 Evaluation::Amplitudes => {
@@ -245,9 +287,11 @@ impl SensoryMotorMap {
                 }
                 Evaluation::Regression => {
                     let rows = (0..trace.len()).map(|k| [1.0, phi[k], alpha[k], omega[k] * omega[k]]).collect();
-                    if let Some(fit) = LeastSquares::new(rows) {
+                    if let (Some(fit), Some(sigma)) = (LeastSquares::new(rows), sigma.as_mut()) {
                         for u in 0..u_count {
-                            raw[u * dofs + d] = tangential_weight(&trace, u, u_count, &fit);
+                            let (w, s) = tangential_weight(&trace, u, u_count, &fit);
+                            raw[u * dofs + d] = w;
+                            sigma[u * dofs + d] = s;
                         }
                     }
                 }
@@ -264,7 +308,7 @@ impl SensoryMotorMap {
             let scale = if norm < cfg.suppression || norm == 0.0 { 0.0 } else { 1.0 / norm };
             row.iter_mut().for_each(|w| *w = (f64::from(*w) * scale) as f32);
         }
-        self.tiles.push(Tile { pose: pose.to_vec(), dofs, raw, weights, time_s: session.elapsed_s() - start });
+        self.tiles.push(Tile { pose: pose.to_vec(), dofs, raw, sigma, weights, time_s: session.elapsed_s() - start });
         Ok(self.tiles.last().expect("just pushed"))
     }
 }
@@ -304,20 +348,30 @@ fn normal_weight(trace: &Trace, u: usize, cells: usize, lowpass: &Butterworth, a
     }
 }
 
-/// The regression's weight for cell `u`: the normal share of the fitted
-/// tangential term, with equation (11)'s sign. Zero if the trace has gaps.
-fn tangential_weight(trace: &Trace, u: usize, cells: usize, fit: &LeastSquares<4>) -> f32 {
-    let mut t = [0.0; 3];
-    for (a, c) in t.iter_mut().enumerate() {
-        match fit.fit((0..trace.len()).map(|k| f64::from(trace.accel[k * cells + u][a]))) {
-            Some(coefficients) => *c = coefficients[2],
-            None => return 0.0,
+/// Standard errors a tangential term must exceed to give a weight.
+const SIGNIFICANT_SIGMAS: f64 = 6.0;
+
+/// The regression's weight for cell `u`, the normal share of the fitted
+/// tangential term with equation (11)'s sign, and its standard error. A
+/// term within the noise (or a trace with gaps) gives the defined weight 0
+/// with an infinite error.
+fn tangential_weight(trace: &Trace, u: usize, cells: usize, fit: &LeastSquares<4>) -> (f32, f32) {
+    let (mut t, mut s) = ([0.0; 3], [0.0; 3]);
+    for a in 0..3 {
+        let y: Vec<f64> = (0..trace.len()).map(|k| f64::from(trace.accel[k * cells + u][a])).collect();
+        match fit.fit_with_errors(&y) {
+            Some((coefficients, errors)) => (t[a], s[a]) = (coefficients[2], errors[2]),
+            None => return (0.0, f32::INFINITY),
         }
     }
     let total: f64 = t.iter().map(|c| c.abs()).sum();
-    if total > 0.0 {
-        (-t[2] / total) as f32
-    } else {
-        0.0
+    let norm = t.iter().map(|c| c * c).sum::<f64>().sqrt();
+    let worst = s.iter().copied().fold(0.0, f64::max);
+    if !(norm > SIGNIFICANT_SIGMAS * worst && total > 0.0) {
+        return (0.0, f32::INFINITY);
     }
+    let w = -t[2] / total;
+    // First-order propagation through w = -t_z / (|t_x| + |t_y| + |t_z|).
+    let sigma = (s[2] * s[2] * (1.0 - w.abs()).powi(2) + w * w * (s[0] * s[0] + s[1] * s[1])).sqrt() / total;
+    (w as f32, sigma as f32)
 }

@@ -1,26 +1,35 @@
 //! The structural exploration (section 4.2.5), made adaptive.
 //!
-//! Every DoF is stepped in turn and each cell decided from the evidence of
-//! [`activity`](super::activity). Entries still undecided are measured again,
-//! back the other way with twice the averaging. A DoF whose axis is aligned
-//! with gravity leaves the static test blind; rather than trusting the
-//! dynamic test alone, the exploration then turns the nearest DoF known to
-//! carry it (one that moves every cell it moves) by `tilt_rad`, measures it
-//! again in that posture and turns back: the paper's "change the posture of
-//! the robot", done automatically and only where needed. Only a DoF with no
-//! such DoF before it (the first joint of an arm on a level base) stays
-//! blind, and is reported.
+//! Every DoF is stepped in turn and each cell read from the evidence of
+//! [`activity`](super::activity). Then only the DoFs with undecided entries
+//! are measured again, each with the remedy its doubt calls for:
+//!
+//! - *noise*: the next measurement averages twice as long and steps
+//!   further, until decided or the robot-time budget is spent, so time
+//!   grows with noise instead of the exploration failing;
+//! - *near a vertical axis*: averaging cannot help, so the robot chooses
+//!   another posture. It turns a DoF known to carry the undecided one (one
+//!   that moves every cell it moves, nearest first) by `tilt_rad`, which
+//!   tilts the axis out of gravity's line, measures again and turns back:
+//!   the paper's "change the posture of the robot", done by the robot.
+//!
+//! Between measurements, entries that the decided ones imply in a
+//! kinematic tree are settled without moving ([`infer`]): the cells of two
+//! DoFs are nested or disjoint. A cell that no reachable posture decides
+//! stays undecided, with its [`Doubt`], and the exploration says so.
 
-use super::activity::{Activity, ActivityMatrix, Step};
+use super::activity::{Activity, ActivityMatrix, Basis, Doubt, Reading, Step};
 use super::session::{Session, Window};
 use super::ExploreError;
-use crate::robot::{Robot, SampleSource};
+use crate::robot::{DofKind, Robot, SampleSource};
 
 /// Parameters of the structural exploration (section 4.2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StructureConfig {
-    /// Position step of each DoF, rad (the paper: 0.1).
+    /// Position step of each revolute DoF, rad (the paper: 0.1).
     pub step_rad: f64,
+    /// Position step of each prismatic DoF, m.
+    pub step_m: f64,
     /// Duration of each step, a raised-cosine velocity profile, s.
     pub move_s: f64,
     /// Still time after a step before averaging, s (the paper: 0.5).
@@ -32,37 +41,56 @@ pub struct StructureConfig {
     /// Static threshold floor as a fraction of the largest change `g |step|`
     /// (the paper: 0.1 m/s^2 for 0.1 rad, i.e. 10 %).
     pub static_fraction: f64,
-    /// A lever arm above this means the cell moved, m.
+    /// A lever arm above this means the cell moved, m (below it, a standing
+    /// robot's rocking can fake one).
     pub lever_threshold_m: f64,
+    /// The same for an axis aligned with gravity, which does not rock the
+    /// base: the resolution of "on the axis", m.
+    pub axis_lever_m: f64,
     /// Margin of every decision, in standard deviations of its noise.
     pub confidence_sigmas: f64,
-    /// Repeats (back and forth, with doubled averaging) while entries stay undecided.
-    pub retries: usize,
-    /// How far a proximal DoF turns to tilt a gravity-aligned axis, rad.
+    /// Robot time the structural exploration may spend, s; past it, what is
+    /// undecided is reported as such.
+    pub budget_s: f64,
+    /// How far a carrying DoF turns to tilt a gravity-aligned axis, rad.
     pub tilt_rad: f64,
+    /// Declared by the user: in the start posture no cell lies closer than
+    /// this to the axis line of a joint that moves it, m (0: nothing
+    /// declared). With it, a cell that shows no lever to a gravity-aligned
+    /// axis that no posture can tilt (a yaw joint on the fixed base) is
+    /// still. Without it, such a cell is reported as undecided.
+    pub axis_clearance_m: f64,
 }
 
 impl Default for StructureConfig {
     /// 0.2 rad steps of 0.2 s, 0.05 s settling, 0.1 s averaging, one run:
-    /// error-free over 1,000 seeds of the HRP-2-like robot in 6.5 s of robot
-    /// time (the `explore` benchmark). The sweep's fastest error-free
-    /// setting, 0.3 rad without settling and 0.05 s averaging (5.5 s), drives
-    /// the arms at their 3 rad/s limit and leaves no settling margin.
+    /// error-free over 1,000 seeds of the HRP-2-like robot (the `explore`
+    /// benchmark and the `explore_seeds` test).
     fn default() -> Self {
         StructureConfig {
             step_rad: 0.2,
+            step_m: 0.02,
             move_s: 0.2,
             settle_s: 0.05,
             average_s: 0.1,
             runs: 1,
             static_fraction: 0.1,
             lever_threshold_m: 0.01,
+            axis_lever_m: 0.003,
             confidence_sigmas: 6.0,
-            retries: 2,
+            budget_s: 1800.0,
             tilt_rad: 0.3,
+            axis_clearance_m: 0.0,
         }
     }
 }
+
+/// Doublings of the averaging window at most (0.1 s becomes 102 s).
+const MAX_EFFORT: u32 = 10;
+/// Carrying DoFs turned at most to tilt one DoF's axis.
+const MAX_TILTS: usize = 3;
+/// Halvings of a step that meets a limit both ways before the DoF counts as stuck.
+const MAX_HALVINGS: u32 = 4;
 
 impl StructureConfig {
     /// The paper's HRP-2 setting: 0.1 rad steps, 0.5 s settling, 1.0 s
@@ -80,15 +108,24 @@ impl StructureConfig {
 
     /// Refuses values the method cannot work with.
     pub fn check(&self) -> Result<(), ExploreError> {
-        let positive =
-            [self.step_rad, self.move_s, self.average_s, self.lever_threshold_m, self.confidence_sigmas, self.tilt_rad];
+        let positive = [
+            self.step_rad,
+            self.step_m,
+            self.move_s,
+            self.average_s,
+            self.lever_threshold_m,
+            self.axis_lever_m,
+            self.confidence_sigmas,
+            self.tilt_rad,
+            self.budget_s,
+        ];
+        let not_negative = [self.settle_s, self.axis_clearance_m];
         if !positive.iter().all(|v| v.is_finite() && *v > 0.0)
-            || self.settle_s.is_nan()
-            || self.settle_s < 0.0
+            || !not_negative.iter().all(|v| v.is_finite() && *v >= 0.0)
             || self.runs == 0
         {
             return Err(ExploreError::Config(
-                "step, move time, averaging window, lever threshold, confidence and tilt must be positive, settling not negative, and at least one run".into(),
+                "steps, move time, averaging window, lever thresholds, confidence, tilt and budget must be positive, settling and clearance not negative, and at least one run".into(),
             ));
         }
         if !(self.static_fraction > 0.0 && self.static_fraction < 1.0) {
@@ -98,118 +135,287 @@ impl StructureConfig {
     }
 }
 
-/// The or-ed activity matrix and the DoFs that stayed static-blind.
+/// What the structural exploration found.
 pub(crate) struct Outcome {
+    /// The or-ed activity matrix, each entry with its basis.
     pub activity: ActivityMatrix,
-    pub blind: Vec<usize>,
+    /// Every posture measured in, the start first, DoF positions.
+    pub postures: Vec<Vec<f64>>,
+    /// Why each entry still undecided is (cell-major, like the matrix).
+    pub doubts: Vec<Option<Doubt>>,
+    /// Per DoF: the carrying DoFs turned to tilt its axis.
+    pub tilted_by: Vec<Vec<usize>>,
+    /// Longest averaging window used, s.
+    pub longest_average_s: f64,
+    /// Steps measured.
+    pub measurements: usize,
 }
 
-/// Steps every DoF, run after run; `progress` gets the number of DoF
-/// measurements done.
+/// Steps every DoF, then again the DoFs with undecided entries, until all
+/// are decided, no remedy is left or the budget is spent; `progress` gets
+/// the measurements done and planned.
 pub(crate) fn explore<R: Robot + SampleSource>(
     session: &mut Session<'_, R>,
     cfg: &StructureConfig,
-    dof_names: &[String],
-    progress: &mut dyn FnMut(usize),
+    kinds: &[DofKind],
+    progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Outcome, ExploreError> {
     let (cells, dofs) = (session.cells().len(), session.dofs());
     session.hold(cfg.settle_s)?;
     let pre = session.window(cfg.average_s)?;
-    let mut x = Explorer { s: session, cfg, dof_names, pre };
-    let mut activity = ActivityMatrix::unknown(cells, dofs);
-    let mut measured = vec![false; dofs];
-    let mut blind = vec![true; dofs];
+    let deadline_s = session.elapsed_s() + cfg.budget_s;
+    let postures = vec![session.positions()];
+    let mut x = Explorer {
+        s: session,
+        cfg,
+        kinds,
+        pre,
+        deadline_s,
+        postures,
+        posture: 0,
+        effort: vec![0; dofs],
+        direction: vec![1.0; dofs],
+        tilted_by: vec![Vec::new(); dofs],
+        blind: vec![true; dofs],
+        measured: vec![false; dofs],
+        doubts: vec![None; cells * dofs],
+        lever_bound: vec![f64::INFINITY; cells * dofs],
+        done: 0,
+        total: cfg.runs * dofs,
+        longest_average_s: cfg.average_s,
+    };
+    let mut m = ActivityMatrix::unknown(cells, dofs);
     for run in 0..cfg.runs {
-        let direction = if run % 2 == 0 { 1.0 } else { -1.0 };
         for d in 0..dofs {
-            let (mut column, mut is_blind) = x.measure(d, direction)?;
-            if is_blind {
-                for p in carriers(&activity, &measured, &column, d) {
-                    let turned = x.turn(p, cfg.tilt_rad)?;
-                    let (tilted, still_blind) = x.measure(d, direction)?;
-                    x.turn(p, -turned)?;
-                    for (c, t) in column.iter_mut().zip(tilted) {
-                        *c = c.or(t);
-                    }
-                    is_blind = still_blind;
-                    if !is_blind {
-                        break;
-                    }
-                }
-            }
-            blind[d] &= is_blind;
-            measured[d] = true;
-            for (u, a) in column.into_iter().enumerate() {
-                activity.or(u, d, a);
-            }
-            progress(run * dofs + d + 1);
+            x.direction[d] = if run % 2 == 0 { 1.0 } else { -1.0 };
+            x.measure(&mut m, d)?;
+            progress(x.done, x.total);
         }
     }
-    Ok(Outcome { activity, blind: (0..dofs).filter(|&d| blind[d]).collect() })
-}
-
-/// DoFs already measured that move every cell `column` says DoF `d`
-/// moved, so turning them tilts `d`'s axis: nearest (fewest cells) first.
-fn carriers(activity: &ActivityMatrix, measured: &[bool], column: &[Activity], d: usize) -> Vec<usize> {
-    let moved: Vec<usize> = (0..column.len()).filter(|&u| column[u] == Activity::Moved).collect();
-    if moved.is_empty() {
-        return Vec::new();
+    x.settle(&mut m);
+    // Measure again only what is undecided, each DoF with its remedy.
+    loop {
+        let mut acted = false;
+        for d in 0..dofs {
+            if !m.column_undecided(d) || x.out_of_time() {
+                continue;
+            }
+            x.total += 1;
+            if x.resolve(&mut m, d)? {
+                acted = true;
+                x.settle(&mut m);
+            } else {
+                x.total -= 1;
+            }
+            progress(x.done, x.total);
+        }
+        if !acted || x.out_of_time() || m.undecided().is_empty() {
+            break;
+        }
     }
-    let mut carriers: Vec<(usize, usize)> = (0..measured.len())
-        .filter(|&p| p != d && measured[p] && moved.iter().all(|&u| activity.is_moved(u, p)))
-        .map(|p| ((0..activity.cells()).filter(|&u| activity.is_moved(u, p)).count(), p))
+    let doubts = (0..cells * dofs)
+        .map(|i| if m.get(i / dofs, i % dofs) == Activity::Unknown { x.doubts[i] } else { None })
         .collect();
-    carriers.sort_unstable();
-    carriers.into_iter().map(|(_, p)| p).collect()
+    Ok(Outcome {
+        activity: m,
+        postures: x.postures,
+        doubts,
+        tilted_by: x.tilted_by,
+        longest_average_s: x.longest_average_s,
+        measurements: x.done,
+    })
 }
 
 struct Explorer<'x, 'r, R> {
     s: &'x mut Session<'r, R>,
     cfg: &'x StructureConfig,
-    dof_names: &'x [String],
+    kinds: &'x [DofKind],
     /// The still window before the next motion.
     pre: Window,
+    /// Robot time at which the budget is spent, s.
+    deadline_s: f64,
+    /// Postures measured in; `posture` is the current one.
+    postures: Vec<Vec<f64>>,
+    posture: usize,
+    /// Doublings of averaging (and growth of the step) per DoF.
+    effort: Vec<u32>,
+    /// Direction of each DoF's next step, alternating.
+    direction: Vec<f64>,
+    tilted_by: Vec<Vec<usize>>,
+    blind: Vec<bool>,
+    measured: Vec<bool>,
+    /// The last doubt of each entry, cell-major.
+    doubts: Vec<Option<Doubt>>,
+    /// Smallest upper bound seen on each entry's lever while its axis was vertical, m.
+    lever_bound: Vec<f64>,
+    done: usize,
+    total: usize,
+    longest_average_s: f64,
 }
 
 impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
-    /// Steps DoF `d` (the other way if it is at a limit, again while
-    /// entries stay undecided) and returns its decided column and whether
-    /// every measurement was static-blind.
-    fn measure(&mut self, d: usize, direction: f64) -> Result<(Vec<Activity>, bool), ExploreError> {
+    fn out_of_time(&self) -> bool {
+        self.s.elapsed_s() >= self.deadline_s
+    }
+
+    /// One more measurement of DoF `d` with the remedy its doubts call
+    /// for; false when none is left.
+    fn resolve(&mut self, m: &mut ActivityMatrix, d: usize) -> Result<bool, ExploreError> {
+        let dofs = m.dofs();
+        let open: Vec<Doubt> = (0..m.cells())
+            .filter(|&u| m.get(u, d) == Activity::Unknown)
+            .filter_map(|u| self.doubts[u * dofs + d])
+            .collect();
+        let near_axis = open.contains(&Doubt::NearAxis);
+        if (near_axis || self.blind[d]) && self.kinds[d] == DofKind::Revolute {
+            if let Some(p) = self.next_carrier(m, d) {
+                self.tilted_by[d].push(p);
+                let turned = self.turn(m, p, self.cfg.tilt_rad)?;
+                self.postures.push(self.s.positions());
+                self.posture = self.postures.len() - 1;
+                let measured = self.measure(m, d);
+                self.turn(m, p, -turned)?;
+                self.posture = 0;
+                measured?;
+                return Ok(true);
+            }
+        }
+        let noisy = open.iter().any(|&doubt| doubt != Doubt::NearAxis);
+        if noisy && self.effort[d] < MAX_EFFORT {
+            self.effort[d] += 1;
+            self.measure(m, d)?;
+            return Ok(true);
+        }
+        Ok(false)
+    }
+
+    /// The next DoF to turn so that DoF `d`'s axis tilts: one known to
+    /// carry `d` (it moves every cell `d` moves), nearest (fewest cells)
+    /// first; if `d` moved no cell yet, any DoF not known to sit below it,
+    /// nearest the root first. None once `MAX_TILTS` were tried.
+    fn next_carrier(&self, m: &ActivityMatrix, d: usize) -> Option<usize> {
+        if self.tilted_by[d].len() >= MAX_TILTS {
+            return None;
+        }
+        let moved: Vec<usize> = (0..m.cells()).filter(|&u| m.is_moved(u, d)).collect();
+        let count = |p: usize| (0..m.cells()).filter(|&u| m.is_moved(u, p)).count();
+        let mut candidates: Vec<(isize, usize)> = (0..m.dofs())
+            .filter(|&p| p != d && self.measured[p] && self.kinds[p] == DofKind::Revolute)
+            .filter(|p| !self.tilted_by[d].contains(p))
+            .filter(|&p| count(p) > 0)
+            .filter(|&p| if moved.is_empty() { !below(m, p, d) } else { moved.iter().all(|&u| m.is_moved(u, p)) })
+            .map(|p| (if moved.is_empty() { -(count(p) as isize) } else { count(p) as isize }, p))
+            .collect();
+        candidates.sort_unstable();
+        candidates.first().map(|&(_, p)| p)
+    }
+
+    /// Steps DoF `d` once at its current effort and ors what it shows
+    /// into `m`.
+    fn measure(&mut self, m: &mut ActivityMatrix, d: usize) -> Result<(), ExploreError> {
         let cfg = self.cfg;
-        let mut column = vec![Activity::Unknown; self.s.cells().len()];
-        let (mut direction, mut attempt, mut blocked, mut blind) = (direction, 0, 0, true);
-        loop {
-            let average_s = cfg.average_s * f64::from(1u32 << attempt.min(16));
-            let step = self.step(d, direction * cfg.step_rad, average_s)?;
-            // Less than a quarter of the step: at a limit.
-            if step.moved_rad.abs() < 0.25 * cfg.step_rad {
-                blocked += 1;
-                if blocked > 1 {
-                    return Err(ExploreError::Stuck(self.dof_names[d].clone()));
+        let effort = self.effort[d];
+        let average_s = cfg.average_s * f64::from(1u32 << effort);
+        self.longest_average_s = self.longest_average_s.max(average_s);
+        let base = match self.kinds[d] {
+            DofKind::Revolute => cfg.step_rad,
+            DofKind::Prismatic => cfg.step_m,
+        };
+        // Larger steps give a larger static change and lever signal.
+        let mut delta = base * (1.0 + 0.25 * f64::from(effort)).min(2.0);
+        let mut blocked = 0;
+        let step = loop {
+            let delta_now = self.direction[d] * delta;
+            let step = self.step(d, delta_now, average_s)?;
+            self.direction[d] = -self.direction[d];
+            // Less than a quarter of the step: at a limit. Try the other
+            // way, then smaller steps (a short prismatic or revolute range).
+            if step.moved_rad.abs() >= 0.25 * delta {
+                break step;
+            }
+            blocked += 1;
+            if blocked % 2 == 0 {
+                if blocked / 2 > MAX_HALVINGS {
+                    return Err(ExploreError::Stuck(self.s.dof_name(d)));
                 }
-                direction = -direction;
-                continue;
+                delta *= 0.5;
             }
-            let (decisions, is_blind) = step.decide(cfg);
-            blind &= is_blind;
-            for (c, a) in column.iter_mut().zip(decisions) {
-                *c = c.or(a);
-            }
-            if !column.contains(&Activity::Unknown) || attempt >= cfg.retries {
-                return Ok((column, blind));
-            }
-            attempt += 1;
-            direction = -direction;
+        };
+        self.done += 1;
+        self.measured[d] = true;
+        self.record(m, d, &step);
+        Ok(())
+    }
+
+    /// Ors a step's readings of DoF `d` into `m` and notes the doubts.
+    fn record(&mut self, m: &mut ActivityMatrix, d: usize, step: &Step) {
+        let (readings, blind) = step.decide(self.cfg, self.kinds[d]);
+        self.blind[d] &= blind;
+        let posture = self.posture;
+        let dofs = m.dofs();
+        for (u, (reading, e)) in readings.into_iter().zip(&step.evidence).enumerate() {
+            let (activity, basis) = match reading {
+                Reading::Moved { by_static } => (Activity::Moved, basis(by_static, posture)),
+                Reading::Still { by_static } => (Activity::Still, basis(by_static, posture)),
+                Reading::Unknown(doubt) => {
+                    let i = u * dofs + d;
+                    self.doubts[i] = Some(doubt);
+                    if doubt == Doubt::NearAxis {
+                        let bound = e.lever_m + self.cfg.confidence_sigmas * e.lever_sigma;
+                        self.lever_bound[i] = self.lever_bound[i].min(bound);
+                    }
+                    continue;
+                }
+            };
+            m.or(u, d, activity, basis);
         }
     }
 
-    /// Turns DoF `p` by about `delta` (the other way if it is at a limit)
-    /// and returns how far it really turned, rad.
-    fn turn(&mut self, p: usize, delta: f64) -> Result<f64, ExploreError> {
-        let mut turned = self.step(p, delta, self.cfg.average_s)?.moved_rad;
+    /// Settles what decided entries imply, then what the declared mounting
+    /// clearance does.
+    fn settle(&mut self, m: &mut ActivityMatrix) {
+        infer(m);
+        if self.cfg.axis_clearance_m > 0.0 && self.clear(m) {
+            infer(m);
+        }
+    }
+
+    /// With a declared mounting clearance: a cell with no lever to a
+    /// revolute DoF `d` whose axis no posture can tilt any more is farther
+    /// from the axis than its lever bound, so by the declaration `d` does
+    /// not move it. True if an entry changed.
+    fn clear(&mut self, m: &mut ActivityMatrix) -> bool {
+        let (cells, dofs) = (m.cells(), m.dofs());
+        let mut changed = false;
+        for d in 0..dofs {
+            if self.kinds[d] != DofKind::Revolute || !m.column_undecided(d) || self.next_carrier(m, d).is_some() {
+                continue;
+            }
+            for u in 0..cells {
+                let i = u * dofs + d;
+                if m.get(u, d) == Activity::Unknown
+                    && self.doubts[i] == Some(Doubt::NearAxis)
+                    && self.lever_bound[i] < self.cfg.axis_clearance_m
+                {
+                    changed |= m.or(u, d, Activity::Still, Basis::Clearance);
+                }
+            }
+        }
+        changed
+    }
+
+    /// Turns DoF `p` by about `delta` (the other way if it is at a limit),
+    /// ors what the turn shows about `p` into `m`, and returns how far it
+    /// really turned, rad.
+    fn turn(&mut self, m: &mut ActivityMatrix, p: usize, delta: f64) -> Result<f64, ExploreError> {
+        let average_s = self.cfg.average_s;
+        let step = self.step(p, delta, average_s)?;
+        let mut turned = step.moved_rad;
+        self.record(m, p, &step);
         if turned.abs() < 0.25 * delta.abs() {
-            turned += self.step(p, -delta, self.cfg.average_s)?.moved_rad;
+            let back = self.step(p, -delta, average_s)?;
+            turned += back.moved_rad;
+            self.record(m, p, &back);
         }
         Ok(turned)
     }
@@ -217,12 +423,70 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
     /// One step of DoF `d` by `delta`: the motion, settling, and a still
     /// window of `average_s` that is also the next step's "before".
     fn step(&mut self, d: usize, delta: f64, average_s: f64) -> Result<Step, ExploreError> {
-        let move_s = self.cfg.move_s * (delta.abs() / self.cfg.step_rad).sqrt().max(1.0);
+        let base = match self.kinds[d] {
+            DofKind::Revolute => self.cfg.step_rad,
+            DofKind::Prismatic => self.cfg.step_m,
+        };
+        let move_s = self.cfg.move_s * (delta.abs() / base).sqrt().max(1.0);
         let trace = self.s.trace(d, move_s + self.cfg.settle_s, |t| raised_cosine(delta, move_s, t))?;
         let post = self.s.window(average_s)?;
         let step = Step::measure(&self.pre, &post, &trace, self.s.tick_s(), self.s.lsb_mps2());
         self.pre = post;
         Ok(step)
+    }
+}
+
+fn basis(by_static: bool, posture: usize) -> Basis {
+    if by_static {
+        Basis::Static { posture }
+    } else {
+        Basis::Dynamic { posture }
+    }
+}
+
+/// DoF `e` surely does not sit below DoF `d`: it moves a cell `d` does not.
+fn not_below(m: &ActivityMatrix, e: usize, d: usize) -> bool {
+    (0..m.cells()).any(|y| m.is_moved(y, e) && m.is_still(y, d))
+}
+
+/// DoF `e` surely sits below DoF `d` (or beside it in one joint): they
+/// move a cell together, and `d` moves a cell `e` does not, so `e` does
+/// not carry `d`.
+fn below(m: &ActivityMatrix, e: usize, d: usize) -> bool {
+    let comparable = (0..m.cells()).any(|x| m.is_moved(x, d) && m.is_moved(x, e));
+    comparable && not_below(m, d, e)
+}
+
+/// Settles the undecided entries that the decided ones imply in a
+/// kinematic tree, where the cells any two DoFs move are nested or
+/// disjoint: if `e` sits below `d`, what `e` moves `d` moves and what `d`
+/// leaves still `e` leaves still; if they sit on different branches, what
+/// one moves the other leaves still. Never turns a decided entry.
+pub(crate) fn infer(m: &mut ActivityMatrix) {
+    let (cells, dofs) = (m.cells(), m.dofs());
+    let mut changed = true;
+    while changed {
+        changed = false;
+        for d in 0..dofs {
+            if !m.column_undecided(d) {
+                continue;
+            }
+            for e in (0..dofs).filter(|&e| e != d) {
+                let e_below_d = below(m, e, d);
+                let d_below_e = below(m, d, e);
+                let apart = !e_below_d && !d_below_e && not_below(m, e, d) && not_below(m, d, e);
+                let open: Vec<usize> = (0..cells).filter(|&u| m.get(u, d) == Activity::Unknown).collect();
+                for u in open {
+                    let implied = match m.get(u, e) {
+                        Activity::Moved if e_below_d => Activity::Moved,
+                        Activity::Moved if apart => Activity::Still,
+                        Activity::Still if d_below_e => Activity::Still,
+                        _ => continue,
+                    };
+                    changed |= m.or(u, d, implied, Basis::Tree);
+                }
+            }
+        }
     }
 }
 
@@ -237,6 +501,7 @@ fn raised_cosine(delta: f64, duration: f64, t: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
 
     #[test]
     fn a_raised_cosine_step_lands_exactly_and_smoothly() {
@@ -254,27 +519,71 @@ mod tests {
     fn the_papers_setting_is_valid_and_bad_settings_are_refused() {
         assert!(StructureConfig::paper().check().is_ok());
         assert!(StructureConfig::default().check().is_ok());
-        let bad = StructureConfig { runs: 0, ..StructureConfig::default() };
-        assert!(matches!(bad.check(), Err(ExploreError::Config(_))));
-        let bad = StructureConfig { average_s: f64::NAN, ..StructureConfig::default() };
-        assert!(matches!(bad.check(), Err(ExploreError::Config(_))));
+        for bad in [
+            StructureConfig { runs: 0, ..StructureConfig::default() },
+            StructureConfig { average_s: f64::NAN, ..StructureConfig::default() },
+            StructureConfig { budget_s: 0.0, ..StructureConfig::default() },
+            StructureConfig { axis_clearance_m: -0.01, ..StructureConfig::default() },
+            StructureConfig { axis_clearance_m: f64::INFINITY, ..StructureConfig::default() },
+        ] {
+            assert!(matches!(bad.check(), Err(ExploreError::Config(_))), "{bad:?}");
+        }
+    }
+
+    /// Rows of a true activity matrix: chain 0 -> 1 (cells 1..=3), a branch
+    /// 2 beside them (cells 4, 5), cell 0 on the root.
+    fn truth() -> Vec<Vec<bool>> {
+        vec![
+            vec![false, false, false],
+            vec![true, false, false],
+            vec![true, true, false],
+            vec![true, true, false],
+            vec![false, false, true],
+            vec![false, false, true],
+        ]
     }
 
     #[test]
-    fn carriers_are_the_dofs_moving_every_moved_cell_nearest_first() {
-        use Activity::*;
-        // Cells 0..3; DoF 0 moves 1, 2, 3; DoF 1 moves 2, 3; DoF 2 moves 1.
-        let rows = vec![
-            vec![false, false, false, false],
-            vec![true, false, true, false],
-            vec![true, true, false, false],
-            vec![true, true, false, false],
-        ];
-        let am = ActivityMatrix::from_rows(&rows);
-        let measured = [true, true, true, false];
-        // DoF 3 moved cells 2 and 3 (cell 0 undecided).
-        let column = [Unknown, Still, Moved, Moved];
-        assert_eq!(carriers(&am, &measured, &column, 3), vec![1, 0]);
-        assert!(carriers(&am, &measured, &[Unknown, Still, Still, Still], 3).is_empty());
+    fn the_tree_settles_what_it_implies() {
+        let rows = truth();
+        let mut m = ActivityMatrix::unknown(6, 3);
+        // Decided: DoF 1's cells are moved by 0 (cell 2), 0 moves cell 1
+        // that 1 leaves still; DoF 2 moves 4 and 0 leaves 4 still.
+        for (u, d) in [(1, 0), (2, 0), (2, 1), (1, 1), (4, 2), (4, 0), (1, 2), (3, 1)] {
+            m.or(u, d, if rows[u][d] { Activity::Moved } else { Activity::Still }, Basis::Dynamic { posture: 0 });
+        }
+        infer(&mut m);
+        // Cell 3 moves with DoF 1, which sits below DoF 0.
+        assert_eq!(m.get(3, 0), Activity::Moved);
+        assert_eq!(m.basis(3, 0), Some(Basis::Tree));
+        // DoF 2 is on another branch than 0: what 0 moves it leaves still.
+        assert_eq!(m.get(2, 2), Activity::Still);
+        assert_eq!(m.get(3, 2), Activity::Still);
+        // Nothing about the root cell or cell 5 can be implied.
+        assert_eq!(m.get(0, 0), Activity::Unknown);
+        assert_eq!(m.get(5, 0), Activity::Unknown);
+    }
+
+    proptest! {
+        /// Whatever part of a true tree's matrix is known, inference never
+        /// contradicts the truth.
+        #[test]
+        fn inference_never_contradicts_the_truth(known in prop::collection::vec(any::<bool>(), 18)) {
+            let rows = truth();
+            let mut m = ActivityMatrix::unknown(6, 3);
+            for (i, k) in known.iter().enumerate() {
+                let (u, d) = (i / 3, i % 3);
+                if *k {
+                    m.or(u, d, if rows[u][d] { Activity::Moved } else { Activity::Still }, Basis::Static { posture: 0 });
+                }
+            }
+            infer(&mut m);
+            for u in 0..6 {
+                for d in 0..3 {
+                    let truth = if rows[u][d] { Activity::Moved } else { Activity::Still };
+                    prop_assert!(m.get(u, d) == Activity::Unknown || m.get(u, d) == truth, "cell {} DoF {}", u, d);
+                }
+            }
+        }
     }
 }
