@@ -190,6 +190,8 @@ pub(crate) struct Evidence {
     /// Lever arm `|axis x r|` seen through the tangential acceleration, m
     /// (for a prismatic DoF: the length of the axis in the cell frame, 1).
     pub lever_m: f64,
+    /// The lever vector in the cell frame, m (zero without a fit).
+    pub lever: [f64; 3],
     /// Standard deviation of one axis of the lever estimate, m.
     pub lever_sigma: f64,
     /// The still windows saturated: no static evidence.
@@ -243,6 +245,7 @@ impl Step {
                     static_mps2: norm(&diff),
                     static_sigma,
                     lever_m: lever.map_or(0.0, |l| norm(&l)),
+                    lever: lever.unwrap_or([0.0; 3]),
                     lever_sigma: (worst_var * regressors.alpha_variance()).sqrt(),
                     static_saturated: pre.saturated[u] || post.saturated[u],
                     trace_saturated: trace.saturated[u] || lever.is_none(),

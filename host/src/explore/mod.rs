@@ -238,6 +238,11 @@ fn reason(outcome: &structure::Outcome, cfg: &StructureConfig, names: &[String],
                 cfg.axis_lever_m * 1e3
             )
         }
+        Some(Doubt::Noise) if outcome.repeats[d] > 0 => format!(
+            "its axis stayed within about 6 degrees of gravity, and the lever stays within the noise after {} pooled repeats of the step (robot-time budget {:.0} s)",
+            outcome.repeats[d] + 1,
+            cfg.budget_s
+        ),
         Some(Doubt::Noise) => format!(
             "the evidence stays within the noise after steps averaged up to {:.1} s (robot-time budget {:.0} s)",
             outcome.longest_average_s, cfg.budget_s

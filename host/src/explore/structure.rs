@@ -18,7 +18,7 @@
 //! DoFs are nested or disjoint. A cell that no reachable posture decides
 //! stays undecided, with its [`Doubt`], and the exploration says so.
 
-use super::activity::{Activity, ActivityMatrix, Basis, Doubt, Reading, Step};
+use super::activity::{Activity, ActivityMatrix, Basis, Doubt, Evidence, Reading, Step};
 use super::session::{Session, Window};
 use super::ExploreError;
 use crate::robot::{DofKind, Robot, SampleSource};
@@ -87,6 +87,10 @@ impl Default for StructureConfig {
 
 /// Doublings of the averaging window at most (0.1 s becomes 102 s).
 const MAX_EFFORT: u32 = 10;
+/// Repeats of a step whose static test is blind, pooled for the lever.
+const MAX_REPEATS: u32 = 4096;
+/// The effort from which steps stop growing: twice the configured step.
+const MAX_GROWTH_EFFORT: u32 = 4;
 /// Carrying DoFs turned at most to tilt one DoF's axis.
 const MAX_TILTS: usize = 3;
 /// Halvings of a step that meets a limit both ways before the DoF counts as stuck.
@@ -149,6 +153,8 @@ pub(crate) struct Outcome {
     pub longest_average_s: f64,
     /// Steps measured.
     pub measurements: usize,
+    /// Per DoF: repeats of its blind step pooled for the lever.
+    pub repeats: Vec<u32>,
 }
 
 /// Steps every DoF, then again the DoFs with undecided entries, until all
@@ -170,10 +176,16 @@ pub(crate) fn explore<R: Robot + SampleSource>(
         cfg,
         kinds,
         pre,
+        pre_s: cfg.average_s,
         deadline_s,
         postures,
         posture: 0,
         effort: vec![0; dofs],
+        repeats: vec![0; dofs],
+        grow: vec![0; dofs],
+        tilt: vec![None; dofs],
+        last_blind: false,
+        pooled: vec![[0.0; 4]; cells * dofs],
         direction: vec![1.0; dofs],
         tilted_by: vec![Vec::new(); dofs],
         blind: vec![true; dofs],
@@ -223,6 +235,7 @@ pub(crate) fn explore<R: Robot + SampleSource>(
         tilted_by: x.tilted_by,
         longest_average_s: x.longest_average_s,
         measurements: x.done,
+        repeats: x.repeats,
     })
 }
 
@@ -230,8 +243,9 @@ struct Explorer<'x, 'r, R> {
     s: &'x mut Session<'r, R>,
     cfg: &'x StructureConfig,
     kinds: &'x [DofKind],
-    /// The still window before the next motion.
+    /// The still window before the next motion, and its length, s.
     pre: Window,
+    pre_s: f64,
     /// Robot time at which the budget is spent, s.
     deadline_s: f64,
     /// Postures measured in; `posture` is the current one.
@@ -239,6 +253,17 @@ struct Explorer<'x, 'r, R> {
     posture: usize,
     /// Doublings of averaging (and growth of the step) per DoF.
     effort: Vec<u32>,
+    /// Repeats of each DoF's blind step.
+    repeats: Vec<u32>,
+    /// Effort whose step size a DoF's steps use at least.
+    grow: Vec<u32>,
+    /// The carrier whose turn tilted each DoF's axis out of gravity's line.
+    tilt: Vec<Option<usize>>,
+    /// The last measurement's static test was blind.
+    last_blind: bool,
+    /// Per entry, the inverse-variance weighted sum of the lever vectors of
+    /// blind steps in the start posture and the sum of weights.
+    pooled: Vec<[f64; 4]>,
     /// Direction of each DoF's next step, alternating.
     direction: Vec<f64>,
     tilted_by: Vec<Vec<usize>>,
@@ -267,26 +292,63 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
             .filter_map(|u| self.doubts[u * dofs + d])
             .collect();
         let near_axis = open.contains(&Doubt::NearAxis);
+        let noisy = open.iter().any(|&doubt| doubt != Doubt::NearAxis);
         if (near_axis || self.blind[d]) && self.kinds[d] == DofKind::Revolute {
-            if let Some(p) = self.next_carrier(m, d) {
-                self.tilted_by[d].push(p);
-                let turned = self.turn(m, p, self.cfg.tilt_rad)?;
-                self.postures.push(self.s.positions());
-                self.posture = self.postures.len() - 1;
-                let measured = self.measure(m, d);
-                self.turn(m, p, -turned)?;
-                self.posture = 0;
-                measured?;
+            // A posture that tilted the axis before, or a new one.
+            let carrier = match self.tilt[d] {
+                Some(p) if noisy && self.effort[d] < MAX_EFFORT => {
+                    self.effort[d] += 1;
+                    Some(p)
+                }
+                Some(_) => None,
+                None => self.next_carrier(m, d),
+            };
+            if let Some(p) = carrier {
+                self.measure_tilted(m, d, p)?;
                 return Ok(true);
             }
         }
-        let noisy = open.iter().any(|&doubt| doubt != Doubt::NearAxis);
-        if noisy && self.effort[d] < MAX_EFFORT {
+        if noisy && self.blind[d] && self.tilt[d].is_none() {
+            // Only the lever can tell: more of the same (larger) step,
+            // pooled; longer still windows would not help.
+            if self.repeats[d] < MAX_REPEATS {
+                self.repeats[d] += 1;
+                self.grow[d] = MAX_GROWTH_EFFORT;
+                self.measure(m, d)?;
+                return Ok(true);
+            }
+        } else if noisy && !self.blind[d] && self.effort[d] < MAX_EFFORT {
             self.effort[d] += 1;
             self.measure(m, d)?;
             return Ok(true);
         }
         Ok(false)
+    }
+
+    /// Turns carrier `p` to tilt DoF `d`'s axis, measures `d` there (with
+    /// longer averaging while the static test stays blind) and turns back.
+    fn measure_tilted(&mut self, m: &mut ActivityMatrix, d: usize, p: usize) -> Result<(), ExploreError> {
+        if !self.tilted_by[d].contains(&p) {
+            self.tilted_by[d].push(p);
+        }
+        let turned = self.turn(m, p, self.cfg.tilt_rad)?;
+        self.postures.push(self.s.positions());
+        self.posture = self.postures.len() - 1;
+        // In the tilted posture the static test has power once the
+        // averaging beats the noise.
+        let measured = loop {
+            let measured = self.measure(m, d);
+            if measured.is_err() || !self.last_blind || self.effort[d] >= MAX_EFFORT || self.out_of_time() {
+                break measured;
+            }
+            self.effort[d] += 1;
+        };
+        if measured.is_ok() && !self.last_blind {
+            self.tilt[d] = Some(p);
+        }
+        self.turn(m, p, -turned)?;
+        self.posture = 0;
+        measured
     }
 
     /// The next DoF to turn so that DoF `d`'s axis tilts: one known to
@@ -322,7 +384,8 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
             DofKind::Prismatic => cfg.step_m,
         };
         // Larger steps give a larger static change and lever signal.
-        let mut delta = base * (1.0 + 0.25 * f64::from(effort)).min(2.0);
+        let growth = effort.max(self.grow[d]).min(MAX_GROWTH_EFFORT);
+        let mut delta = base * (1.0 + 0.25 * f64::from(growth));
         let mut blocked = 0;
         let step = loop {
             let delta_now = self.direction[d] * delta;
@@ -350,7 +413,12 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
     /// Ors a step's readings of DoF `d` into `m` and notes the doubts.
     fn record(&mut self, m: &mut ActivityMatrix, d: usize, step: &Step) {
         let (readings, blind) = step.decide(self.cfg, self.kinds[d]);
-        self.blind[d] &= blind;
+        // The latest word on the start posture: a first step's noise can
+        // pass for a gravity change, the repeats' cannot all.
+        if self.posture == 0 {
+            self.blind[d] = blind;
+        }
+        self.last_blind = blind;
         let posture = self.posture;
         let dofs = m.dofs();
         for (u, (reading, e)) in readings.into_iter().zip(&step.evidence).enumerate() {
@@ -359,9 +427,22 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
                 Reading::Still { by_static } => (Activity::Still, basis(by_static, posture)),
                 Reading::Unknown(doubt) => {
                     let i = u * dofs + d;
+                    let k = self.cfg.confidence_sigmas;
+                    let (mut doubt, mut bound) = (doubt, e.lever_m + k * e.lever_sigma);
+                    if blind && posture == 0 && doubt != Doubt::Saturated {
+                        match self.pool(i, e) {
+                            Some((lever, sigma)) if lever - k * sigma > self.cfg.axis_lever_m => {
+                                m.or(u, d, Activity::Moved, Basis::Dynamic { posture });
+                                continue;
+                            }
+                            Some((lever, sigma)) if lever + k * sigma < self.cfg.axis_lever_m => {
+                                (doubt, bound) = (Doubt::NearAxis, bound.min(lever + k * sigma));
+                            }
+                            _ => {}
+                        }
+                    }
                     self.doubts[i] = Some(doubt);
                     if doubt == Doubt::NearAxis {
-                        let bound = e.lever_m + self.cfg.confidence_sigmas * e.lever_sigma;
                         self.lever_bound[i] = self.lever_bound[i].min(bound);
                     }
                     continue;
@@ -369,6 +450,23 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
             };
             m.or(u, d, activity, basis);
         }
+    }
+
+    /// Pools a blind step's lever of entry `i` with the earlier ones (in
+    /// the start posture the lever vector of a cell is the same every
+    /// time); returns the pooled lever and its standard deviation, m.
+    fn pool(&mut self, i: usize, e: &Evidence) -> Option<(f64, f64)> {
+        let w = 1.0 / (e.lever_sigma * e.lever_sigma);
+        if !(w.is_finite() && w > 0.0) || e.trace_saturated || !e.lever.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        let p = &mut self.pooled[i];
+        for a in 0..3 {
+            p[a] += w * e.lever[a];
+        }
+        p[3] += w;
+        let mean = [p[0] / p[3], p[1] / p[3], p[2] / p[3]];
+        Some(((mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2]).sqrt(), 1.0 / p[3].sqrt()))
     }
 
     /// Settles what decided entries imply, then what the declared mounting
@@ -423,6 +521,11 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
     /// One step of DoF `d` by `delta`: the motion, settling, and a still
     /// window of `average_s` that is also the next step's "before".
     fn step(&mut self, d: usize, delta: f64, average_s: f64) -> Result<Step, ExploreError> {
+        // The "before" must be as long as the "after", or its noise rules.
+        if self.pre_s < average_s {
+            self.pre = self.s.window(average_s)?;
+            self.pre_s = average_s;
+        }
         let base = match self.kinds[d] {
             DofKind::Revolute => self.cfg.step_rad,
             DofKind::Prismatic => self.cfg.step_m,
@@ -432,6 +535,7 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
         let post = self.s.window(average_s)?;
         let step = Step::measure(&self.pre, &post, &trace, self.s.tick_s(), self.s.lsb_mps2());
         self.pre = post;
+        self.pre_s = average_s;
         Ok(step)
     }
 }
