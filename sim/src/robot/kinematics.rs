@@ -5,10 +5,13 @@
 //! acceleration `a_o + alpha x r + omega x (omega x r)` holds the tangential
 //! and centripetal terms of every moving DoF at once (and their cross terms
 //! when several move), so a single DoF motion reduces to the paper's case.
+//! A prismatic joint adds no rotation: it carries its child along the axis,
+//! so the child's origin gains the slide's own acceleration and the Coriolis
+//! term of sliding within a turning parent.
 
-use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 
-use super::{drive_rate, drive_value, Robot};
+use super::{drive_rate, drive_value, DofKind, Robot};
 
 /// Motion of one rigid body in the world frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,11 +42,11 @@ impl BodyState {
 /// Joint positions, velocities and accelerations of every DoF.
 #[derive(Clone, Copy, Debug)]
 pub struct DofMotion<'a> {
-    /// Positions, rad.
+    /// Positions, rad (m for prismatic DoFs).
     pub q: &'a [f64],
-    /// Velocities, rad/s.
+    /// Velocities, rad/s (m/s).
     pub qd: &'a [f64],
-    /// Accelerations, rad/s^2.
+    /// Accelerations, rad/s^2 (m/s^2).
     pub qdd: &'a [f64],
 }
 
@@ -55,24 +58,43 @@ pub fn forward(robot: &Robot, base: &BodyState, m: DofMotion<'_>, out: &mut Vec<
     for body in &robot.bodies()[1..] {
         let j = &robot.joints()[body.parent_joint.expect("non-root bodies have a parent joint")];
         let parent = out[j.parent_body];
-        let (angle, rate, accel) = (drive_value(j.drive, m.q), drive_rate(j.drive, m.qd), drive_rate(j.drive, m.qdd));
-        let pose = parent.pose * j.origin * UnitQuaternion::from_axis_angle(&j.axis, angle);
+        let (value, rate, accel) = (drive_value(j.drive, m.q), drive_rate(j.drive, m.qd), drive_rate(j.drive, m.qdd));
+        let mount = parent.pose * j.origin;
+        let pose = match j.kind {
+            DofKind::Revolute => mount * UnitQuaternion::from_axis_angle(&j.axis, value),
+            DofKind::Prismatic => mount * Translation3::from(j.axis.into_inner() * value),
+        };
+        // The axis is the same in the joint frame and the child frame.
         let axis = pose.rotation * j.axis.into_inner();
         let r = pose.translation.vector - parent.pose.translation.vector;
-        let spin = axis * rate;
-        out.push(BodyState {
-            pose,
-            omega: parent.omega + spin,
-            alpha: parent.alpha + axis * accel + parent.omega.cross(&spin),
-            accel: parent.accel + parent.alpha.cross(&r) + parent.omega.cross(&parent.omega.cross(&r)),
-        });
+        // The child origin's acceleration as a point fixed to the parent.
+        let carried = parent.accel + parent.alpha.cross(&r) + parent.omega.cross(&parent.omega.cross(&r));
+        let state = match j.kind {
+            DofKind::Revolute => {
+                let spin = axis * rate;
+                BodyState {
+                    pose,
+                    omega: parent.omega + spin,
+                    alpha: parent.alpha + axis * accel + parent.omega.cross(&spin),
+                    accel: carried,
+                }
+            }
+            DofKind::Prismatic => BodyState {
+                pose,
+                omega: parent.omega,
+                alpha: parent.alpha,
+                accel: carried + axis * accel + 2.0 * parent.omega.cross(&(axis * rate)),
+            },
+        };
+        out.push(state);
     }
 }
 
 /// World-frame acceleration of a point fixed at `p` (world coordinates, on
 /// body `body`) per unit acceleration of `dof`, the robot otherwise at rest:
 /// the direction of the tangential acceleration of equation (1), scaled by
-/// the lever arm. Zero if `dof` does not move the body.
+/// the lever arm, for a joint that turns; the axis itself for one that
+/// slides (per m/s^2). Zero if `dof` does not move the body.
 pub fn tangential(robot: &Robot, states: &[BodyState], body: usize, p: &Point3<f64>, dof: usize) -> Vector3<f64> {
     let mut t = Vector3::zeros();
     let mut b = body;
@@ -82,7 +104,11 @@ pub fn tangential(robot: &Robot, states: &[BodyState], body: usize, p: &Point3<f
         if gain != 0.0 {
             let s = &states[j.child_body];
             let axis = s.pose.rotation * j.axis.into_inner();
-            t += gain * axis.cross(&(p - Point3::from(s.pose.translation.vector)));
+            t += gain
+                * match j.kind {
+                    DofKind::Revolute => axis.cross(&(p - Point3::from(s.pose.translation.vector))),
+                    DofKind::Prismatic => axis,
+                };
         }
         b = j.parent_body;
     }
