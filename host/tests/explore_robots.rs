@@ -185,6 +185,10 @@ fn shared_urdf(name: &str) -> Option<String> {
 fn the_reference_robots_are_learned_with_default_skins_in_one_base_posture() {
     for name in ["ur5", "panda", "simple_humanoid"] {
         let Some(urdf) = shared_urdf(name) else { continue };
+        // The simulator now makes prismatic joints DoFs (the panda's
+        // fingers); until the explorer steps them in metres (issue 12,
+        // item 4) they are locked here, as the loader used to lock them.
+        let urdf = urdf.replace(r#"type="prismatic""#, r#"type="fixed""#);
         let trial = Trial::run(world(&urdf, BaseConfig::standing(), 4, 0, 1.0), &ExploreConfig::default());
         let warnings = verdict(&trial).unwrap_or_else(|e| panic!("{name}: {e}"));
         println!("{name}: correct; {warnings:?}");

@@ -471,6 +471,31 @@ mod tests {
     }
 
     #[test]
+    fn every_cell_knows_its_true_clearance_from_the_joint_axes_at_its_body() {
+        let robot = hrp2::robot();
+        let skin = Skin::with_counts(&robot, &hrp2::SKIN, 1).unwrap();
+        for c in skin.cells() {
+            let axes = joint_axes(&robot, c.body);
+            assert_eq!(c.axis_clearance_m, clearance(&axes, &Point3::from(c.pose.translation.vector)));
+        }
+        // A 1 cm ball between two hinges has no room for 2 cm: the cell is
+        // placed all the same, and says how close it is.
+        let tiny = Robot::from_urdf_str(
+            r#"<robot name="t"><link name="a"/><link name="b"><collision><geometry><sphere radius="0.01"/></geometry></collision></link>
+            <link name="c"/>
+            <joint name="j1" type="continuous"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/></joint>
+            <joint name="j2" type="continuous"><parent link="b"/><child link="c"/><axis xyz="1 0 0"/></joint></robot>"#,
+        )
+        .unwrap();
+        let skin = Skin::with_counts(&tiny, &[("b", 5)], 1).unwrap();
+        assert_eq!(skin.cells().len(), 5);
+        assert!(skin.min_axis_clearance_m() <= 0.01 + 1e-12, "{}", skin.min_axis_clearance_m());
+        // Cells from a file: on the axis of the joint carrying them.
+        let on_axis = Skin::from_toml_str(&tiny, "[[link]]\nname = \"b\"\ncell = [{ xyz = [0, 0, 0.01] }]").unwrap();
+        assert_eq!(on_axis.cells()[0].axis_clearance_m, 0.0);
+    }
+
+    #[test]
     fn skin_files_name_what_is_wrong() {
         let robot = hrp2::robot();
         let toml = r#"

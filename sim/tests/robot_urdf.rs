@@ -154,6 +154,20 @@ fn the_reference_robots_load_with_their_dofs() {
     }
 }
 
+/// Public descriptions kept as fixtures (see `fixtures/robots/README.md`):
+/// they load, with their prismatic DoFs, and take skin.
+#[test]
+fn the_fixture_robots_load_with_their_dofs_and_take_skin() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/robots");
+    for (file, revolute, prismatic) in [("ur5_robot", 6, 0), ("panda", 7, 1), ("baxter", 15, 2)] {
+        let r = Robot::from_urdf_file(&dir.join(format!("{file}.urdf"))).unwrap();
+        let count = |k| r.dofs().iter().filter(|d| d.kind == k).count();
+        assert_eq!((count(DofKind::Revolute), count(DofKind::Prismatic)), (revolute, prismatic), "{file}");
+        let skin = skin_sim::skin::Skin::per_link(&r, 3, 1).unwrap();
+        assert!(skin.cells().iter().all(|c| c.pose.translation.vector.iter().all(|v| v.is_finite())), "{file}");
+    }
+}
+
 /// Loads every `*.urdf` of the folder `SKIN_URDF_DIR` (public descriptions
 /// kept out of the repository), puts 3 cells on every link with a surface,
 /// and prints a table: `SKIN_URDF_DIR=../robots-public cargo test -p

@@ -154,8 +154,7 @@ fn link(node: Node) -> Result<LinkDesc, UrdfError> {
     if let Some(inertial) = child(node, "inertial") {
         com = origin(inertial, || at("<inertial>"))?;
         if let Some(m) = child(inertial, "mass") {
-            let value = required(m, "value", || at("<mass>"))?;
-            mass = numbers::<1>(value, Quantity::Mass, || at("<mass> value"))?[0];
+            mass = number(required(m, "value", || at("<mass>"))?, Quantity::Mass, || at("<mass> value"))?;
         }
     }
     let geometries = |tag: &str| -> Result<Vec<Geometry>, UrdfError> {
@@ -173,10 +172,9 @@ fn geometry(node: Node, at: &dyn Fn(&str) -> String) -> Result<Geometry, UrdfErr
     let Some(shape) = child(node, "geometry").and_then(|g| g.children().find(Node::is_element)) else {
         return Ok((pose, None));
     };
-    let size = |attr: &str| -> Result<f64, UrdfError> {
-        let text = required(shape, attr, || at(&format!("<{}>", shape.tag_name().name())))?;
-        Ok(numbers::<1>(text, Quantity::Size, || at(&format!("<{}> {attr}", shape.tag_name().name())))?[0])
-    };
+    let tag = format!("<{}>", shape.tag_name().name());
+    let size =
+        |attr: &str| number(required(shape, attr, || at(&tag))?, Quantity::Size, || at(&format!("{tag} {attr}")));
     let shape = match shape.tag_name().name() {
         "box" => {
             let text = required(shape, "size", || at("<box>"))?;
@@ -215,9 +213,7 @@ fn joint(node: Node) -> Result<JointDesc, UrdfError> {
     };
     let mut limit = Limit::default();
     if let Some(l) = child(node, "limit") {
-        let number = |attr: &str, q: Quantity| -> Result<f64, UrdfError> {
-            l.attribute(attr).map_or(Ok(0.0), |text| Ok(numbers::<1>(text, q, || at(&format!("<limit> {attr}")))?[0]))
-        };
+        let number = |attr: &str, q: Quantity| optional(l, attr, 0.0, q, || at(&format!("<limit> {attr}")));
         let range = match kind {
             JointType::Prismatic => Some(Quantity::Position),
             JointType::Revolute => Some(Quantity::Angle),
@@ -232,10 +228,8 @@ fn joint(node: Node) -> Result<JointDesc, UrdfError> {
     }
     let mimic = match child(node, "mimic") {
         Some(m) => {
-            let number = |attr: &str, default: f64| -> Result<f64, UrdfError> {
-                m.attribute(attr).map_or(Ok(default), |t| {
-                    Ok(numbers::<1>(t, Quantity::Mimic, || at(&format!("<mimic> {attr}")))?[0])
-                })
+            let number = |attr: &str, default: f64| {
+                optional(m, attr, default, Quantity::Mimic, || at(&format!("<mimic> {attr}")))
             };
             Some(Mimic {
                 joint: required(m, "joint", || at("<mimic>"))?.to_owned(),
@@ -270,6 +264,16 @@ fn elements<'a, 'input: 'a>(node: Node<'a, 'input>, tag: &'a str) -> impl Iterat
 /// The attribute `attr` of `node`, or an error naming `element`.
 fn required<'a>(node: Node<'a, '_>, attr: &str, element: impl FnOnce() -> String) -> Result<&'a str, UrdfError> {
     node.attribute(attr).ok_or_else(|| UrdfError::Missing { element: element(), what: format!("{attr} attribute") })
+}
+
+/// The number in attribute `attr` of `node`, checked as `q`; `default` if absent.
+fn optional(node: Node, attr: &str, default: f64, q: Quantity, at: impl Fn() -> String) -> Result<f64, UrdfError> {
+    node.attribute(attr).map_or(Ok(default), |text| number(text, q, at))
+}
+
+/// One number, checked as `q`.
+fn number(text: &str, q: Quantity, at: impl Fn() -> String) -> Result<f64, UrdfError> {
+    Ok(numbers::<1>(text, q, at)?[0])
 }
 
 /// Exactly `N` whitespace-separated numbers, each checked as `q`.
