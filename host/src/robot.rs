@@ -104,6 +104,14 @@ impl Robot for SimRobot {
         self.world.robot().dofs().iter().map(|d| d.name.clone()).collect()
     }
 
+    fn dof_kinds(&self) -> Vec<DofKind> {
+        let kind = |k| match k {
+            skin_sim::robot::DofKind::Revolute => DofKind::Revolute,
+            skin_sim::robot::DofKind::Prismatic => DofKind::Prismatic,
+        };
+        self.world.robot().dofs().iter().map(|d| kind(d.kind)).collect()
+    }
+
     fn command_velocities(&mut self, omega_rad_s: &[f64]) -> Result<(), RobotError> {
         Ok(self.world.command(omega_rad_s)?)
     }

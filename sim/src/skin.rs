@@ -17,10 +17,11 @@ use rand_chacha::ChaCha8Rng;
 use serde::Deserialize;
 use skin_protocol::Address;
 
-use crate::robot::{Link, Robot, Shape, Surface};
+use crate::robot::{DofKind, Link, Robot, Shape, Surface};
 
 /// Skin is not laid over a joint: a placed cell keeps at least this far
-/// from the axes of the joints at its body, where the robot bends.
+/// from the axes of the revolute joints at its body, where the robot bends,
+/// when the link leaves room for it (see [`Cell::axis_clearance_m`]).
 pub const JOINT_CLEARANCE_M: f64 = 0.02;
 /// Bones are covered between these fractions of their length.
 const BONE_SPAN: (f64, f64) = (0.15, 0.85);
@@ -36,6 +37,12 @@ pub struct Cell {
     pub body: usize,
     /// Cell frame in the body frame; z is the outward surface normal.
     pub pose: Isometry3<f64>,
+    /// Distance from the cell to the nearest axis of a revolute joint at
+    /// its body (the one carrying it or one it carries), m; `inf` if there
+    /// is none. Placement aims for [`JOINT_CLEARANCE_M`] but takes the best
+    /// of its tries on links too small for it, so this is the truth: a cell
+    /// close to the axis of the joint that carries it barely moves with it.
+    pub axis_clearance_m: f64,
 }
 
 /// Why a skin cannot be built.
@@ -104,9 +111,16 @@ impl Skin {
         let mut cells = Vec::new();
         for link in robot.links() {
             let n = if link.surface == Surface::None { 0 } else { count(link) };
+            let axes = joint_axes(robot, link.body);
             for _ in 0..n {
-                let pose = place(robot, link, &mut rng);
-                cells.push(Cell { id: Address::UNASSIGNED, link: link.name.clone(), body: link.body, pose });
+                let (pose, axis_clearance_m) = place(&axes, link, &mut rng);
+                cells.push(Cell {
+                    id: Address::UNASSIGNED,
+                    link: link.name.clone(),
+                    body: link.body,
+                    pose,
+                    axis_clearance_m,
+                });
             }
         }
         check_count(cells.len())?;
@@ -154,6 +168,11 @@ impl Skin {
     /// All cells.
     pub fn cells(&self) -> &[Cell] {
         &self.cells
+    }
+
+    /// The smallest [`Cell::axis_clearance_m`] of all cells, m.
+    pub fn min_axis_clearance_m(&self) -> f64 {
+        self.cells.iter().map(|c| c.axis_clearance_m).fold(f64::INFINITY, f64::min)
     }
 
     /// The same cells under other IDs, `ids[i]` for cell `i`: the IDs a
@@ -233,7 +252,9 @@ impl SkinFile {
                     Translation3::from(Vector3::from(c.xyz)),
                     UnitQuaternion::from_euler_angles(r, p, y),
                 );
-                cells.push(Cell { id, link: link.name.clone(), body: link.body, pose: link.in_body * in_link });
+                let pose = link.in_body * in_link;
+                let axis_clearance_m = clearance(&joint_axes(robot, link.body), &Point3::from(pose.translation.vector));
+                cells.push(Cell { id, link: link.name.clone(), body: link.body, pose, axis_clearance_m });
             }
         }
         check_count(cells.len())?;
@@ -245,15 +266,14 @@ impl SkinFile {
     }
 }
 
-/// A random cell pose on `link`, in its body frame, away from joint axes.
-fn place(robot: &Robot, link: &Link, rng: &mut ChaCha8Rng) -> Isometry3<f64> {
-    let axes = joint_axes(robot, link.body);
-    let clearance = |p: &Point3<f64>| axes.iter().map(|(o, a)| (p - o).cross(a).norm()).fold(f64::INFINITY, f64::min);
+/// A random cell pose on `link`, in its body frame, away from the joint
+/// `axes` of its body, and its clearance from them (m).
+fn place(axes: &[(Point3<f64>, Vector3<f64>)], link: &Link, rng: &mut ChaCha8Rng) -> (Isometry3<f64>, f64) {
     let mut best: Option<(f64, Point3<f64>, Vector3<f64>)> = None;
     for _ in 0..200 {
         let (p, n) = surface_point(&link.surface, rng);
         let (p, n) = (link.in_body * p, link.in_body.rotation * n);
-        let c = clearance(&p);
+        let c = clearance(axes, &p);
         if best.as_ref().is_none_or(|b| c > b.0) {
             best = Some((c, p, n));
         }
@@ -261,19 +281,27 @@ fn place(robot: &Robot, link: &Link, rng: &mut ChaCha8Rng) -> Isometry3<f64> {
             break;
         }
     }
-    let (_, p, n) = best.expect("at least one candidate");
-    Isometry3::from_parts(
+    let (c, p, n) = best.expect("at least one candidate");
+    let pose = Isometry3::from_parts(
         Translation3::from(p.coords),
         frame_with_normal(&n, rng.random_range(0.0..std::f64::consts::TAU)),
-    )
+    );
+    (pose, c)
 }
 
-/// Axis lines (point, unit direction) of the joints at `body`, body frame:
-/// the one carrying it and those it carries.
+/// Distance from `p` to the nearest of the axis lines `axes`, m (`inf` if none).
+fn clearance(axes: &[(Point3<f64>, Vector3<f64>)], p: &Point3<f64>) -> f64 {
+    axes.iter().map(|(o, a)| (p - o).cross(a).norm()).fold(f64::INFINITY, f64::min)
+}
+
+/// Axis lines (point, unit direction) of the revolute joints at `body`,
+/// body frame: the one carrying it and those it carries. A prismatic joint
+/// bends nothing, and its motion is the same for every point of its child.
 fn joint_axes(robot: &Robot, body: usize) -> Vec<(Point3<f64>, Vector3<f64>)> {
     robot
         .joints()
         .iter()
+        .filter(|j| j.kind == DofKind::Revolute)
         .filter_map(|j| {
             if j.child_body == body {
                 Some((Point3::origin(), j.axis.into_inner()))
@@ -352,10 +380,11 @@ fn shape_point(shape: &Shape, rng: &mut ChaCha8Rng) -> (Point3<f64>, Vector3<f64
     }
 }
 
-/// Index drawn with probability proportional to `weights` (uniform if all zero).
+/// Index drawn with probability proportional to `weights` (uniform if they
+/// sum to zero, or to more than `f64` holds: never a panic in the sampler).
 fn pick(weights: &[f64], rng: &mut ChaCha8Rng) -> usize {
     let total: f64 = weights.iter().sum();
-    if total <= 0.0 {
+    if !(total > 0.0 && total.is_finite()) {
         return rng.random_range(0..weights.len());
     }
     let mut x = rng.random_range(0.0..total);
@@ -439,6 +468,31 @@ mod tests {
             let on_cap = ((p.z + 0.075).abs() - 0.075).abs() < 1e-9 && n.x == 0.0 && n.y == 0.0;
             assert!(on_side || on_cap, "cell {} at {p} normal {n}", c.id);
         }
+    }
+
+    #[test]
+    fn every_cell_knows_its_true_clearance_from_the_joint_axes_at_its_body() {
+        let robot = hrp2::robot();
+        let skin = Skin::with_counts(&robot, &hrp2::SKIN, 1).unwrap();
+        for c in skin.cells() {
+            let axes = joint_axes(&robot, c.body);
+            assert_eq!(c.axis_clearance_m, clearance(&axes, &Point3::from(c.pose.translation.vector)));
+        }
+        // A 1 cm ball between two hinges has no room for 2 cm: the cell is
+        // placed all the same, and says how close it is.
+        let tiny = Robot::from_urdf_str(
+            r#"<robot name="t"><link name="a"/><link name="b"><collision><geometry><sphere radius="0.01"/></geometry></collision></link>
+            <link name="c"/>
+            <joint name="j1" type="continuous"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/></joint>
+            <joint name="j2" type="continuous"><parent link="b"/><child link="c"/><axis xyz="1 0 0"/></joint></robot>"#,
+        )
+        .unwrap();
+        let skin = Skin::with_counts(&tiny, &[("b", 5)], 1).unwrap();
+        assert_eq!(skin.cells().len(), 5);
+        assert!(skin.min_axis_clearance_m() <= 0.01 + 1e-12, "{}", skin.min_axis_clearance_m());
+        // Cells from a file: on the axis of the joint carrying them.
+        let on_axis = Skin::from_toml_str(&tiny, "[[link]]\nname = \"b\"\ncell = [{ xyz = [0, 0, 0.01] }]").unwrap();
+        assert_eq!(on_axis.cells()[0].axis_clearance_m, 0.0);
     }
 
     #[test]

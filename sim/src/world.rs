@@ -15,7 +15,7 @@ use skin_protocol::{Address, Sample};
 
 use crate::accel::{Bma250, Bma250Config, G0};
 use crate::robot::kinematics::{self, BodyState, DofMotion};
-use crate::robot::Robot;
+use crate::robot::{DofKind, Robot};
 use crate::skin::{Cell, Skin};
 
 /// Physics sub-steps per control tick.
@@ -215,12 +215,12 @@ impl World {
         self.ticks as f64 * self.cfg.tick_s
     }
 
-    /// Joint position feedback, rad, in DoF order.
+    /// Joint position feedback, rad (m for prismatic DoFs), in DoF order.
     pub fn positions(&self) -> &[f64] {
         &self.q
     }
 
-    /// Commands joint velocities (rad/s, DoF order) until the next command;
+    /// Commands joint velocities (rad/s, m/s for prismatic DoFs; DoF order) until the next command;
     /// each is clipped to its joint's velocity limit.
     pub fn command(&mut self, omega: &[f64]) -> Result<(), WorldError> {
         if omega.len() != self.command.len() {
@@ -291,12 +291,14 @@ impl World {
         }
     }
 
-    /// The rocking mode, driven by the horizontal part of the joints'
-    /// angular accelerations (their reaction on the base).
+    /// The rocking mode, driven by the horizontal part of the revolute
+    /// joints' angular accelerations (their torque's reaction on the base).
+    /// A prismatic joint's reaction is a force along its axis, not a torque:
+    /// the rocking model has no masses to turn it into one, so it is left out.
     fn rock_base(&mut self, h: f64) {
         let r = self.cfg.base.rocking;
         let mut drive = Vector3::zeros();
-        for (d, dof) in self.robot.dofs().iter().enumerate() {
+        for (d, dof) in self.robot.dofs().iter().enumerate().filter(|(_, dof)| dof.kind == DofKind::Revolute) {
             let j = &self.robot.joints()[dof.joint];
             drive += self.states[j.child_body].pose.rotation * j.axis.into_inner() * self.qdd[d];
         }
@@ -356,7 +358,8 @@ impl World {
     /// Ground truth for the sensory-motor map: for the robot at rest in
     /// `pose`, the acceleration of each cell per unit acceleration of each
     /// DoF, in the cell frame (the noise-free tangential direction of
-    /// equation (1) times the lever arm, m per rad/s^2). Indexed `[u][d]`.
+    /// equation (1) times the lever arm, m per rad/s^2; for a prismatic DoF the
+    /// axis, m/s^2 per m/s^2). Indexed `[u][d]`.
     pub fn true_tangential(&self, pose: &[f64]) -> Vec<Vec<Vector3<f64>>> {
         let n = self.robot.dofs().len();
         let zero = vec![0.0; n];

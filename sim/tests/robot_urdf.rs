@@ -1,7 +1,7 @@
-//! Loading robots from URDF: what becomes a DoF, what is welded, locked or
+//! Loading robots from URDF: what becomes a DoF, what is welded or
 //! followed, and a clear error naming the element for everything else.
 
-use skin_sim::robot::{Drive, Robot, Surface, UrdfError};
+use skin_sim::robot::{DofKind, Drive, Robot, Surface, UrdfError};
 
 /// A small arm exercising every joint kind the loader accepts.
 const ARM: &str = r#"<robot name="arm">
@@ -28,26 +28,30 @@ const ARM: &str = r#"<robot name="arm">
 </robot>"#;
 
 #[test]
-fn revolute_and_continuous_joints_are_dofs_the_rest_is_welded_locked_or_followed() {
+fn revolute_continuous_and_prismatic_joints_are_dofs_the_rest_is_welded_or_followed() {
     let r = Robot::from_urdf_str(ARM).unwrap();
     let names: Vec<&str> = r.dofs().iter().map(|d| d.name.as_str()).collect();
-    assert_eq!(names, ["pan", "elbow", "finger_a"]);
+    assert_eq!(names, ["pan", "elbow", "slide", "finger_a"]);
+    let kinds: Vec<DofKind> = r.dofs().iter().map(|d| d.kind).collect();
+    assert_eq!(kinds, [DofKind::Revolute, DofKind::Revolute, DofKind::Prismatic, DofKind::Revolute]);
     assert_eq!((r.dofs()[0].lower, r.dofs()[0].upper), (f64::NEG_INFINITY, f64::INFINITY));
     assert_eq!((r.dofs()[1].lower, r.dofs()[1].upper, r.dofs()[1].max_velocity), (-2.0, 0.5, 2.0));
-    // world+base, upper, fore+carriage (prismatic locked), a+marker, b.
-    assert_eq!(r.bodies().len(), 5);
+    assert_eq!((r.dofs()[2].lower, r.dofs()[2].upper, r.dofs()[2].max_velocity), (0.0, 0.1, 1.0));
+    // world+base, upper, fore, carriage, a+marker, b.
+    assert_eq!(r.bodies().len(), 6);
     let body = |l: &str| r.link(l).unwrap().body;
     assert_eq!(body("world"), body("base"));
-    assert_eq!(body("fore"), body("carriage"));
+    assert_ne!(body("fore"), body("carriage"));
     assert_eq!(body("a"), body("marker"));
+    assert!(r.moved_by(2)[body("carriage")] && !r.moved_by(2)[body("fore")]);
     assert!((r.link("marker").unwrap().in_body.translation.vector.x - 0.02).abs() < 1e-12);
     // The axis is normalized.
     assert!((r.joints()[0].axis.z - 1.0).abs() < 1e-12);
     // The mimic follows its master.
     let b = r.joints().iter().position(|j| j.name == "finger_b").unwrap();
-    assert_eq!(r.joints()[b].drive, Drive::Mimic { dof: 2, multiplier: -1.0, offset: 0.1 });
-    assert_eq!(r.joint_angles(&[0.0, 0.0, 0.3])[b], -0.3 + 0.1);
-    assert!(r.moved_by(2)[body("b")] && r.moved_by(2)[body("a")] && !r.moved_by(2)[body("fore")]);
+    assert_eq!(r.joints()[b].drive, Drive::Mimic { dof: 3, multiplier: -1.0, offset: 0.1 });
+    assert_eq!(r.joint_angles(&[0.0, 0.0, 0.0, 0.3])[b], -0.3 + 0.1);
+    assert!(r.moved_by(3)[body("b")] && r.moved_by(3)[body("a")] && !r.moved_by(3)[body("carriage")]);
     assert!(r.moved_by(0).iter().skip(1).all(|m| *m));
 }
 
@@ -73,10 +77,10 @@ fn skin_goes_on_shapes_or_bones_but_not_on_massless_frames() {
 fn the_home_pose_is_zero_clamped_into_the_limits() {
     let xml = ARM.replace(r#"lower="-2" upper="0.5""#, r#"lower="0.2" upper="0.5""#);
     let mut r = Robot::from_urdf_str(&xml).unwrap();
-    assert_eq!(r.home(), &[0.0, 0.2, 0.0]);
-    r.set_home(&[1.0, 9.0, -9.0]).unwrap();
-    assert_eq!(r.home(), &[1.0, 0.5, -1.0]);
-    assert!(matches!(r.set_home(&[0.0]), Err(UrdfError::PoseLength { expected: 3, got: 1 })));
+    assert_eq!(r.home(), &[0.0, 0.2, 0.0, 0.0]);
+    r.set_home(&[1.0, 9.0, 0.5, -9.0]).unwrap();
+    assert_eq!(r.home(), &[1.0, 0.5, 0.1, -1.0]);
+    assert!(matches!(r.set_home(&[0.0]), Err(UrdfError::PoseLength { expected: 4, got: 1 })));
 }
 
 fn error(xml: &str) -> String {
@@ -107,7 +111,8 @@ fn broken_files_get_an_error_naming_the_element() {
     assert!(error(&two(&format!("{ab}{reversed}"))).contains(r#"revolute joint "j2" has limits lower = 1"#));
     let no_limit = bc.replace(r#"<limit lower="-1" upper="1" velocity="1"/>"#, "");
     assert!(error(&two(&format!("{ab}{no_limit}"))).contains(r#"revolute joint "j2""#));
-    assert!(error(&two(&format!("{ab}{}", bc.replace("0 0 1", "0 nan 1")))).contains(r#"joint "j2" contains a number"#));
+    assert!(error(&two(&format!("{ab}{}", bc.replace("0 0 1", "0 nan 1"))))
+        .contains(r#"joint "j2" <axis> xyz contains a number that is not finite"#));
     let bad_mimic = hinge("j2", "b", "c", r#"<mimic joint="nowhere"/>"#);
     assert!(error(&two(&format!("{ab}{bad_mimic}"))).contains(r#"joint "j2" mimics "nowhere""#));
     let circle = format!(
@@ -117,7 +122,7 @@ fn broken_files_get_an_error_naming_the_element() {
     );
     assert!(error(&two(&circle)).contains("mimics"));
     let welded = r#"<joint name="f" type="fixed"><parent link="a"/><child link="b"/></joint><joint name="g" type="fixed"><parent link="b"/><child link="c"/></joint>"#;
-    assert!(error(&two(welded)).contains("no revolute or continuous joint"));
+    assert!(error(&two(welded)).contains("no revolute, continuous or prismatic joint"));
     assert!(
         error(r#"<robot name="r"><link name="a"/><link name="a"/></robot>"#).contains(r#"link "a" is defined twice"#)
     );
@@ -139,10 +144,74 @@ fn shared_robot(name: &str) -> Option<Robot> {
 }
 
 #[test]
-fn the_reference_robots_load_with_their_revolute_dofs() {
-    for (name, dofs) in [("ur5", 6), ("panda", 7), ("simple_humanoid", 29)] {
+fn the_reference_robots_load_with_their_dofs() {
+    // The panda's second finger mimics the first: one prismatic DoF.
+    for (name, revolute, prismatic) in [("ur5", 6, 0), ("panda", 7, 1), ("simple_humanoid", 29, 0)] {
         if let Some(r) = shared_robot(name) {
-            assert_eq!(r.dofs().len(), dofs, "{name}");
+            let count = |k| r.dofs().iter().filter(|d| d.kind == k).count();
+            assert_eq!((count(DofKind::Revolute), count(DofKind::Prismatic)), (revolute, prismatic), "{name}");
         }
     }
+}
+
+/// Public descriptions kept as fixtures (see `fixtures/robots/README.md`):
+/// they load, with their prismatic DoFs, and take skin.
+#[test]
+fn the_fixture_robots_load_with_their_dofs_and_take_skin() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/robots");
+    for (file, revolute, prismatic) in [("ur5_robot", 6, 0), ("panda", 7, 1), ("baxter", 15, 2)] {
+        let r = Robot::from_urdf_file(&dir.join(format!("{file}.urdf"))).unwrap();
+        let count = |k| r.dofs().iter().filter(|d| d.kind == k).count();
+        assert_eq!((count(DofKind::Revolute), count(DofKind::Prismatic)), (revolute, prismatic), "{file}");
+        let skin = skin_sim::skin::Skin::per_link(&r, 3, 1).unwrap();
+        assert!(skin.cells().iter().all(|c| c.pose.translation.vector.iter().all(|v| v.is_finite())), "{file}");
+    }
+}
+
+/// Loads every `*.urdf` of the folder `SKIN_URDF_DIR` (public descriptions
+/// kept out of the repository), puts 3 cells on every link with a surface,
+/// and prints a table: `SKIN_URDF_DIR=../robots-public cargo test -p
+/// skin-sim --test robot_urdf -- --ignored --nocapture`.
+#[test]
+#[ignore = "needs a folder of URDFs in SKIN_URDF_DIR"]
+fn every_urdf_in_a_folder_loads() {
+    let dir = std::env::var("SKIN_URDF_DIR").expect("set SKIN_URDF_DIR to a folder of URDF files");
+    let mut paths: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "urdf"))
+        .collect();
+    paths.sort();
+    println!(
+        "{:<24} {:>4} {:>4} {:>6} {:>5} {:>6} {:>5} {:>5} {:>10} {:>6}",
+        "file", "rev", "pri", "bodies", "links", "shapes", "bones", "none", "min_clr_mm", "<2mm"
+    );
+    let mut failed = Vec::new();
+    for path in &paths {
+        let name = path.file_name().unwrap().to_string_lossy();
+        let r = match Robot::from_urdf_file(path) {
+            Ok(r) => r,
+            Err(e) => {
+                println!("{name:<24} ERROR {e}");
+                failed.push(name.to_string());
+                continue;
+            }
+        };
+        let count = |k| r.dofs().iter().filter(|d| d.kind == k).count();
+        let surfaces = |f: fn(&Surface) -> bool| r.links().iter().filter(|l| f(&l.surface)).count();
+        let skin = skin_sim::skin::Skin::per_link(&r, 3, 1).unwrap();
+        println!(
+            "{name:<24} {:>4} {:>4} {:>6} {:>5} {:>6} {:>5} {:>5} {:>10.1} {:>6}",
+            count(DofKind::Revolute),
+            count(DofKind::Prismatic),
+            r.bodies().len(),
+            r.links().len(),
+            surfaces(|s| matches!(s, Surface::Shapes(_))),
+            surfaces(|s| matches!(s, Surface::Bones { .. })),
+            surfaces(|s| *s == Surface::None),
+            skin.min_axis_clearance_m() * 1e3,
+            skin.cells().iter().filter(|c| c.axis_clearance_m < 2e-3).count(),
+        );
+    }
+    assert!(failed.is_empty(), "{failed:?}");
 }

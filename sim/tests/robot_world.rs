@@ -121,3 +121,43 @@ fn a_world_is_reproducible_from_its_seed() {
     // Every cell sends every tick, with a running sequence number.
     assert_eq!(s[74].1.seq(), s[0].1.seq().wrapping_add(1));
 }
+
+/// A lift: a vertical prismatic joint carrying a shelf.
+const LIFT: &str = r#"<robot name="lift">
+  <link name="base"><collision><geometry><box size="0.4 0.4 0.1"/></geometry></collision></link>
+  <joint name="lift" type="prismatic"><parent link="base"/><child link="shelf"/><origin xyz="0 0 0.1"/><axis xyz="0 0 1"/>
+    <limit lower="0" upper="0.5" velocity="0.2"/></joint>
+  <link name="shelf"><collision><geometry><box size="0.3 0.3 0.02"/></geometry></collision></link>
+</robot>"#;
+
+#[test]
+fn a_prismatic_dof_moves_in_metres_and_its_acceleration_is_felt_along_its_axis() {
+    let robot = Robot::from_urdf_str(LIFT).unwrap();
+    let toml = "[[link]]\nname = \"shelf\"\ncell = [{ xyz = [0.1, 0.0, 0.01], id = 1 }]";
+    let skin = Skin::from_toml_str(&robot, toml).unwrap();
+    let cfg = WorldConfig { base: BaseConfig::rigid(), accel: Bma250Config::ideal(), ..WorldConfig::default() };
+    let mut w = World::new(robot, skin, cfg);
+    // Speeding up at 0.5 m/s^2 for 0.2 s (to 0.1 m/s): the cell feels it on top of gravity.
+    let mut out = Vec::new();
+    for _ in 0..50 {
+        w.command(&[0.5 * (w.time_s() + 0.004)]).unwrap();
+        out.clear();
+        w.step(&mut out);
+    }
+    let z = out[0].1.accel()[2];
+    assert!((z - counts(G0 + 0.5)).abs() <= 2, "{z}");
+    // Position feedback in metres; the velocity limit (0.2 m/s) and the range (0.5 m) hold.
+    run_lift(&mut w, 1000, 5.0);
+    assert_eq!(w.positions()[0], 0.5);
+    let before = w.positions()[0];
+    run_lift(&mut w, 25, -5.0);
+    assert!((before - w.positions()[0] - 0.2 * 0.1).abs() < 0.005, "{:?}", w.positions());
+}
+
+fn run_lift(w: &mut World, ticks: usize, v: f64) {
+    let mut out = Vec::new();
+    for _ in 0..ticks {
+        w.command(&[v]).unwrap();
+        w.step(&mut out);
+    }
+}

@@ -1,10 +1,12 @@
-//! A robot as the simulator sees it: rigid bodies joined by revolute joints.
+//! A robot as the simulator sees it: rigid bodies joined by revolute and
+//! prismatic joints.
 //!
 //! A URDF robot is reduced to what the skin can feel: links joined by fixed
-//! (or locked) joints are merged into one rigid [`Body`]; revolute and
-//! continuous joints are the degrees of freedom ([`Dof`]) the host drives;
-//! a mimic joint is a [`Joint`] that follows its master DoF. Only the
-//! simulator reads this model; the host learns it back from the skin.
+//! joints are merged into one rigid [`Body`]; revolute, continuous and
+//! prismatic joints are the degrees of freedom ([`Dof`]) the host drives,
+//! each of a [`DofKind`]; a mimic joint is a [`Joint`] that follows its
+//! master DoF. Only the simulator reads this model; the host learns it back
+//! from the skin.
 
 pub mod hrp2;
 pub mod kinematics;
@@ -12,7 +14,7 @@ mod urdf;
 
 use nalgebra::{Isometry3, Point3, Unit, Vector3};
 
-pub use urdf::UrdfError;
+pub use urdf::{limits, UrdfError};
 
 /// One rigid body: a group of URDF links welded by fixed or locked joints.
 #[derive(Clone, Debug)]
@@ -39,7 +41,16 @@ pub enum Drive {
     },
 }
 
-/// A revolute joint between two bodies.
+/// How a joint moves its child: turning about its axis or sliding along it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum DofKind {
+    /// Revolute or continuous: positions in rad, velocities in rad/s.
+    Revolute,
+    /// Prismatic: positions in m, velocities in m/s.
+    Prismatic,
+}
+
+/// A movable joint between two bodies.
 #[derive(Clone, Debug)]
 pub struct Joint {
     /// URDF joint name.
@@ -50,8 +61,10 @@ pub struct Joint {
     pub child_body: usize,
     /// Child body frame in the parent body frame at zero angle.
     pub origin: Isometry3<f64>,
-    /// Rotation axis in the child body frame (and so in the joint frame).
+    /// Rotation or translation axis in the child body frame (and so in the joint frame).
     pub axis: Unit<Vector3<f64>>,
+    /// Turning or sliding (a mimic's own URDF type, which may differ from its master's).
+    pub kind: DofKind,
     /// Interface DoF or mimic.
     pub drive: Drive,
 }
@@ -63,11 +76,13 @@ pub struct Dof {
     pub name: String,
     /// The joint this DoF drives directly.
     pub joint: usize,
-    /// Lower position limit, rad (`-inf` for continuous joints).
+    /// Turning (rad) or sliding (m): the unit of every value below.
+    pub kind: DofKind,
+    /// Lower position limit, rad or m (`-inf` for continuous joints).
     pub lower: f64,
-    /// Upper position limit, rad (`+inf` for continuous joints).
+    /// Upper position limit, rad or m (`+inf` for continuous joints).
     pub upper: f64,
-    /// Largest velocity the servo accepts, rad/s (`inf` when not given).
+    /// Largest velocity the servo accepts, rad/s or m/s (`inf` when not given).
     pub max_velocity: f64,
 }
 
@@ -85,6 +100,17 @@ pub enum Shape {
     },
     /// A sphere, m.
     Sphere(f64),
+}
+
+impl Shape {
+    /// Whether the shape has a surface to put skin on (no edge or radius is zero).
+    pub(crate) fn has_area(&self) -> bool {
+        match *self {
+            Shape::Box(size) => size.min() > 0.0,
+            Shape::Cylinder { radius, length } => radius > 0.0 && length > 0.0,
+            Shape::Sphere(r) => r > 0.0,
+        }
+    }
 }
 
 /// Where skin can go on a link.
@@ -118,7 +144,7 @@ pub struct Link {
     pub surface: Surface,
 }
 
-/// A kinematic tree of rigid bodies driven by revolute DoFs.
+/// A kinematic tree of rigid bodies driven by revolute and prismatic DoFs.
 #[derive(Clone, Debug)]
 pub struct Robot {
     name: String,
@@ -135,11 +161,10 @@ impl Robot {
         urdf::parse(xml)
     }
 
-    /// A robot from a URDF file.
+    /// A robot from a URDF file (at most [`limits::MAX_BYTES`] long, which is
+    /// checked before the file is read whole).
     pub fn from_urdf_file(path: &std::path::Path) -> Result<Robot, UrdfError> {
-        let xml = std::fs::read_to_string(path)
-            .map_err(|e| UrdfError::Read { path: path.display().to_string(), source: e })?;
-        urdf::parse(&xml)
+        urdf::parse(&urdf::read_file(path)?)
     }
 
     /// The robot's name.
@@ -187,7 +212,7 @@ impl Robot {
         Ok(())
     }
 
-    /// Angle of every joint for the DoF positions `q` (mimics follow).
+    /// Position (rad or m) of every joint for the DoF positions `q` (mimics follow).
     pub fn joint_angles(&self, q: &[f64]) -> Vec<f64> {
         self.joints.iter().map(|j| drive_value(j.drive, q)).collect()
     }
