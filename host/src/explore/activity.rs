@@ -93,6 +93,9 @@ pub enum Doubt {
     NearAxis,
     /// The accelerometer saturated during the measurement.
     Saturated,
+    /// The DoF turns the cells it moves by different rotations (coupled
+    /// joints, mimics), so a cell that shows no change may still move.
+    Coupled,
 }
 
 /// Cells x DoFs of [`Activity`] entries, each with what decided it.
@@ -200,6 +203,11 @@ pub(crate) struct Evidence {
     pub trace_saturated: bool,
 }
 
+/// How far (as a fraction of the median change) a moved cell's gravity
+/// change may differ from the others' before the DoF counts as coupled:
+/// sensor gains and misalignment stay well within it.
+const COUPLED_SPREAD: f64 = 0.25;
+
 /// What one step says about one cell.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Reading {
@@ -278,22 +286,35 @@ impl Step {
             changed.sort_by(f64::total_cmp);
             (changed[changed.len() / 2] / 2.0).max(floor)
         };
-        // A lever below this can be the base rocking, not a movement. With
-        // the axis vertical the reaction is about the vertical and the base
-        // does not rock, so a smaller lever shows a movement.
+        // One joint turns every cell it moves by the same rotation. Changes
+        // that differ more than that (mimic joints with other ratios or
+        // axes) mean a moved cell may show none: no "still" from gravity.
+        let median = changed.get(changed.len() / 2).copied().unwrap_or(0.0);
+        let coupled = self.evidence.iter().any(|e| {
+            !e.static_saturated && e.static_mps2 - k * e.static_sigma > floor && {
+                let spread = (e.static_mps2 - median).abs() - k * e.static_sigma;
+                spread > COUPLED_SPREAD * median
+            }
+        });
+        // A lever below this can be the base rocking, not a movement: a
+        // standing robot still rings from the step before. Repeats of a
+        // blind step, pooled once the ringing is gone, go down to
+        // `axis_lever_m` (see `structure`).
         let lever_moved = match kind {
             DofKind::Prismatic => 0.5,
-            DofKind::Revolute if blind => cfg.axis_lever_m,
             DofKind::Revolute => cfg.lever_threshold_m,
         };
+        // Where the static test has power it decides alone: a standing
+        // robot rocks with every horizontal joint acceleration, near its
+        // resonance enough to fake a lever of a centimetre.
         let readings = self
             .evidence
             .iter()
             .map(|e| {
                 let static_known = !e.static_saturated && !blind;
                 let static_hi = static_known && e.static_mps2 - k * e.static_sigma > threshold;
-                let static_lo = static_known && e.static_mps2 + k * e.static_sigma < threshold;
-                let lever_hi = e.lever_m - k * e.lever_sigma > lever_moved;
+                let static_lo = static_known && !coupled && e.static_mps2 + k * e.static_sigma < threshold;
+                let lever_hi = (blind || e.static_saturated) && e.lever_m - k * e.lever_sigma > lever_moved;
                 let lever_lo = !e.trace_saturated && e.lever_m + k * e.lever_sigma < lever_moved;
                 if static_hi || lever_hi {
                     Reading::Moved { by_static: static_hi }
@@ -304,7 +325,9 @@ impl Step {
                     Reading::Still { by_static: false }
                 } else if e.static_saturated || e.trace_saturated {
                     Reading::Unknown(Doubt::Saturated)
-                } else if blind && lever_lo {
+                } else if coupled {
+                    Reading::Unknown(Doubt::Coupled)
+                } else if blind && !e.trace_saturated && e.lever_m + k * e.lever_sigma < cfg.axis_lever_m {
                     Reading::Unknown(Doubt::NearAxis)
                 } else {
                     Reading::Unknown(Doubt::Noise)

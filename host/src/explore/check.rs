@@ -125,43 +125,57 @@ fn learned_tree(tree: &KinematicTree) -> Shape {
     }
 }
 
-/// The true tree from the robot's joint chain, or `None` where the skin
-/// cannot show one: no cell on the root, a DoF that moves no cell, or a
+/// The true tree from the robot's joint chain, as far as a skin can show
+/// it: bodies whose cells the same DoFs move (a mimic's body and its
+/// master's) are one body part, and a joint is the DoFs between a body
+/// part and the nearest body with cells above it. `None` where the skin
+/// cannot show a tree: no cell on the root, a DoF that moves no cell, or a
 /// DoF between more than one pair of body parts (a bare body carrying two
-/// branches, or a mimic across branches).
+/// branches).
 fn true_tree(world: &World) -> Option<Shape> {
     let robot = world.robot();
-    let mut on_body: Vec<BTreeSet<u16>> = vec![BTreeSet::new(); robot.bodies().len()];
+    let bodies = robot.bodies().len();
+    let mut on_body: Vec<BTreeSet<u16>> = vec![BTreeSet::new(); bodies];
     for c in world.skin().cells() {
         on_body[c.body].insert(c.id.0);
     }
-    if on_body[0].is_empty() {
+    let names: Vec<&str> = robot.dofs().iter().map(|d| d.name.as_str()).collect();
+    // The DoFs on each body's path from the root; parents come first.
+    let mut path: Vec<BTreeSet<&str>> = vec![BTreeSet::new(); bodies];
+    for b in 1..bodies {
+        let j = &robot.joints()[robot.bodies()[b].parent_joint?];
+        let (Drive::Dof(d) | Drive::Mimic { dof: d, .. }) = j.drive;
+        path[b] = path[j.parent_body].clone();
+        path[b].insert(names[d]);
+    }
+    // Body parts: the cells of all bodies with one path.
+    let mut parts: BTreeMap<&BTreeSet<&str>, BTreeSet<u16>> = BTreeMap::new();
+    for b in (0..bodies).filter(|&b| !on_body[b].is_empty()) {
+        parts.entry(&path[b]).or_default().extend(on_body[b].iter().copied());
+    }
+    if !parts.contains_key(&BTreeSet::new()) {
         return None;
     }
-    let names: Vec<&str> = robot.dofs().iter().map(|d| d.name.as_str()).collect();
     let mut joints = BTreeSet::new();
-    let mut used = vec![0usize; names.len()];
-    for (b, cells) in on_body.iter().enumerate().skip(1).filter(|(_, c)| !c.is_empty()) {
-        let mut dofs = BTreeSet::new();
+    for b in (1..bodies).filter(|&b| !on_body[b].is_empty() && !path[b].is_empty()) {
         let mut at = b;
         while let Some(j) = robot.bodies()[at].parent_joint {
-            let joint = &robot.joints()[j];
-            match joint.drive {
-                Drive::Dof(d) | Drive::Mimic { dof: d, .. } => {
-                    if dofs.insert(names[d].to_owned()) {
-                        used[d] += 1;
-                    }
-                }
-            }
-            at = joint.parent_body;
-            if !on_body[at].is_empty() {
+            at = robot.joints()[j].parent_body;
+            if !on_body[at].is_empty() && path[at] != path[b] {
                 break;
             }
         }
-        joints.insert((dofs, on_body[at].clone(), cells.clone()));
+        let dofs = path[b].difference(&path[at]).map(|d| d.to_string()).collect();
+        joints.insert((dofs, parts[&path[at]].clone(), parts[&path[b]].clone()));
+    }
+    let mut used = vec![0usize; names.len()];
+    for (dofs, _, _) in &joints {
+        for d in dofs {
+            used[names.iter().position(|n| n == d)?] += 1;
+        }
     }
     if used.iter().any(|&n| n != 1) {
         return None;
     }
-    Some(Shape { parts: on_body.into_iter().filter(|c| !c.is_empty()).collect(), joints })
+    Some(Shape { parts: parts.into_values().collect(), joints })
 }

@@ -223,6 +223,13 @@ pub fn explore<R: Robot + SampleSource>(
 /// Why entry (`u`, `d`) stayed undecided, in words.
 fn reason(outcome: &structure::Outcome, cfg: &StructureConfig, names: &[String], u: usize, d: usize) -> String {
     let dofs = names.len();
+    let activity = &outcome.activity;
+    if !(0..activity.cells()).any(|v| activity.is_moved(v, d)) {
+        return format!(
+            "the DoF moved no cell in any of the {} postures tried: it carries no skin, or its axis stays aligned with gravity and its cells sit on it",
+            outcome.postures.len()
+        );
+    }
     match outcome.doubts[u * dofs + d] {
         Some(Doubt::NearAxis) => {
             let tilts = &outcome.tilted_by[d];
@@ -248,6 +255,7 @@ fn reason(outcome: &structure::Outcome, cfg: &StructureConfig, names: &[String],
             outcome.longest_average_s, cfg.budget_s
         ),
         Some(Doubt::Saturated) => "the accelerometer saturated in every measurement (use a larger range)".to_owned(),
+        Some(Doubt::Coupled) => "the DoF turns the cells it moves by different rotations (coupled or mimic joints), so a cell that shows no gravity change may still move with it, and no lever showed".to_owned(),
         None => format!("not measured again: the robot-time budget of {:.0} s is spent", cfg.budget_s),
     }
 }

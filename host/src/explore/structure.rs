@@ -89,6 +89,8 @@ impl Default for StructureConfig {
 const MAX_EFFORT: u32 = 10;
 /// Repeats of a step whose static test is blind, pooled for the lever.
 const MAX_REPEATS: u32 = 4096;
+/// Blind repeats of one DoF in a row.
+const BATCH: u32 = 16;
 /// The effort from which steps stop growing: twice the configured step.
 const MAX_GROWTH_EFFORT: u32 = 4;
 /// Carrying DoFs turned at most to tilt one DoF's axis.
@@ -185,6 +187,7 @@ pub(crate) fn explore<R: Robot + SampleSource>(
         grow: vec![0; dofs],
         tilt: vec![None; dofs],
         last_blind: false,
+        stepped: [None; 2],
         pooled: vec![[0.0; 4]; cells * dofs],
         direction: vec![1.0; dofs],
         tilted_by: vec![Vec::new(); dofs],
@@ -261,6 +264,8 @@ struct Explorer<'x, 'r, R> {
     tilt: Vec<Option<usize>>,
     /// The last measurement's static test was blind.
     last_blind: bool,
+    /// The DoFs of the step before the last and of the one before that.
+    stepped: [Option<usize>; 2],
     /// Per entry, the inverse-variance weighted sum of the lever vectors of
     /// blind steps in the start posture and the sum of weights.
     pooled: Vec<[f64; 4]>,
@@ -309,12 +314,18 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
             }
         }
         if noisy && self.blind[d] && self.tilt[d].is_none() {
-            // Only the lever can tell: more of the same (larger) step,
-            // pooled; longer still windows would not help.
+            // Only the lever can tell: more of the same (larger) step, a
+            // batch in a row so the base stops ringing, pooled; longer
+            // still windows would not help.
             if self.repeats[d] < MAX_REPEATS {
-                self.repeats[d] += 1;
                 self.grow[d] = MAX_GROWTH_EFFORT;
-                self.measure(m, d)?;
+                for _ in 0..BATCH {
+                    self.repeats[d] += 1;
+                    self.measure(m, d)?;
+                    if self.repeats[d] >= MAX_REPEATS || self.out_of_time() || !self.noisy(m, d) {
+                        break;
+                    }
+                }
                 return Ok(true);
             }
         } else if noisy && !self.blind[d] && self.effort[d] < MAX_EFFORT {
@@ -323,6 +334,15 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
             return Ok(true);
         }
         Ok(false)
+    }
+
+    /// DoF `d` has entries undecided for noise or saturation.
+    fn noisy(&self, m: &ActivityMatrix, d: usize) -> bool {
+        let dofs = m.dofs();
+        (0..m.cells()).any(|u| {
+            m.get(u, d) == Activity::Unknown
+                && matches!(self.doubts[u * dofs + d], Some(Doubt::Noise | Doubt::Saturated))
+        })
     }
 
     /// Turns carrier `p` to tilt DoF `d`'s axis, measures `d` there (with
@@ -429,7 +449,9 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
                     let i = u * dofs + d;
                     let k = self.cfg.confidence_sigmas;
                     let (mut doubt, mut bound) = (doubt, e.lever_m + k * e.lever_sigma);
-                    if blind && posture == 0 && doubt != Doubt::Saturated {
+                    // Pool only steps that follow a step of the same blind
+                    // DoF: another DoF's step leaves the base ringing.
+                    if blind && posture == 0 && doubt != Doubt::Saturated && self.stepped[0] == Some(d) {
                         match self.pool(i, e) {
                             Some((lever, sigma)) if lever - k * sigma > self.cfg.axis_lever_m => {
                                 m.or(u, d, Activity::Moved, Basis::Dynamic { posture });
@@ -531,6 +553,7 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
             DofKind::Prismatic => self.cfg.step_m,
         };
         let move_s = self.cfg.move_s * (delta.abs() / base).sqrt().max(1.0);
+        self.stepped = [self.stepped[1], Some(d)];
         let trace = self.s.trace(d, move_s + self.cfg.settle_s, |t| raised_cosine(delta, move_s, t))?;
         let post = self.s.window(average_s)?;
         let step = Step::measure(&self.pre, &post, &trace, self.s.tick_s(), self.s.lsb_mps2());
