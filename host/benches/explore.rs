@@ -5,14 +5,20 @@
 //! explores `SKIN_BENCH_SEEDS` seeds (default 200) and prints the robot time
 //! (mean and worst), the wall time per exploration, the tree error rate and
 //! the sensory-motor map error; criterion then times one exploration per
-//! setting. `cargo bench -p skin-host --bench explore`.
+//! setting. Then a noise sweep: the default setting at 1, 3, 10 and 30
+//! times the datasheet's accelerometer noise over `SKIN_BENCH_NOISE_SEEDS`
+//! seeds (default 20), robot time and wrong trees against noise.
+//! `cargo bench -p skin-host --bench explore`.
 
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use skin_host::explore::check::Trial;
 use skin_host::explore::{ExploreConfig, StructureConfig};
+use skin_sim::accel::Bma250Config;
 use skin_sim::robot::hrp2;
+use skin_sim::skin::Skin;
+use skin_sim::world::{World, WorldConfig};
 
 /// The paper's setting, then the sweep of (step rad, settle s, average s)
 /// with one postural run and the default 0.2 s per step.
@@ -107,9 +113,53 @@ fn sweep(c: &mut Criterion) {
     }
 }
 
+/// The built-in robot and skin with `scale` times the datasheet's noise.
+fn noisy_world(seed: u64, scale: f64) -> World {
+    let robot = hrp2::robot();
+    let skin = Skin::with_counts(&robot, &hrp2::SKIN, seed).expect("the built-in skin fits");
+    let accel = Bma250Config::default().with_noise_scale(scale);
+    World::new(robot, skin, WorldConfig { accel, seed, ..WorldConfig::default() })
+}
+
+fn noise_sweep(c: &mut Criterion) {
+    let seeds: u64 = std::env::var("SKIN_BENCH_NOISE_SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(20);
+    println!(
+        "\n{:>5} | {:>12} {:>13} {:>8} | {:>10} {:>10}",
+        "noise", "robot s mean", "robot s worst", "wall ms", "wrong tree", "diagnostic"
+    );
+    let cfg = ExploreConfig::default();
+    for scale in [1.0, 3.0, 10.0, 30.0] {
+        let mut t = Tally::default();
+        for seed in 0..seeds {
+            let trial = Trial::run(noisy_world(seed, scale), &cfg);
+            t.wall_s += trial.wall_time_s;
+            match &trial.outcome {
+                Ok((found, truth)) => {
+                    t.time_s += found.structure_time_s;
+                    t.worst_s = t.worst_s.max(found.structure_time_s);
+                    t.ok += 1;
+                    t.wrong += usize::from(!truth.tree_correct);
+                }
+                Err(_) => t.failed += 1,
+            }
+        }
+        println!(
+            "{scale:>5} | {:>12.2} {:>13.2} {:>8.1} | {:>4}/{seeds:<5} {:>4}/{seeds:<5}",
+            t.time_s / f64::from(t.ok.max(1)),
+            t.worst_s,
+            1e3 * t.wall_s / seeds as f64,
+            t.wrong,
+            t.failed,
+        );
+        c.bench_function(&format!("explore at {scale} x datasheet noise"), |b| {
+            b.iter(|| black_box(Trial::run(noisy_world(0, scale), &cfg).tree_correct()))
+        });
+    }
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(10);
-    targets = sweep
+    targets = sweep, noise_sweep
 }
 criterion_main!(benches);

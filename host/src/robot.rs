@@ -25,6 +25,11 @@ pub enum RobotError {
     /// A NaN or infinite command.
     #[error("the command for DoF {0} is not finite")]
     NotFinite(usize),
+    /// Position feedback that is NaN or infinite: a broken encoder or driver.
+    #[error(
+        "the robot reports a position for DoF {0} that is not finite (NaN or infinite): check its encoder and driver"
+    )]
+    FeedbackNotFinite(usize),
     /// The robot or skin stopped answering.
     #[error("lost contact: {0}")]
     Disconnected(String),

@@ -38,6 +38,36 @@ fn explore_prints_the_issues_json() {
     assert_eq!(v["truth"]["cell_links"].as_object().unwrap().len(), 74);
     assert_eq!(v["truth"]["tree_correct"], true);
     assert!(v["truth"]["smm_mean_abs_error"].as_f64().unwrap() < 0.1);
+    // Every posture measured in, the start first, one position per DoF.
+    let postures = v["postures"].as_array().unwrap();
+    assert!(!postures.is_empty());
+    assert!(postures.iter().all(|p| p.as_array().unwrap().len() == 14));
+    let evidence = &v["evidence"];
+    let decided: u64 = ["static", "dynamic", "tree", "clearance"].iter().map(|k| evidence[k].as_u64().unwrap()).sum();
+    assert_eq!(decided, 74 * 14);
+}
+
+#[test]
+fn an_undecided_exploration_names_each_entry_and_why() {
+    // A level UR5-like arm: nothing tilts its vertical first axis.
+    let urdf = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../sim/tests/fixtures/robots/ur5_robot.urdf");
+    let urdf = urdf.to_str().unwrap();
+    let out = skin(&["explore", "--urdf", urdf, "--seed", "1", "--json"]);
+    assert!(!out.status.success());
+    let v: Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    let undecided = v["undecided"].as_array().unwrap();
+    assert!(!undecided.is_empty());
+    for e in undecided {
+        assert_eq!(e["dof"], "shoulder_pan_joint", "{e}");
+        assert!(e["cell"].as_u64().is_some());
+        assert!(e["reason"].as_str().unwrap().contains("--axis-clearance"), "{e}");
+    }
+    // Declaring the mounting clearance settles them.
+    let out = skin(&["explore", "--urdf", urdf, "--seed", "1", "--json", "--axis-clearance", "0.02"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    assert_eq!(v["truth"]["tree_correct"], true);
+    assert!(v["evidence"]["clearance"].as_u64().unwrap() > 0);
 }
 
 #[test]
@@ -57,6 +87,9 @@ fn mistakes_get_a_message_not_a_panic() {
         (&["explore", "--urdf", "/nonexistent/robot.urdf"][..], "cannot read URDF file /nonexistent/robot.urdf"),
         (&["explore", "--cells-per-link", "0"][..], "the skin has no cells"),
         (&["explore", "--noise-scale", "-1"][..], "--noise-scale must be a finite number >= 0"),
+        (&["explore", "--axis-clearance", "-0.1"][..], "--axis-clearance must be a finite length >= 0 m"),
+        (&["explore", "--axis-clearance", "inf"][..], "--axis-clearance must be a finite length >= 0 m"),
+        (&["explore", "--time-budget", "0"][..], "--time-budget must be a finite number of seconds > 0"),
         (&["explore", "--skin", "skin.yaml"][..], "cannot read skin file skin.yaml"),
         (&["explore", "--cells-per-link", "2", "--skin", "a.toml"][..], "cannot be used with"),
     ] {

@@ -528,3 +528,48 @@ fn public_robot_descriptions_are_learned_or_diagnosed_never_wrong() {
     );
     assert_eq!(wrong, 0);
 }
+
+/// The simulated robot whose encoder of one DoF breaks after some ticks.
+struct BrokenEncoder {
+    inner: SimRobot,
+    ticks: u32,
+}
+
+impl skin_host::robot::Robot for BrokenEncoder {
+    fn dof_names(&self) -> Vec<String> {
+        self.inner.dof_names()
+    }
+    fn command_velocities(&mut self, omega: &[f64]) -> Result<(), skin_host::robot::RobotError> {
+        self.inner.command_velocities(omega)
+    }
+    fn positions(&self) -> Vec<f64> {
+        let mut q = self.inner.positions();
+        if self.ticks > 100 {
+            q[3] = f64::NAN;
+        }
+        q
+    }
+}
+
+impl skin_host::robot::SampleSource for BrokenEncoder {
+    fn tick_s(&self) -> f64 {
+        self.inner.tick_s()
+    }
+    fn next_tick(
+        &mut self,
+        out: &mut Vec<(skin_protocol::Address, skin_protocol::Sample)>,
+    ) -> Result<(), skin_host::robot::RobotError> {
+        self.ticks += 1;
+        self.inner.next_tick(out)
+    }
+}
+
+#[test]
+fn non_finite_position_feedback_is_refused_at_once() {
+    use skin_host::robot::RobotError;
+    let mut rig = BrokenEncoder { inner: SimRobot::new(skin_sim::robot::hrp2::world(1)), ticks: 0 };
+    let e = explore(&mut rig, &ExploreConfig::default(), &mut |_| ()).unwrap_err();
+    assert!(matches!(e, ExploreError::Robot(RobotError::FeedbackNotFinite(3))), "{e}");
+    assert!(rig.ticks <= 102, "refused at the first bad feedback, not after {} ticks", rig.ticks);
+    assert!(e.to_string().contains("DoF 3"), "{e}");
+}

@@ -12,7 +12,7 @@ use skin_protocol::{Address, Sample};
 use skin_sim::accel::{counts_per_g, G0};
 
 use super::ExploreError;
-use crate::robot::{Robot, SampleSource};
+use crate::robot::{Robot, RobotError, SampleSource};
 
 /// Proportional gain of position corrections, 1/s.
 const POSITION_GAIN: f64 = 8.0;
@@ -149,6 +149,9 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
         self.rig.command_velocities(&self.command)?;
         self.samples.clear();
         self.rig.next_tick(&mut self.samples)?;
+        if let Some(d) = self.rig.positions().iter().position(|q| !q.is_finite()) {
+            return Err(RobotError::FeedbackNotFinite(d).into());
+        }
         self.elapsed_s += self.tick_s;
         self.fresh.fill(false);
         for (addr, s) in &self.samples {
