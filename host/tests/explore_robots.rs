@@ -272,6 +272,12 @@ fn the_sensory_motor_map_matches_the_tangential_directions() {
 /// A skin file with one cell on the shoulder link `distance` m from the
 /// vertical first axis, facing up, plus three cells per link elsewhere.
 fn near_axis_skin(robot: &Robot, distance: f64, seed: u64) -> Skin {
+    with_one_more_cell(robot, seed, "shoulder_link", [distance, 0.0, 0.06])
+}
+
+/// Three cells per link for `seed`, written as a skin file, and one more
+/// cell on `link` at `xyz` (link frame, facing along the link's z).
+fn with_one_more_cell(robot: &Robot, seed: u64, link: &str, xyz: [f64; 3]) -> Skin {
     let mut toml = String::new();
     for c in Skin::per_link(robot, 3, seed).unwrap().cells() {
         let in_link = robot.link(&c.link).unwrap().in_body.inverse() * c.pose;
@@ -280,7 +286,8 @@ fn near_axis_skin(robot: &Robot, distance: f64, seed: u64) -> Skin {
         writeln!(toml, "[[link]]\nname = \"{}\"", c.link).unwrap();
         writeln!(toml, "cell = [{{ xyz = [{}, {}, {}], rpy = [{roll}, {pitch}, {yaw}] }}]", p.x, p.y, p.z).unwrap();
     }
-    writeln!(toml, "[[link]]\nname = \"shoulder_link\"\ncell = [{{ xyz = [{distance}, 0.0, 0.06] }}]").unwrap();
+    let [x, y, z] = xyz;
+    writeln!(toml, "[[link]]\nname = \"{link}\"\ncell = [{{ xyz = [{x}, {y}, {z}] }}]").unwrap();
     Skin::from_toml_str(robot, &toml).unwrap()
 }
 
@@ -313,16 +320,7 @@ fn a_one_millimetre_lever_on_a_tiltable_axis_is_decided_by_tilting() {
     // The fifth axis of the UR5-like arm is vertical at home, and the
     // DoFs before it can tilt it: a cell 1 mm from it is decided.
     let robot = Robot::from_urdf_str(&ur5_like()).unwrap();
-    let mut toml = String::new();
-    for c in Skin::per_link(&robot, 3, 8).unwrap().cells() {
-        let in_link = robot.link(&c.link).unwrap().in_body.inverse() * c.pose;
-        let p = in_link.translation.vector;
-        let (roll, pitch, yaw) = in_link.rotation.euler_angles();
-        writeln!(toml, "[[link]]\nname = \"{}\"", c.link).unwrap();
-        writeln!(toml, "cell = [{{ xyz = [{}, {}, {}], rpy = [{roll}, {pitch}, {yaw}] }}]", p.x, p.y, p.z).unwrap();
-    }
-    writeln!(toml, "[[link]]\nname = \"wrist_2_link\"\ncell = [{{ xyz = [0.001, 0.0, 0.06] }}]").unwrap();
-    let skin = Skin::from_toml_str(&robot, &toml).unwrap();
+    let skin = with_one_more_cell(&robot, 8, "wrist_2_link", [0.001, 0.0, 0.06]);
     let world = World::new(robot, skin, WorldConfig { base: BaseConfig::rigid(), ..WorldConfig::default() });
     let trial = Trial::run(world, &declaring(0.02));
     verdict(&trial).unwrap();
