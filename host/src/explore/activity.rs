@@ -208,6 +208,10 @@ pub(crate) struct Evidence {
 /// sensor gains and misalignment stay well within it.
 const COUPLED_SPREAD: f64 = 0.25;
 
+/// A lever this many times `lever_threshold_m` is a movement even where
+/// the base rocks: three times the largest rocking seen.
+const SURE_LEVER: f64 = 3.0;
+
 /// What one step says about one cell.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Reading {
@@ -290,11 +294,15 @@ impl Step {
         // that differ more than that (mimic joints with other ratios or
         // axes) mean a moved cell may show none: no "still" from gravity.
         let median = changed.get(changed.len() / 2).copied().unwrap_or(0.0);
+        // So does a cell that clearly moved without turning (a parallel
+        // gripper's fingertip, its mimics' turns cancelling).
         let coupled = self.evidence.iter().any(|e| {
-            !e.static_saturated && e.static_mps2 - k * e.static_sigma > floor && {
+            let unequal = !e.static_saturated && e.static_mps2 - k * e.static_sigma > floor && {
                 let spread = (e.static_mps2 - median).abs() - k * e.static_sigma;
                 spread > COUPLED_SPREAD * median
-            }
+            };
+            let unturned = !blind && e.static_mps2 + k * e.static_sigma < threshold;
+            unequal || (unturned && e.lever_m - k * e.lever_sigma > SURE_LEVER * cfg.lever_threshold_m)
         });
         // A lever below this can be the base rocking, not a movement: a
         // standing robot still rings from the step before. Repeats of a
@@ -314,7 +322,9 @@ impl Step {
                 let static_known = !e.static_saturated && !blind;
                 let static_hi = static_known && e.static_mps2 - k * e.static_sigma > threshold;
                 let static_lo = static_known && !coupled && e.static_mps2 + k * e.static_sigma < threshold;
-                let lever_hi = (blind || e.static_saturated) && e.lever_m - k * e.lever_sigma > lever_moved;
+                let lever = e.lever_m - k * e.lever_sigma;
+                let lever_hi = (lever > lever_moved && (blind || e.static_saturated))
+                    || (coupled && lever > SURE_LEVER * cfg.lever_threshold_m);
                 let lever_lo = !e.trace_saturated && e.lever_m + k * e.lever_sigma < lever_moved;
                 if static_hi || lever_hi {
                     Reading::Moved { by_static: static_hi }
