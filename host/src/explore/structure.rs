@@ -305,8 +305,8 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
                     self.effort[d] += 1;
                     Some(p)
                 }
-                Some(_) => None,
-                None => self.next_carrier(m, d),
+                // Averaging is spent there: another posture, tilted further.
+                Some(_) | None => self.next_carrier(m, d),
             };
             if let Some(p) = carrier {
                 self.measure_tilted(m, d, p)?;
