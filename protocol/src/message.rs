@@ -324,7 +324,29 @@ impl Setting {
             Setting::Traffic(_) | Setting::AccelRange(_) | Setting::Calibrate => true,
         }
     }
+
+    /// Where a cell keeps this setting among [`SETTING_SLOTS`]: a later
+    /// write of the same kind (and level, channel or cell) replaces it.
+    /// `None` for a command (calibrate), which is not state to restore.
+    pub fn slot(&self) -> Option<usize> {
+        Some(match *self {
+            Setting::SampleRateHz(_) => 0,
+            Setting::Traffic(_) => 1,
+            Setting::FilterCutoffHz(_) => 2,
+            Setting::ForceLevel { level, .. } => 2 + usize::from(level.clamp(1, 4)),
+            Setting::ProximityLevel { level, .. } => 6 + usize::from(level.clamp(1, 4)),
+            Setting::Hysteresis(_) => 11,
+            Setting::Delta { channel, .. } => 12 + usize::from(channel.min(7)),
+            Setting::ForceGain { cell, .. } => 20 + usize::from(cell.min(2)),
+            Setting::AccelRange(_) => 23,
+            Setting::Calibrate => return None,
+        })
+    }
 }
+
+/// Slots of the settings a cell keeps: one per kind of [`Setting`] (and per
+/// level, channel or cell).
+pub const SETTING_SLOTS: usize = 24;
 
 /// A configuration write, addressed to one cell or broadcast.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, MaxSize)]
