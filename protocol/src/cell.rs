@@ -149,14 +149,7 @@ impl<M: Meta> Cell<M> {
         }
     }
 
-    fn control(
-        &mut self,
-        port: Port,
-        frame: &Frame,
-        now_us: u64,
-        store: &mut impl IdStore,
-        stamp: &mut impl Stamp<M>,
-    ) {
+    fn control(&mut self, port: Port, frame: &Frame, now_us: u64, store: &mut impl IdStore, stamp: &mut impl Stamp<M>) {
         match frame.message() {
             Ok(m) => {
                 let outs = &mut Stamped { router: &mut self.router, stamp };
@@ -240,7 +233,12 @@ mod tests {
                 let beacon = crate::message::Beacon { interface: 0, seq, hops: 0 };
                 let frame = Frame::new(Address(0xFF00), Address::BROADCAST, &Message::Beacon(beacon));
                 let now = u64::from(seq) * 10_000 - 9_000;
-                cell.receive(Received { port: Port::P2, bytes: frame.as_bytes(), meta: None }, now, &mut store, &mut ());
+                cell.receive(
+                    Received { port: Port::P2, bytes: frame.as_bytes(), meta: None },
+                    now,
+                    &mut store,
+                    &mut (),
+                );
                 cell.poll(now, &mut ());
             }
         };

@@ -114,7 +114,12 @@ impl Net {
             self.trace.push((now, to, *frame.as_bytes()));
             match to {
                 End::Cell(i, p) if now >= self.boot_at[i] => {
-                    self.cells[i].receive(Received { port: p, bytes: frame.as_bytes(), meta: None }, now, &mut self.stores[i], &mut ());
+                    self.cells[i].receive(
+                        Received { port: p, bytes: frame.as_bytes(), meta: None },
+                        now,
+                        &mut self.stores[i],
+                        &mut (),
+                    );
                 }
                 End::Cell(..) => {}
                 End::Sink(k) => {

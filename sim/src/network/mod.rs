@@ -1,7 +1,7 @@
 //! A discrete-event simulator of skin networks (section 2.2).
 //!
-//! Every simulated cell runs the firmware's own protocol code
-//! ([`skin_protocol::cell::Cell`] and [`skin_protocol::processing::Processor`]),
+//! Every simulated cell runs the firmware's own cell application
+//! ([`skin_protocol::app::CellApp`]),
 //! every interface port a [`skin_protocol::organize::Sink`], on a virtual
 //! clock, over links timed as on the real skin (4 Mbit/s UART, 20-byte
 //! frames, round-robin routing; 1 Gbit/s UDP at the interface).
@@ -32,7 +32,7 @@ pub mod topology;
 pub mod transport;
 
 pub use scenario::{Report, Scenario};
-pub use simulator::{HostDatagram, Network, NetworkConfig};
+pub use simulator::{HostDatagram, Network, NetworkConfig, SimCell, Stamper, Trace};
 pub use topology::Topology;
 
 /// What can go wrong building or running a network simulation.

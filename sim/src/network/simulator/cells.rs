@@ -1,15 +1,16 @@
 //! What happens in a cell: power-up, polls, samples, frames received and
 //! configuration writes, and the traces its router carries.
 
-use skin_protocol::app::CellApp;
+use skin_protocol::app::{CellApp, MemoryStore};
 use skin_protocol::cell::{Received, SendError};
 use skin_protocol::frame::Frame;
 use skin_protocol::message::{ConfigWrite, Message, Port};
-use skin_protocol::router::{Discard, Meta, Source, Stamp};
+use skin_protocol::organize::Config;
+use skin_protocol::router::{Counters, Discard, Meta, Source, Stamp};
 
 use super::super::ledger::DropReason;
 use super::wires::Signal;
-use super::{is_data, Event, Measurements, Network, Power, ALL_PORTS};
+use super::{add, is_data, Event, Measurements, Network, Power, ALL_PORTS};
 
 /// An upstream frame the simulator follows from its making to the host.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -43,13 +44,70 @@ impl Trace {
     }
 }
 
+/// A simulated cell: its application while powered, and its store (ID,
+/// offsets, settings), which survives a reboot as flash would.
+#[derive(Debug)]
+pub struct SimCell {
+    pub(super) app: Option<CellApp<MemoryStore, Trace>>,
+    /// The store as of the last power-off.
+    store: MemoryStore,
+    /// Router counters of earlier lives (before reboots).
+    pub(super) retired: Counters,
+}
+
+impl SimCell {
+    /// An unpowered cell whose store holds `store`.
+    pub fn new(store: MemoryStore) -> SimCell {
+        SimCell { app: None, store, retired: Counters::default() }
+    }
+
+    /// Boots the cell at `now_us` from its store: the ID and the settings
+    /// the host wrote come back, as in the firmware.
+    pub fn power_on(&mut self, config: Config, now_us: u64) {
+        self.app = Some(CellApp::new(config, self.store, now_us));
+    }
+
+    /// Cuts the power: the application is gone (it is returned, for the
+    /// books), the store stays.
+    pub fn power_off(&mut self) -> Option<CellApp<MemoryStore, Trace>> {
+        let app = self.app.take()?;
+        self.store = *app.store();
+        add(&mut self.retired, app.cell().router().counters());
+        Some(app)
+    }
+
+    /// The application while powered.
+    pub fn app(&self) -> Option<&CellApp<MemoryStore, Trace>> {
+        self.app.as_ref()
+    }
+
+    /// The application while powered, to drive it.
+    pub fn app_mut(&mut self) -> Option<&mut CellApp<MemoryStore, Trace>> {
+        self.app.as_mut()
+    }
+}
+
 /// Traces of the frames that enter the books in one call of a cell: made
 /// by it, or received without a trace.
-pub(super) struct Stamper {
+#[derive(Debug)]
+pub struct Stamper {
     now_ns: u64,
     processing_ns: u64,
     /// Frames that entered.
-    pub(super) entered: u64,
+    entered: u64,
+}
+
+impl Stamper {
+    /// The stamp of a call at `now_ns`, of a cell that takes
+    /// `processing_ns` to take in a frame.
+    pub fn new(now_ns: u64, processing_ns: u64) -> Stamper {
+        Stamper { now_ns, processing_ns, entered: 0 }
+    }
+
+    /// Frames that entered the books so far.
+    pub fn entered(&self) -> u64 {
+        self.entered
+    }
 }
 
 impl Stamp<Trace> for Stamper {
@@ -65,7 +123,7 @@ impl Stamp<Trace> for Stamper {
 
 impl Network {
     pub(super) fn stamper(&self) -> Stamper {
-        Stamper { now_ns: self.events.now_ns(), processing_ns: self.config.timing.processing_ns, entered: 0 }
+        Stamper::new(self.events.now_ns(), self.config.timing.processing_ns)
     }
 
     /// Books what a call of cell `i` stamped and what its router gave up.
@@ -93,9 +151,7 @@ impl Network {
         n.epoch += 1;
         n.sample_ns = self.events.now_ns() + phase_ns;
         self.events.at(n.sample_ns, Event::Sample(i, n.epoch));
-        let s = &mut self.stacks[i];
-        // The settings the host wrote are in the store: the cell applies them again.
-        s.app = Some(CellApp::new(self.config.organize, s.store, now_us));
+        self.stacks[i].power_on(self.config.organize, now_us);
         self.settle(i, ALL_PORTS);
     }
 
@@ -137,7 +193,9 @@ impl Network {
         let app = self.stacks[i].app.as_mut().expect("only powered cells receive");
         let write = match signal {
             Signal::Intact(frame) => app.receive_frame(p, frame, meta, now_ns / 1000, &mut stamp),
-            Signal::Corrupted(bytes) => app.receive(Received { port: p, bytes: &bytes, meta }, now_ns / 1000, &mut stamp),
+            Signal::Corrupted(bytes) => {
+                app.receive(Received { port: p, bytes: &bytes, meta }, now_ns / 1000, &mut stamp)
+            }
         };
         self.book(i, stamp);
         write

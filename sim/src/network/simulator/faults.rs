@@ -3,7 +3,7 @@
 use super::super::fault::{FaultKind, REBOOT_DOWN_NS};
 use super::super::ledger::DropReason;
 use super::wires::End;
-use super::{add, Event, Network, Power};
+use super::{Event, Network, Power};
 use crate::network::NetworkError;
 
 impl Network {
@@ -61,15 +61,11 @@ impl Network {
         self.pulses[c].power = power;
         self.pulses[c].poll_ns = u64::MAX;
         self.pulses[c].sample_ns = u64::MAX;
-        let s = &mut self.stacks[c];
-        let Some(app) = s.app.take() else { return };
+        let Some(app) = self.stacks[c].power_off() else { return };
         let router = app.cell().router();
-        add(&mut s.retired, router.counters());
         self.m.ledger.lost_at_power_off += router.queued() as u64;
         let traces = router.upstream_metas();
         let (lost, sensors) = traces.fold((0, 0), |(n, s), t| (n + 1, s + u64::from(t.frame.sensor)));
         self.m.ledger.drop_upstream(DropReason::DeadCell, lost, sensors);
-        // Flash outlives the power.
-        s.store = app.into_store();
     }
 }

@@ -57,8 +57,8 @@ use super::stimulus::{Stimulus, StimulusKind};
 use super::topology::{PortRef, Topology};
 use super::NetworkError;
 
-pub use cells::Trace;
 use cells::Followed;
+pub use cells::{SimCell, Stamper, Trace};
 use ethernet::Interface;
 use rest::Rest;
 use wires::{End, Signal};
@@ -182,17 +182,6 @@ struct Pulse {
     sample_ns: u64,
 }
 
-/// A simulated cell: its application while powered, and its store (ID,
-/// offsets, settings), which survives a reboot as flash would.
-#[derive(Debug)]
-struct Stack {
-    app: Option<CellApp<MemoryStore, Trace>>,
-    /// The store while the cell is off.
-    store: MemoryStore,
-    /// Router counters of earlier lives (before reboots).
-    retired: Counters,
-}
-
 #[derive(Debug)]
 enum Event {
     PowerOn(usize),
@@ -247,7 +236,7 @@ pub struct Network {
     frame_ns: u64,
     period_ns: u64,
     pulses: Vec<Pulse>,
-    stacks: Vec<Stack>,
+    stacks: Vec<SimCell>,
     /// Cells at rest, and how many.
     rests: Vec<Option<Rest>>,
     resting: usize,
@@ -346,9 +335,7 @@ impl Network {
         Ok(Network {
             frame_ns: config.timing.frame_ns(),
             period_ns: period_us * 1000,
-            stacks: (0..topology.cells())
-                .map(|_| Stack { app: None, store, retired: Counters::default() })
-                .collect(),
+            stacks: (0..topology.cells()).map(|_| SimCell::new(store)).collect(),
             rests: vec![None; topology.cells()],
             resting: 0,
             pulses,
@@ -376,12 +363,13 @@ impl Network {
 
     /// What every cell's store holds when it ships: the network's settings
     /// and offsets measured at the factory (the simulated sensors have none).
-    fn factory_store(config: &NetworkConfig) -> Result<MemoryStore, NetworkError> {
+    pub fn factory_store(config: &NetworkConfig) -> Result<MemoryStore, NetworkError> {
         let rate = Setting::SampleRateHz(config.rate_hz);
         if !rate.is_valid() {
             return Err(NetworkError::Flag(format!("rate {} Hz: use a rate in (0, 10000] Hz", config.rate_hz)));
         }
-        let deltas = (0u8..).zip(config.delta_counts).filter_map(|(channel, c)| Some(Setting::Delta { channel, counts: c? }));
+        let deltas =
+            (0u8..).zip(config.delta_counts).filter_map(|(channel, c)| Some(Setting::Delta { channel, counts: c? }));
         let settings = [rate, Setting::Traffic(config.traffic)].into_iter().chain(deltas);
         Ok(MemoryStore::with(Some([0; 8]), settings))
     }
@@ -467,7 +455,8 @@ impl Network {
     /// Upstream frames in queues, on wires, at interface ports or on the
     /// Ethernet, as followed by the simulator.
     pub fn upstream_in_network(&self) -> u64 {
-        let queued: usize = self.stacks.iter().filter_map(|s| s.app.as_ref()).map(|a| a.cell().router().upstream_queued()).sum();
+        let queued: usize =
+            self.stacks.iter().filter_map(|s| s.app.as_ref()).map(|a| a.cell().router().upstream_queued()).sum();
         let at_interfaces: usize =
             self.interfaces.iter().map(|i| i.up.iter().filter(|(_, c)| c.is_some()).count()).sum();
         (queued + at_interfaces) as u64 + self.followed_on_wires + self.followed_on_ethernet
@@ -593,7 +582,6 @@ impl Network {
             Event::Fault(f) => self.fault(f),
         }
     }
-
 }
 
 #[cfg(test)]
