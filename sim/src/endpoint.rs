@@ -29,7 +29,7 @@ use std::sync::{mpsc, Arc};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use skin_protocol::interface::MAX_DATAGRAM;
+use skin_protocol::interface::{Datagram, MAX_DATAGRAM};
 use skin_protocol::message::Neighbour;
 use skin_protocol::robot_link::{self, FromRobot, Refusal, ToRobot, MAX_DOFS, MAX_NAME};
 use skin_protocol::{Address, Sample};
@@ -183,7 +183,7 @@ impl Endpoint {
             )));
         }
         if world.robot().dofs().len() > MAX_DOFS {
-            return Err(NetworkError::Flag(format!("the robot link carries at most {MAX_DOFS} DoFs")));
+            return Err(NetworkError::TooManyDofs(world.robot().dofs().len()));
         }
         let network = Network::new(topology, config.network)?;
         let local = SocketAddr::new(config.robot.ip(), 0);
@@ -337,7 +337,7 @@ impl Endpoint {
             self.command.iter_mut().for_each(|w| *w = 0.0);
         }
         // Checked when it arrived: the right length, finite.
-        self.world.command(&self.command).map_err(|e| NetworkError::Flag(e.to_string()))?;
+        self.world.command(&self.command)?;
         self.take_orders();
         self.samples.clear();
         self.world.step(&mut self.samples);
@@ -353,7 +353,7 @@ impl Endpoint {
         self.network.feed(&self.raw)?;
         let until_ns = (self.world.time_s() * 1e9).round() as u64;
         while let Some(d) = self.network.step(until_ns) {
-            let port = usize::from(d.bytes[3]);
+            let port = usize::from(Datagram::parse(&d.bytes).map_err(NetworkError::Datagram)?.header().interface);
             self.ports[port].send_to(&d.bytes, self.host)?;
             self.served.datagrams_up += 1;
         }
@@ -454,7 +454,7 @@ impl Running {
                 }
                 Err(e) => {
                     let _ = tx.send(Err(e));
-                    return Err(NetworkError::Flag("the endpoint could not be built".into()));
+                    return Err(NetworkError::Stopped);
                 }
             };
             endpoint.serve(&flag)?;
@@ -463,14 +463,14 @@ impl Running {
         match rx.recv() {
             Ok(Ok((robot, interfaces))) => Ok(Running { robot, interfaces, stop, thread, orders, notes }),
             Ok(Err(e)) => Err(e),
-            Err(_) => Err(NetworkError::Flag("the endpoint thread ended before it was ready".into())),
+            Err(_) => Err(NetworkError::Stopped),
         }
     }
 
     /// Gives the person an order, carried out at the start of the next
     /// control period (an endpoint without a person refuses it).
     pub fn order(&self, order: Order) -> Result<(), NetworkError> {
-        self.orders.send(order).map_err(|_| NetworkError::Flag("the simulated robot has stopped".into()))
+        self.orders.send(order).map_err(|_| NetworkError::Stopped)
     }
 
     /// What the person said since the last call, oldest first.
@@ -481,7 +481,7 @@ impl Running {
     /// Stops serving and returns what the simulator knows.
     pub fn stop(self) -> Result<Truth, NetworkError> {
         self.stop.store(true, Ordering::Relaxed);
-        self.thread.join().map_err(|_| NetworkError::Flag("the simulated robot's thread panicked".into()))?
+        self.thread.join().map_err(|_| NetworkError::Panicked)?
     }
 }
 

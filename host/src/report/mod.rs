@@ -11,9 +11,9 @@ use serde::Serialize;
 
 use crate::explore::Exploration;
 use crate::grasping::{write_traces, GraspRun, Lesson};
-use crate::interface::Counters;
+use crate::interface::InterfaceCounters;
 use crate::pipeline::Organized;
-use figures::{tree_colour, Grid, Node};
+use figures::{tree_colour, DrawnNode, Grid};
 
 /// Why the report could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -137,15 +137,7 @@ impl LatencySection {
     /// From a histogram as (microseconds, frames).
     pub fn new(bins_us: Vec<(u64, u64)>, sensor_frames_lost: u64) -> LatencySection {
         let frames: u64 = bins_us.iter().map(|b| b.1).sum();
-        let quantile = |q: f64| {
-            let rank = ((q * frames as f64).ceil() as u64).max(1);
-            let mut seen = 0;
-            bins_us.iter().find(|(_, n)| {
-                seen += n;
-                seen >= rank
-            })
-        };
-        let at = |q: f64| quantile(q).map_or(0, |b| b.0);
+        let at = |q: f64| skin_sim::network::ledger::quantile(bins_us.iter().copied(), frames, q).unwrap_or(0);
         LatencySection {
             frames,
             p50_us: at(0.5),
@@ -210,7 +202,7 @@ pub struct Report {
     /// The organized skin.
     pub organization: Organized,
     /// What the interface counted.
-    pub interface: Counters,
+    pub interface: InterfaceCounters,
     /// The robot link's trouble.
     pub link: LinkSection,
     /// What the exploration learned.
@@ -353,11 +345,11 @@ impl Report {
 
     fn draw_tree(&mut self, dir: &Path) -> Result<(), ReportError> {
         let e = &self.exploration;
-        let nodes: Vec<Node> = e
+        let nodes: Vec<DrawnNode> = e
             .body_parts
             .iter()
             .enumerate()
-            .map(|(s, cells)| Node {
+            .map(|(s, cells)| DrawnNode {
                 label: format!("{s}: {}", cells.len()),
                 parent: (s > 0).then(|| e.joints.get(s - 1).map(|j| (j.parent_body_part, j.dofs.join("+")))).flatten(),
                 colour: tree_colour(if s == 0 { 3 } else { 0 }),
@@ -405,15 +397,15 @@ impl Report {
         ports.sort_unstable();
         ports.dedup();
         // One root node per interface port, then the cells.
-        let mut nodes: Vec<Node> =
-            ports.iter().map(|&k| Node { label: format!("I{k}"), parent: None, colour: tree_colour(k) }).collect();
+        let mut nodes: Vec<DrawnNode> =
+            ports.iter().map(|&k| DrawnNode { label: format!("I{k}"), parent: None, colour: tree_colour(k) }).collect();
         let port_node = |k: u8| ports.iter().position(|&p| p == k).unwrap_or(0);
         for c in cells {
             let parent = match c.parent.and_then(|p| index.get(&p)) {
                 Some(&i) => ports.len() + i,
                 None => port_node(c.interface),
             };
-            nodes.push(Node {
+            nodes.push(DrawnNode {
                 label: c.id.to_string(),
                 parent: Some((parent, String::new())),
                 colour: tree_colour(c.interface),

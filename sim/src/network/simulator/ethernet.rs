@@ -36,7 +36,7 @@ impl Network {
         let d = Datagram::parse(bytes).map_err(NetworkError::Datagram)?;
         let k = d.header().interface;
         let Some(i) = self.interfaces.get_mut(usize::from(k)) else {
-            return Err(NetworkError::Flag(format!("datagram for interface port {k}, which this skin does not have")));
+            return Err(NetworkError::NoSuchInterface(k));
         };
         for frame in d.frames() {
             match frame {
@@ -115,7 +115,7 @@ impl Network {
     }
 
     /// A datagram reaches the host.
-    pub(super) fn to_host(&mut self, bytes: Vec<u8>, followed: u64) {
+    pub(super) fn reach_host(&mut self, bytes: Vec<u8>, followed: u64) {
         self.followed_on_ethernet -= followed;
         self.m.ledger.delivered += followed;
         self.ready.push_back(HostDatagram { at_ns: self.now_ns(), bytes });

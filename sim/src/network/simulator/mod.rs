@@ -578,7 +578,7 @@ impl Network {
                 self.ethernet_waking = false;
                 self.flush();
             }
-            Event::ToHost { bytes, followed } => self.to_host(bytes, followed),
+            Event::ToHost { bytes, followed } => self.reach_host(bytes, followed),
             Event::Fault(f) => self.fault(f),
         }
     }
