@@ -257,6 +257,12 @@ impl AccelRange {
             AccelRange::G16 => 16.0,
         }
     }
+
+    /// Counts per g of a 10-bit reading at this range (256 at +-2 g): what
+    /// the host needs to turn counts into accelerations.
+    pub fn counts_per_g(self) -> f64 {
+        f64::from(crate::sample::ACCEL_MAX - crate::sample::ACCEL_MIN + 1) / (2.0 * f64::from(self.full_scale_g()))
+    }
 }
 
 /// One setting of a cell, written by the host.
