@@ -19,6 +19,8 @@ pub struct Sink {
     last_rx_us: Option<u64>,
     link: heapless::Deque<Frame, 4>,
     down: heapless::Deque<Frame, 64>,
+    /// Link-local frames dropped on a full queue.
+    dropped: u32,
 }
 
 /// What a [`Sink`] makes of the bytes its cell sent.
@@ -41,6 +43,7 @@ impl Sink {
             last_rx_us: None,
             link: heapless::Deque::new(),
             down: heapless::Deque::new(),
+            dropped: 0,
         })
     }
 
@@ -67,7 +70,7 @@ impl Sink {
         }
         if let Message::Probe(Probe { known: false, .. }) = frame.message()? {
             let ack = Probe { port: Port::P0, id: self.address, master: false, known: true, lost: false };
-            let _ = self.link.push_back(Frame::new(self.address, Address::BROADCAST, &Message::ProbeAck(ack)));
+            self.link_frame(Frame::new(self.address, Address::BROADCAST, &Message::ProbeAck(ack)));
         }
         Ok(FromCell::Link)
     }
@@ -88,7 +91,7 @@ impl Sink {
             self.next_beacon_us = now_us + self.config.beacon_period_us;
             self.seq = self.seq.wrapping_add(1);
             let beacon = Beacon { interface: self.address.interface_number().unwrap_or(0), seq: self.seq, hops: 0 };
-            let _ = self.link.push_back(Frame::new(self.address, Address::BROADCAST, &Message::Beacon(beacon)));
+            self.link_frame(Frame::new(self.address, Address::BROADCAST, &Message::Beacon(beacon)));
         }
     }
 
@@ -105,5 +108,36 @@ impl Sink {
     /// Frames waiting for the cell.
     pub fn queued(&self) -> usize {
         self.link.len() + self.down.len()
+    }
+
+    /// Link-local frames (beacons, probe answers) dropped on a full queue;
+    /// frames from the host that did not fit were handed back by [`Sink::send`].
+    pub fn dropped(&self) -> u32 {
+        self.dropped
+    }
+
+    /// Queues a link-local frame, or counts it dropped.
+    fn link_frame(&mut self, frame: Frame) {
+        if self.link.push_back(frame).is_err() {
+            self.dropped += 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn beacons_the_link_has_no_room_for_are_counted() {
+        let config = Config::default();
+        let mut sink = Sink::new(0, config, 0).unwrap();
+        for k in 0..6 {
+            sink.poll(k * config.beacon_period_us);
+        }
+        assert_eq!((sink.queued(), sink.dropped()), (4, 2));
+        while sink.transmit().is_some() {}
+        sink.poll(6 * config.beacon_period_us);
+        assert_eq!((sink.queued(), sink.dropped()), (1, 2));
     }
 }
