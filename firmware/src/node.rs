@@ -10,7 +10,7 @@ use core::ptr::addr_of_mut;
 
 use embedded_storage::nor_flash::NorFlash;
 use skin_protocol::app::{CellApp, Losses};
-use skin_protocol::cell::Cell;
+use skin_protocol::cell::{Arrived, Cell};
 use skin_protocol::frame::Frame;
 use skin_protocol::message::{Port, Setting};
 use skin_protocol::organize::Config;
@@ -84,7 +84,7 @@ impl<F: NorFlash> Node<F> {
     /// the cell accepted, for the board to apply to its hardware.
     pub fn receive(&mut self, port: Port, byte: u8, now_us: u64) -> Option<Setting> {
         let frame = self.rx[port.index()].push(byte)?;
-        let write = self.app.receive_frame(port, frame, None, now_us, &mut ())?;
+        let write = self.app.receive_frame(Arrived { port, frame, meta: None }, now_us, &mut ())?;
         self.app.configure(&write, &mut (), |_, _| {})
     }
 

@@ -33,7 +33,19 @@ pub struct Cell<M = ()> {
     router: Router<M>,
 }
 
-/// What a cell received, as the caller hands it over.
+/// A checked frame a cell received (a deframer found it by its CRC, or the
+/// simulator knows its bits did not change), as the caller hands it over.
+#[derive(Clone, Copy, Debug)]
+pub struct Arrived<M> {
+    /// The port it came in on.
+    pub port: Port,
+    /// The frame.
+    pub frame: Frame,
+    /// Its metadata, when it left the neighbour with some.
+    pub meta: Option<M>,
+}
+
+/// The bytes of a frame a cell received, as the caller hands them over.
 #[derive(Clone, Copy, Debug)]
 pub struct Received<'a, M> {
     /// The port it came in on.
@@ -81,7 +93,7 @@ impl<M: Meta> Cell<M> {
         stamp: &mut impl Stamp<M>,
     ) -> Option<(Header, Message)> {
         match Frame::parse(rx.bytes) {
-            Ok(frame) => self.receive_frame(rx.port, frame, rx.meta, now_us, store, stamp),
+            Ok(frame) => self.receive_frame(Arrived { port: rx.port, frame, meta: rx.meta }, now_us, store, stamp),
             Err(_) => {
                 self.router.count_corrupt();
                 None
@@ -95,13 +107,12 @@ impl<M: Meta> Cell<M> {
     /// reroute (it was bound for the host).
     pub fn receive_frame(
         &mut self,
-        port: Port,
-        frame: Frame,
-        meta: Option<M>,
+        rx: Arrived<M>,
         now_us: u64,
         store: &mut impl IdStore,
         stamp: &mut impl Stamp<M>,
     ) -> Option<(Header, Message)> {
+        let Arrived { port, frame, meta } = rx;
         self.organizer.heard(port, now_us);
         let header = frame.header();
         let mine = header.dst == self.id() && self.id() != Address::UNASSIGNED;

@@ -3,7 +3,7 @@
 
 use super::{App, Losses, SettingsStore, Uplink};
 use crate::address::Address;
-use crate::cell::{Cell, Received, SendError};
+use crate::cell::{Arrived, Cell, Received, SendError};
 use crate::frame::Frame;
 use crate::message::{ConfigWrite, Message, Port, Setting};
 use crate::organize::Config;
@@ -84,15 +84,8 @@ impl<S: SettingsStore, M: Meta> CellApp<S, M> {
     }
 
     /// Takes a checked frame; see [`Cell::receive_frame`].
-    pub fn receive_frame(
-        &mut self,
-        port: Port,
-        frame: Frame,
-        meta: Option<M>,
-        now_us: u64,
-        stamp: &mut impl Stamp<M>,
-    ) -> Option<ConfigWrite> {
-        let delivered = self.cell.receive_frame(port, frame, meta, now_us, self.app.store_mut(), stamp);
+    pub fn receive_frame(&mut self, rx: Arrived<M>, now_us: u64, stamp: &mut impl Stamp<M>) -> Option<ConfigWrite> {
+        let delivered = self.cell.receive_frame(rx, now_us, self.app.store_mut(), stamp);
         Self::write(delivered)
     }
 

@@ -2,7 +2,7 @@
 //! configuration writes, and the traces its router carries.
 
 use skin_protocol::app::{CellApp, MemoryStore};
-use skin_protocol::cell::{Received, SendError};
+use skin_protocol::cell::{Arrived, Received, SendError};
 use skin_protocol::frame::Frame;
 use skin_protocol::message::{ConfigWrite, Message, Port};
 use skin_protocol::organize::Config;
@@ -192,7 +192,7 @@ impl Network {
         let meta = followed.filter(|_| valid).map(|f| Trace::arrived(f, now_ns, processing_ns));
         let app = self.stacks[i].app.as_mut().expect("only powered cells receive");
         let write = match signal {
-            Signal::Intact(frame) => app.receive_frame(p, frame, meta, now_ns / 1000, &mut stamp),
+            Signal::Intact(frame) => app.receive_frame(Arrived { port: p, frame, meta }, now_ns / 1000, &mut stamp),
             Signal::Corrupted(bytes) => {
                 app.receive(Received { port: p, bytes: &bytes, meta }, now_ns / 1000, &mut stamp)
             }
