@@ -8,8 +8,9 @@
 //! and `skin grasp`, the simulated robot reached over UDP through
 //! [`crate::remote::Remote`]) and sees only samples and joint positions.
 //! The person, the objects and what only they can see are behind the
-//! [`Experimenter`]: the simulated person of the robot's endpoint
-//! ([`Running`]), who also names the cells of each touch area by the IDs
+//! [`Experimenter`]: for `skin demo` and `skin grasp` the simulated person
+//! of the robot's endpoint (the program's glue, not this library's), who
+//! also names the cells of each touch area by the IDs
 //! the host gave them, as an operator writes them into the configuration
 //! of a real robot after touching the cells in `skin monitor`.
 //!
@@ -17,7 +18,6 @@
 
 use serde::Serialize;
 use skin_protocol::{Address, Sample};
-use skin_sim::endpoint::Running;
 use skin_sim::scene::object::Object;
 use skin_sim::scene::operator::{Note, Order};
 use tracing::info;
@@ -80,17 +80,6 @@ pub trait Experimenter {
     fn order(&mut self, order: Order) -> Result<(), GraspError>;
     /// Appends what the person said since the last call.
     fn heard(&mut self, out: &mut Vec<Note>);
-}
-
-/// The simulated person of the robot's endpoint, over its side channel.
-impl Experimenter for Running {
-    fn order(&mut self, order: Order) -> Result<(), GraspError> {
-        Running::order(self, order).map_err(|e| GraspError::Person(e.to_string()))
-    }
-
-    fn heard(&mut self, out: &mut Vec<Note>) {
-        out.extend(self.notes());
-    }
 }
 
 /// A taught key pose.
@@ -171,15 +160,6 @@ pub struct GraspRun {
     /// The robot's names of the DoFs in the trace's joint positions.
     #[serde(skip)]
     pub dof_names: Vec<String>,
-}
-
-/// The objects a command-line choice names: one, all of Figure 16, or none.
-pub fn objects(choice: &str) -> Result<Vec<Option<Object>>, GraspError> {
-    match choice {
-        "all" => Ok(Object::figure_16().into_iter().map(Some).collect()),
-        "none" => Ok(vec![None]),
-        name => Object::by_name(name).map(|o| vec![Some(o)]).ok_or_else(|| GraspError::UnknownObject(name.into())),
-    }
 }
 
 /// The robot and the person, on the experimenter's clock.
