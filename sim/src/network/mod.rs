@@ -51,6 +51,15 @@ pub enum NetworkError {
         /// What is wrong with it.
         why: String,
     },
+    /// A topology file cannot be read.
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What the OS said.
+        #[source]
+        source: std::io::Error,
+    },
     /// A command-line value is out of range or malformed.
     #[error("{0}")]
     Flag(String),
