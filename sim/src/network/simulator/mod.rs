@@ -27,11 +27,12 @@
 //! how long it waited in each cell and where it was lost.
 //!
 //! The `impl` of [`Network`] is split by concern: this file holds the
-//! public API, `cells` what happens in a cell, `rest` the skipping
+//! public API, `config` what a network is made of, `cells` what happens in a cell, `rest` the skipping
 //! of resting cells, `wires` the cell-2-cell links, `ethernet` the
 //! interface ports' datagrams and `faults` the fault injection.
 
 mod cells;
+mod config;
 mod ethernet;
 mod faults;
 mod rest;
@@ -44,21 +45,22 @@ use skin_protocol::app::{CellApp, MemoryStore};
 use skin_protocol::cell::Cell;
 use skin_protocol::frame::{Frame, Kind};
 use skin_protocol::interface::MAX_FRAMES;
-use skin_protocol::message::{Neighbour, Port, Setting, TrafficMode};
-use skin_protocol::organize::{Config, Sink};
+use skin_protocol::message::{Neighbour, Port, Setting};
+use skin_protocol::organize::Sink;
 use skin_protocol::router::Counters;
 use skin_protocol::Sample;
 
 use super::fault::FaultKind;
 use super::ledger::{Drops, Histogram, Ledger};
-use super::link::{BitErrors, LinkTiming};
+use super::link::BitErrors;
 use super::scheduler::{Order, Scheduler};
-use super::stimulus::{Stimulus, StimulusKind};
+use super::stimulus::Stimulus;
 use super::topology::{PortRef, Topology};
 use super::NetworkError;
 
 use cells::Followed;
 pub use cells::{SimCell, Stamper, Trace};
+pub use config::NetworkConfig;
 use ethernet::Interface;
 use rest::Rest;
 use wires::{End, Signal};
@@ -67,81 +69,6 @@ use wires::{End, Signal};
 const BOOT_SPREAD_NS: u64 = 5_000_000;
 /// Every port, as port bits.
 const ALL_PORTS: u8 = 0b1111;
-
-/// What a network is made of, besides its wiring.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct NetworkConfig {
-    /// Link timing.
-    pub timing: LinkTiming,
-    /// Self-organization timing of cells and interface ports.
-    pub organize: Config,
-    /// Sampling rate of every cell.
-    pub rate_hz: f32,
-    /// Clock- or event-driven sending.
-    pub traffic: TrafficMode,
-    /// What the skin feels.
-    pub stimulus: StimulusKind,
-    /// Send-on-delta thresholds the host sets, per sample channel (the
-    /// order of `Sample::channels`), in counts; `None` keeps the firmware's
-    /// default (about twice the sensor noise).
-    pub delta_counts: [Option<u16>; 8],
-    /// Bit-error rate of every cell-2-cell wire.
-    pub bit_error_rate: f64,
-    /// Seed of boot order, sampling phases, sensor noise and bit errors.
-    pub seed: u64,
-    /// Cells the stimulus leaves at rest skip their samples while they
-    /// provably send nothing (the same run, faster); off only to check that.
-    pub skip_resting_cells: bool,
-}
-
-impl Default for NetworkConfig {
-    fn default() -> Self {
-        NetworkConfig {
-            timing: LinkTiming::default(),
-            organize: Config::default(),
-            rate_hz: 250.0,
-            traffic: TrafficMode::Clock,
-            stimulus: StimulusKind::Quiet,
-            delta_counts: [None; 8],
-            bit_error_rate: 0.0,
-            seed: 0,
-            skip_resting_cells: true,
-        }
-    }
-}
-
-/// Shortest and longest keep-alive or beacon period the simulator takes.
-const PERIOD_RANGE_US: std::ops::RangeInclusive<u64> = 1_000..=10_000_000;
-
-impl NetworkConfig {
-    /// The same network with a keep-alive on settled links every
-    /// `keepalive_us` and beacon waves every `beacon_us`; a link is given
-    /// up after 3.5 keep-alive periods without a frame, a route and the link
-    /// to the parent after 3.5 beacon periods without a wave (the cell asks
-    /// its neighbours for waves after 1.5), as with the defaults (100 ms,
-    /// 10 ms). Longer periods cost a large skin less control traffic (a
-    /// settled skin carries about one wave relay per cell per beacon
-    /// period) and detect a broken link or route later.
-    pub fn with_periods(mut self, keepalive_us: u64, beacon_us: u64) -> Result<NetworkConfig, NetworkError> {
-        for (what, us) in [("keep-alive", keepalive_us), ("beacon", beacon_us)] {
-            if !PERIOD_RANGE_US.contains(&us) {
-                return Err(NetworkError::Flag(format!(
-                    "{what} period {} ms: use {} ms to {} ms",
-                    us as f64 / 1e3,
-                    *PERIOD_RANGE_US.start() as f64 / 1e3,
-                    *PERIOD_RANGE_US.end() as f64 / 1e3
-                )));
-            }
-        }
-        self.organize.keepalive_period_us = keepalive_us;
-        self.organize.keepalive_timeout_us = keepalive_us * 7 / 2;
-        self.organize.link_timeout_us = beacon_us * 7 / 2;
-        self.organize.beacon_period_us = beacon_us;
-        self.organize.wave_timeout_us = beacon_us * 3 / 2;
-        self.organize.route_timeout_us = beacon_us * 7 / 2;
-        Ok(self)
-    }
-}
 
 /// A datagram an interface port sent to the host, and when it arrived.
 #[derive(Clone, Debug, PartialEq, Eq)]
