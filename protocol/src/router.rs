@@ -207,32 +207,28 @@ impl<M: Meta> Router<M> {
         meta: Option<M>,
         stamp: &mut impl Stamp<M>,
     ) -> Result<(), Discard> {
-        let why = match from {
+        let q = match from {
             Source::Port(p) if Some(p) == self.master => {
                 self.counters.dropped_reroute += 1;
-                Discard::Reroute
+                return self.refuse(meta, Discard::Reroute);
             }
-            Source::Port(p) if self.up[p.index()].is_full() => {
-                self.counters.dropped_full += 1;
-                Discard::QueueFull
-            }
-            Source::Own if self.up[OWN].is_full() => {
-                self.counters.dropped_full += 1;
-                Discard::QueueFull
-            }
-            _ => {
-                let q = match from {
-                    Source::Port(p) => p.index(),
-                    Source::Own => OWN,
-                };
-                let mut meta = meta.unwrap_or_else(|| stamp.made(&frame, from));
-                meta.queued(self.up[q].len());
-                // Not full: checked above.
-                let _ = self.up[q].push_back((frame, meta));
-                self.up_total += 1;
-                return Ok(());
-            }
+            Source::Port(p) => p.index(),
+            Source::Own => OWN,
         };
+        if self.up[q].is_full() {
+            self.counters.dropped_full += 1;
+            return self.refuse(meta, Discard::QueueFull);
+        }
+        let mut meta = meta.unwrap_or_else(|| stamp.made(&frame, from));
+        meta.queued(self.up[q].len());
+        // Not full: checked above.
+        let _ = self.up[q].push_back((frame, meta));
+        self.up_total += 1;
+        Ok(())
+    }
+
+    /// An upstream frame refused: its metadata, if any, is kept.
+    fn refuse(&mut self, meta: Option<M>, why: Discard) -> Result<(), Discard> {
         if let Some(meta) = meta {
             self.discard(meta, why);
         }
@@ -281,6 +277,7 @@ impl<M: Meta> Router<M> {
     }
 
     /// [`Router::transmit`], with the metadata of an upstream frame.
+    #[inline]
     pub fn transmit_meta(&mut self, port: Port) -> Option<(Frame, Option<M>)> {
         let p = port.index();
         if let Some(f) = self.link[p].pop_front() {
@@ -297,6 +294,7 @@ impl<M: Meta> Router<M> {
         Some(sent)
     }
 
+    #[inline]
     fn next_data(&mut self, port: Port) -> Option<(Frame, Option<M>)> {
         let p = port.index();
         if self.master == Some(port) && self.up_total > 0 {
