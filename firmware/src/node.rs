@@ -1,17 +1,18 @@
-//! One skin cell's logic, the same on every board: the network stack
-//! ([`Cell`]), the local processing ([`Processor`]), the persistent store,
-//! and the byte-level framing of the four ports.
+//! One skin cell on a board: the cell application of the protocol crate
+//! ([`CellApp`]: network stack, processing, settings) on the cell's flash
+//! store, and the byte-level framing of the four ports.
 //!
 //! The board hands it received bytes, raw samples and the time; it hands
-//! back frames to transmit and the accelerometer range to apply.
+//! back frames to transmit and the settings to apply to the hardware.
 
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use embedded_storage::nor_flash::NorFlash;
-use skin_protocol::cell::Cell;
+use skin_protocol::app::{CellApp, Losses};
+use skin_protocol::cell::{Arrived, Cell};
 use skin_protocol::frame::Frame;
-use skin_protocol::message::{ConfigAck, Message, Port, Setting};
+use skin_protocol::message::{Port, Setting};
 use skin_protocol::organize::Config;
 use skin_protocol::processing::Processor;
 use skin_protocol::{Address, Sample};
@@ -19,29 +20,16 @@ use skin_protocol::{Address, Sample};
 use crate::deframer::Deframer;
 use crate::store::Store;
 
-/// Counts of what the node had to give up, for the logs.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Losses {
-    /// Own messages the cell could not queue (no ID yet, or queue full).
-    pub unsent: u32,
-    /// Writes to the persistent store that failed.
-    pub store_failed: u32,
-}
-
 /// A skin cell's logic.
 #[derive(Debug)]
 pub struct Node<F> {
-    cell: Cell,
-    processor: Processor,
-    store: Store<F>,
+    app: CellApp<Store<F>>,
     rx: [Deframer; 4],
-    losses: Losses,
 }
 
 impl<F: NorFlash> Node<F> {
-    /// Boots with what the store holds: ID, offsets and settings. Without
-    /// offsets the first samples calibrate them (see [`Processor::calibrate`]).
+    /// Boots with what the store holds: ID, offsets and settings (see
+    /// [`skin_protocol::app::App::new`]).
     pub fn new(config: Config, store: Store<F>, now_us: u64) -> Node<F> {
         let mut slot = MaybeUninit::uninit();
         Node::boot(&mut slot, config, store, now_us);
@@ -52,122 +40,88 @@ impl<F: NorFlash> Node<F> {
     /// [`Node::new`] built in place, in a static: no copy of the state
     /// (kilobytes of queues) passes through the stack at boot.
     pub fn boot(slot: &mut MaybeUninit<Node<F>>, config: Config, store: Store<F>, now_us: u64) -> &mut Node<F> {
-        let mut processor = Processor::new();
-        for setting in store.state().settings.iter().flatten() {
-            processor.apply(setting);
-        }
-        match store.state().offsets {
-            Some(offsets) => processor.set_offsets(offsets),
-            None => processor.calibrate(),
-        }
         let node = slot.as_mut_ptr();
         // SAFETY: each field is written once through a pointer into `slot`,
         // and the node is only referred to once all are written.
         unsafe {
-            addr_of_mut!((*node).cell).write(Cell::new(config, &store, now_us));
-            addr_of_mut!((*node).store).write(store);
-            addr_of_mut!((*node).processor).write(processor);
+            addr_of_mut!((*node).app).write(CellApp::new(config, store, now_us));
             addr_of_mut!((*node).rx).write(Default::default());
-            addr_of_mut!((*node).losses).write(Losses::default());
             slot.assume_init_mut()
         }
     }
 
     /// This cell's address.
     pub fn id(&self) -> Address {
-        self.cell.id()
+        self.app.id()
     }
 
     /// The network stack.
     pub fn cell(&self) -> &Cell {
-        &self.cell
+        self.app.cell()
     }
 
     /// The local processing.
     pub fn processor(&self) -> &Processor {
-        &self.processor
+        self.app.processor()
     }
 
     /// The persistent store.
     pub fn store(&self) -> &Store<F> {
-        &self.store
+        self.app.store()
     }
 
     /// What was given up so far.
     pub fn losses(&self) -> Losses {
-        self.losses
+        self.app.losses()
     }
 
     /// True while a calibration runs (nothing is sent).
     pub fn calibrating(&self) -> bool {
-        self.processor.calibrating()
+        self.app.processor().calibrating()
     }
 
     /// Takes a byte received on `port`. Returns a setting the host wrote and
     /// the cell accepted, for the board to apply to its hardware.
     pub fn receive(&mut self, port: Port, byte: u8, now_us: u64) -> Option<Setting> {
         let frame = self.rx[port.index()].push(byte)?;
-        let (_, message) = self.cell.receive_frame(port, frame, now_us, &mut self.store)?;
-        let Message::ConfigWrite(write) = message else { return None };
-        let accepted = self.processor.apply(&write.setting);
-        if accepted && self.store.set_setting(write.setting).is_err() {
-            self.losses.store_failed += 1;
-        }
-        self.send(&Message::ConfigAck(ConfigAck { tag: write.tag, accepted }));
-        accepted.then_some(write.setting)
-    }
-
-    /// Queues one of the cell's own messages; false (and counted) when the
-    /// network refused it.
-    fn send(&mut self, message: &Message) -> bool {
-        let sent = self.cell.send(message).is_ok();
-        if !sent {
-            self.losses.unsent += 1;
-        }
-        sent
+        let write = self.app.receive_frame(Arrived { port, frame, meta: None }, now_us, &mut ())?;
+        self.app.configure(&write, &mut (), |_, _| {})
     }
 
     /// The next time [`Node::poll`] has work.
     pub fn poll_at(&self) -> u64 {
-        self.cell.poll_at()
+        self.app.poll_at()
     }
 
     /// Lets time pass for the network stack.
     pub fn poll(&mut self, now_us: u64) {
-        self.cell.poll(now_us);
+        self.app.poll(now_us, &mut ());
     }
 
     /// The sampling period.
     pub fn period_us(&self) -> u64 {
-        self.processor.period_us()
+        self.app.processor().period_us()
     }
 
     /// Takes one raw sample: filters it and sends what the processing
     /// decides, or adds it to a running calibration and keeps the offsets.
     pub fn sample(&mut self, raw: &Sample) {
-        for message in self.processor.process(raw) {
-            if !self.send(&message) && matches!(message, Message::Sample(_)) {
-                // Not the host's reference then: send the next sample.
-                self.processor.refused();
-            }
-        }
-        if let Some(offsets) = self.processor.take_calibrated() {
-            if self.store.set_offsets(offsets).is_err() {
-                self.losses.store_failed += 1;
-            }
-            #[cfg(feature = "defmt")]
-            defmt::info!("calibrated offsets {}", offsets);
-        }
+        self.app.sample(raw, &mut (), |_, _| {});
     }
 
     /// True when `port` has frames to transmit.
     pub fn has_pending(&self, port: Port) -> bool {
-        self.cell.has_pending(port)
+        self.app.has_pending(port)
     }
 
     /// The next frame for `port`, whose transmitter has room for it.
     pub fn transmit(&mut self, port: Port) -> Option<Frame> {
-        self.cell.transmit(port)
+        self.app.transmit(port)
+    }
+
+    /// Gives the store back (a reboot keeps it).
+    pub fn into_store(self) -> Store<F> {
+        self.app.into_store()
     }
 }
 
@@ -176,7 +130,7 @@ mod tests {
     use super::*;
     use crate::store::RamFlash;
     use skin_protocol::frame::{self, Frame};
-    use skin_protocol::message::{ConfigWrite, IdAssign, TrafficMode};
+    use skin_protocol::message::{ConfigAck, ConfigWrite, IdAssign, Message, TrafficMode};
     use skin_protocol::organize::{FromCell, Sink};
 
     type Flash = RamFlash<1024, 2>;
@@ -249,7 +203,7 @@ mod tests {
         assert!(samples_after_ack.count() <= 1, "event traffic: a still sample is sent once at most");
 
         // Reboot: same flash, new RAM.
-        let mut n = node(n.store.release(), t);
+        let mut n = node(n.into_store().release(), t);
         assert_eq!(n.id(), Address(17));
         assert!(!n.calibrating());
         assert_eq!(n.processor().traffic(), TrafficMode::Event);

@@ -13,7 +13,8 @@
 use embedded_storage::nor_flash::{ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash};
 use postcard::experimental::max_size::MaxSize;
 use serde::{Deserialize, Serialize};
-use skin_protocol::message::Setting;
+use skin_protocol::app::{SettingsStore, StoreFailed};
+use skin_protocol::message::{Setting, SETTING_SLOTS};
 use skin_protocol::organize::IdStore;
 use skin_protocol::Address;
 
@@ -22,26 +23,6 @@ pub const SLOT: usize = 256;
 /// Around a record: its length (2 bytes), sequence number (4) and CRC (4).
 const OVERHEAD: usize = 10;
 const CRC: crc::Crc<u32, crc::NoTable> = crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
-
-/// One slot per kind of [`Setting`] (and per level, channel or cell).
-pub const SETTING_SLOTS: usize = 24;
-
-/// Where a setting is kept: a later write of the same kind replaces it.
-/// `None` for a command (calibrate), which is not state to restore.
-fn setting_slot(s: &Setting) -> Option<usize> {
-    Some(match *s {
-        Setting::SampleRateHz(_) => 0,
-        Setting::Traffic(_) => 1,
-        Setting::FilterCutoffHz(_) => 2,
-        Setting::ForceLevel { level, .. } => 2 + usize::from(level.clamp(1, 4)),
-        Setting::ProximityLevel { level, .. } => 6 + usize::from(level.clamp(1, 4)),
-        Setting::Hysteresis(_) => 11,
-        Setting::Delta { channel, .. } => 12 + usize::from(channel.min(7)),
-        Setting::ForceGain { cell, .. } => 20 + usize::from(cell.min(2)),
-        Setting::AccelRange(_) => 23,
-        Setting::Calibrate => return None,
-    })
-}
 
 /// Everything a cell keeps across power cycles.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, MaxSize)]
@@ -154,7 +135,7 @@ impl<F: NorFlash> Store<F> {
     /// Keeps an accepted setting, replacing the last one of its kind;
     /// commands are not kept.
     pub fn set_setting(&mut self, setting: Setting) -> Result<(), StoreError> {
-        match setting_slot(&setting) {
+        match setting.slot() {
             Some(slot) => self.update(|p| p.settings[slot] = Some(setting)),
             None => Ok(()),
         }
@@ -267,6 +248,26 @@ impl<F: NorFlash> IdStore for Store<F> {
             #[cfg(feature = "defmt")]
             defmt::error!("storing ID {} failed: {}", id, _e);
         }
+    }
+}
+
+/// The application's settings and offsets, in flash; a failed write leaves
+/// the value in RAM (the application counts it).
+impl<F: NorFlash> SettingsStore for Store<F> {
+    fn settings(&self) -> impl Iterator<Item = Setting> + '_ {
+        self.state.settings.iter().flatten().copied()
+    }
+
+    fn offsets(&self) -> Option<[i32; 8]> {
+        self.state.offsets
+    }
+
+    fn keep_setting(&mut self, setting: Setting) -> Result<(), StoreFailed> {
+        self.set_setting(setting).map_err(|_| StoreFailed)
+    }
+
+    fn keep_offsets(&mut self, offsets: [i32; 8]) -> Result<(), StoreFailed> {
+        self.set_offsets(offsets).map_err(|_| StoreFailed)
     }
 }
 
@@ -459,7 +460,7 @@ mod tests {
         assert_eq!(s.state(), &expected);
         assert_eq!(s.load(), Some(Address(42)));
         assert_eq!(
-            s.state().settings[setting_slot(&Setting::ForceGain { cell: 1, gain: 0.0 }).unwrap()],
+            s.state().settings[Setting::ForceGain { cell: 1, gain: 0.0 }.slot().unwrap()],
             Some(Setting::ForceGain { cell: 1, gain: 9.0 })
         );
         // 13 records: 3 moves, the last one to half 1, with the older half erased.
@@ -512,7 +513,7 @@ mod tests {
             .chain((0..8).map(|channel| Setting::Delta { channel, counts: 0 }))
             .chain((0..3).map(|cell| Setting::ForceGain { cell, gain: 1.0 }))
             .chain([Setting::AccelRange(AccelRange::G2)]);
-        let mut slots: Vec<usize> = all.map(|s| setting_slot(&s).unwrap()).collect();
+        let mut slots: Vec<usize> = all.map(|s| s.slot().unwrap()).collect();
         slots.sort();
         assert_eq!(slots, (0..SETTING_SLOTS).collect::<Vec<_>>());
     }

@@ -23,7 +23,7 @@ use std::time::{Duration, Instant};
 use criterion::{BenchmarkId, Criterion, Throughput};
 use skin_host::config::{InterfaceConfig, PortConfig};
 use skin_host::interface::loadgen::{LoadGen, LoadSpec, Pace, SimSkin};
-use skin_host::interface::{Counters, EventKind, Ingest, Interface};
+use skin_host::interface::{EventKind, Ingest, Interface, InterfaceCounters};
 
 /// The skin of the requirement: 1,260 cells at 250 Hz on 16 ports.
 fn heavy_skin(flush_us: u64) -> LoadSpec {
@@ -101,7 +101,7 @@ fn rcvbuf_errors() -> Option<u64> {
 }
 
 struct Received {
-    counters: Counters,
+    counters: InterfaceCounters,
     samples: u64,
     cpu_s: Option<f64>,
     busy_s: f64,

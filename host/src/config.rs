@@ -33,12 +33,13 @@ pub enum Error {
         source: std::io::Error,
     },
     /// The file is not TOML, has an unknown key, or a value of the wrong type.
-    #[error("{origin}: {message}")]
+    #[error("{origin}: {source}")]
     Parse {
         /// The file (or other origin) of the text.
         origin: String,
-        /// The parser's message, with line, column and the offending key.
-        message: String,
+        /// The parser's error, with line, column and the offending key.
+        #[source]
+        source: toml::de::Error,
     },
     /// A value has the right type but is out of range.
     #[error("{}`{key}` {message}", prefix(origin))]
@@ -292,7 +293,7 @@ impl Config {
     /// Parses and checks configuration text; `origin` names it in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<Config, Error> {
         let config: Config =
-            toml::from_str(text).map_err(|e| Error::Parse { origin: origin.to_owned(), message: e.to_string() })?;
+            toml::from_str(text).map_err(|source| Error::Parse { origin: origin.to_owned(), source })?;
         config.validate().map_err(|e| match e {
             Error::Invalid { key, message, .. } => Error::Invalid { origin: origin.to_owned(), key, message },
             e => e,

@@ -8,19 +8,16 @@
 //! and `skin grasp`, the simulated robot reached over UDP through
 //! [`crate::remote::Remote`]) and sees only samples and joint positions.
 //! The person, the objects and what only they can see are behind the
-//! [`Experimenter`]: the simulated person of the robot's endpoint
-//! ([`Running`]), who also names the cells of each touch area by the IDs
+//! [`Experimenter`]: for `skin demo` and `skin grasp` the simulated person
+//! of the robot's endpoint (the program's glue, not this library's), who
+//! also names the cells of each touch area by the IDs
 //! the host gave them, as an operator writes them into the configuration
 //! of a real robot after touching the cells in `skin monitor`.
 //!
-//! [`write_traces`] writes what each grasp felt (Figure 18) as CSV and SVG.
-
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+//! [`crate::report::traces::write_traces`] writes what each grasp felt (Figure 18) as CSV and SVG.
 
 use serde::Serialize;
 use skin_protocol::{Address, Sample};
-use skin_sim::endpoint::Running;
 use skin_sim::scene::object::Object;
 use skin_sim::scene::operator::{Note, Order};
 use tracing::info;
@@ -74,14 +71,6 @@ pub enum GraspError {
     /// An object that is not in Figure 16.
     #[error("no object \"{0}\": choose trash_bin, sponge_rock, moving_box, box_lid, delivery_box, all or none")]
     UnknownObject(String),
-    /// A trace file could not be written.
-    #[error("cannot write {path}: {message}")]
-    Write {
-        /// The file.
-        path: String,
-        /// What went wrong.
-        message: String,
-    },
 }
 
 /// The experimenter's side: orders to the person at the robot, and what
@@ -91,17 +80,6 @@ pub trait Experimenter {
     fn order(&mut self, order: Order) -> Result<(), GraspError>;
     /// Appends what the person said since the last call.
     fn heard(&mut self, out: &mut Vec<Note>);
-}
-
-/// The simulated person of the robot's endpoint, over its side channel.
-impl Experimenter for Running {
-    fn order(&mut self, order: Order) -> Result<(), GraspError> {
-        Running::order(self, order).map_err(|e| GraspError::Person(e.to_string()))
-    }
-
-    fn heard(&mut self, out: &mut Vec<Note>) {
-        out.extend(self.notes());
-    }
 }
 
 /// A taught key pose.
@@ -179,15 +157,9 @@ pub struct GraspRun {
     /// What the skin felt, at 50 Hz.
     #[serde(skip)]
     pub trace: Vec<TraceRow>,
-}
-
-/// The objects a command-line choice names: one, all of Figure 16, or none.
-pub fn objects(choice: &str) -> Result<Vec<Option<Object>>, GraspError> {
-    match choice {
-        "all" => Ok(Object::figure_16().into_iter().map(Some).collect()),
-        "none" => Ok(vec![None]),
-        name => Object::by_name(name).map(|o| vec![Some(o)]).ok_or_else(|| GraspError::UnknownObject(name.into())),
-    }
+    /// The robot's names of the DoFs in the trace's joint positions.
+    #[serde(skip)]
+    pub dof_names: Vec<String>,
 }
 
 /// The robot and the person, on the experimenter's clock.
@@ -388,6 +360,7 @@ pub fn grasp<R: Robot + SampleSource>(
         pain_events: state_log.iter().filter(|l| l.cause == Cause::Pain).count(),
         state_log,
         trace,
+        dof_names: lab.robot.dof_names(),
     };
     info!(object = run.object, succeeded = run.succeeded, final_state = ?run.final_state, "grasp");
     Ok(run)
@@ -416,102 +389,4 @@ fn row(
         }
     }
     TraceRow { time_s, state: c.state().expect("grasp mode"), joints_rad, force, proximity, object_gap_m }
-}
-
-/// Writes each run's trace as `<object>.csv` and `<object>.svg` into `dir`
-/// (created if missing) and returns the files written.
-pub fn write_traces(dir: &Path, runs: &[GraspRun]) -> Result<Vec<PathBuf>, GraspError> {
-    let fail = |path: &Path, e: &dyn std::fmt::Display| GraspError::Write {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    };
-    std::fs::create_dir_all(dir).map_err(|e| fail(dir, &e))?;
-    let mut files = Vec::new();
-    for run in runs {
-        let csv = dir.join(format!("grasp_{}.csv", run.object));
-        std::fs::write(&csv, trace_csv(run)).map_err(|e| fail(&csv, &e))?;
-        files.push(csv);
-        let svg = dir.join(format!("grasp_{}.svg", run.object));
-        plot(run, &svg).map_err(|e| fail(&svg, &e))?;
-        files.push(svg);
-    }
-    Ok(files)
-}
-
-fn trace_csv(run: &GraspRun) -> String {
-    let dofs = run.trace.first().map_or(0, |r| r.joints_rad.len());
-    let mut s = String::from("time_s,state");
-    for d in 0..dofs {
-        let _ = write!(s, ",q{d}_rad");
-    }
-    s.push_str(",force_right,force_left,force_chest,proximity_right,proximity_left,proximity_chest,object_gap_m\n");
-    for r in &run.trace {
-        let _ = write!(s, "{:.3},{}", r.time_s, r.state.name());
-        for q in &r.joints_rad {
-            let _ = write!(s, ",{q:.4}");
-        }
-        for v in r.force.iter().chain(&r.proximity) {
-            let _ = write!(s, ",{v:.4}");
-        }
-        let _ = writeln!(s, ",{}", r.object_gap_m.map_or(String::new(), |g| format!("{g:.4}")));
-    }
-    s
-}
-
-/// Figure 18: joints, forces and proximity against time, with the states.
-fn plot(run: &GraspRun, path: &Path) -> Result<(), Box<dyn std::error::Error>> {
-    use plotters::prelude::*;
-    let root = SVGBackend::new(path, (900, 720)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let panels = root.split_evenly((3, 1));
-    let end = run.trace.last().map_or(1.0, |r| r.time_s).max(1.0);
-    let names = ["right arm", "left arm", "chest"];
-    let colours = [RED, BLUE, BLACK];
-    // Shoulder pitch and elbow of both arms (DoFs 0, 3, 7, 10 of the built-in robot).
-    let joints = [(0, "right shoulder pitch"), (3, "right elbow"), (7, "left shoulder pitch"), (10, "left elbow")];
-    type Series<'a> = Vec<(String, RGBColor, Vec<(f64, f64)>)>;
-    let mut series: [Series<'_>; 3] = [Vec::new(), Vec::new(), Vec::new()];
-    for (k, (d, name)) in joints.into_iter().enumerate() {
-        let c = [RED, MAGENTA, BLUE, CYAN][k];
-        series[0].push((
-            name.to_owned(),
-            c,
-            run.trace.iter().filter_map(|r| r.joints_rad.get(d).map(|q| (r.time_s, *q))).collect(),
-        ));
-    }
-    for (k, name) in names.into_iter().enumerate() {
-        series[1].push((name.to_owned(), colours[k], run.trace.iter().map(|r| (r.time_s, r.force[k])).collect()));
-        series[2].push((name.to_owned(), colours[k], run.trace.iter().map(|r| (r.time_s, r.proximity[k])).collect()));
-    }
-    let titles = [
-        format!("{}: joint positions (rad)", run.object),
-        "force: summed normalized readings".to_owned(),
-        "pre-contact: highest proximity intensity".to_owned(),
-    ];
-    for ((panel, lines), title) in panels.iter().zip(&series).zip(titles) {
-        let (lo, hi) =
-            lines.iter().flat_map(|l| l.2.iter().map(|p| p.1)).fold((0.0f64, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
-        let hi = if hi - lo < 1e-6 { lo + 1.0 } else { hi + 0.05 * (hi - lo) };
-        let mut chart = ChartBuilder::on(panel)
-            .caption(title, ("sans-serif", 16))
-            .margin(8)
-            .x_label_area_size(28)
-            .y_label_area_size(48)
-            .build_cartesian_2d(0.0..end, lo..hi)?;
-        chart.configure_mesh().x_desc("time after the launching pat (s)").light_line_style(WHITE).draw()?;
-        for l in &run.state_log {
-            chart.draw_series(LineSeries::new([(l.time_s, lo), (l.time_s, hi)], &RGBColor(180, 180, 180)))?;
-            chart.draw_series([Text::new(l.state.name(), (l.time_s, hi), ("sans-serif", 11).into_font())])?;
-        }
-        for (name, colour, points) in lines {
-            let colour = *colour;
-            chart
-                .draw_series(LineSeries::new(points.iter().copied(), &colour))?
-                .label(name.as_str())
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], colour));
-        }
-        chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
-    }
-    root.present()?;
-    Ok(())
 }

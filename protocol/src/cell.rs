@@ -5,12 +5,16 @@
 //! ([`Cell::poll`] at [`Cell::poll_at`]), give it the cell's own messages
 //! ([`Cell::send`]), and whenever a port's transmitter is free ask for the
 //! next frame ([`Cell::transmit`]).
+//!
+//! Upstream frames carry metadata of type `M` through the router (see
+//! [`crate::router::Meta`]): `()` in the firmware; every call that may queue
+//! a frame without metadata takes the [`Stamp`] that makes it.
 
 use crate::address::Address;
 use crate::frame::{Frame, Header, Kind};
 use crate::message::{Message, Port};
 use crate::organize::{Config, IdStore, Organizer};
-use crate::router::{Drop, Router, Source};
+use crate::router::{Discard, Meta, Router, Source, Stamp, Stamped};
 
 /// Why [`Cell::send`] refused a message.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -24,14 +28,37 @@ pub enum SendError {
 
 /// The network side of one skin cell.
 #[derive(Debug)]
-pub struct Cell {
+pub struct Cell<M = ()> {
     organizer: Organizer,
-    router: Router,
+    router: Router<M>,
 }
 
-impl Cell {
+/// A checked frame a cell received (a deframer found it by its CRC, or the
+/// simulator knows its bits did not change), as the caller hands it over.
+#[derive(Clone, Copy, Debug)]
+pub struct Arrived<M> {
+    /// The port it came in on.
+    pub port: Port,
+    /// The frame.
+    pub frame: Frame,
+    /// Its metadata, when it left the neighbour with some.
+    pub meta: Option<M>,
+}
+
+/// The bytes of a frame a cell received, as the caller hands them over.
+#[derive(Clone, Copy, Debug)]
+pub struct Received<'a, M> {
+    /// The port it came in on.
+    pub port: Port,
+    /// The frame's bytes.
+    pub bytes: &'a [u8],
+    /// Its metadata, when it left the neighbour with some.
+    pub meta: Option<M>,
+}
+
+impl<M: Meta> Cell<M> {
     /// A cell booting at `now_us` with the ID `store` holds, if any.
-    pub fn new(config: Config, store: &impl IdStore, now_us: u64) -> Cell {
+    pub fn new(config: Config, store: &impl IdStore, now_us: u64) -> Cell<M> {
         Cell { organizer: Organizer::new(config, store, now_us), router: Router::new() }
     }
 
@@ -41,8 +68,14 @@ impl Cell {
     }
 
     /// Forwarding state and counters.
-    pub fn router(&self) -> &Router {
+    pub fn router(&self) -> &Router<M> {
         &self.router
+    }
+
+    /// The next upstream frame given up, with its metadata (see
+    /// [`Router::take_discarded`]).
+    pub fn take_discarded(&mut self) -> Option<(M, Discard)> {
+        self.router.take_discarded()
     }
 
     /// This cell's address.
@@ -50,17 +83,17 @@ impl Cell {
         self.organizer.id()
     }
 
-    /// Takes the bytes of one frame received on `port`. Returns a message
-    /// addressed to this cell's application (a configuration write).
+    /// Takes the bytes of one frame received. Returns a message addressed
+    /// to this cell's application (a configuration write).
     pub fn receive(
         &mut self,
-        port: Port,
-        bytes: &[u8],
+        rx: Received<'_, M>,
         now_us: u64,
         store: &mut impl IdStore,
+        stamp: &mut impl Stamp<M>,
     ) -> Option<(Header, Message)> {
-        match Frame::parse(bytes) {
-            Ok(frame) => self.receive_frame(port, frame, now_us, store),
+        match Frame::parse(rx.bytes) {
+            Ok(frame) => self.receive_frame(Arrived { port: rx.port, frame, meta: rx.meta }, now_us, store, stamp),
             Err(_) => {
                 self.router.count_corrupt();
                 None
@@ -70,29 +103,34 @@ impl Cell {
 
     /// [`Cell::receive`] for a frame the caller has already checked (a
     /// deframer that found it by its CRC), so the CRC is not computed twice.
+    /// A frame with `meta` that does not go upstream is given up as a
+    /// reroute (it was bound for the host).
     pub fn receive_frame(
         &mut self,
-        port: Port,
-        frame: Frame,
+        rx: Arrived<M>,
         now_us: u64,
         store: &mut impl IdStore,
+        stamp: &mut impl Stamp<M>,
     ) -> Option<(Header, Message)> {
+        let Arrived { port, frame, meta } = rx;
         self.organizer.heard(port, now_us);
         let header = frame.header();
         let mine = header.dst == self.id() && self.id() != Address::UNASSIGNED;
-        let delivered = if header.kind.is_link_local() {
-            self.control(port, &frame, now_us, store);
-            None
-        } else if Some(port) != self.organizer.master() {
+        if Some(port) != self.organizer.master() && !header.kind.is_link_local() {
             // From below: on toward the host. Drops are counted by the router.
-            let _ = self.router.upstream(Source::Port(port), frame);
-            None
-        } else if header.kind == Kind::IdAssign && (mine || header.dst == Address::UNASSIGNED) {
-            self.control(port, &frame, now_us, store);
+            let _ = self.router.upstream(Source::Port(port), frame, meta, stamp);
+            self.sync();
+            return None;
+        }
+        let mut meta = meta;
+        let delivered = if header.kind.is_link_local()
+            || header.kind == Kind::IdAssign && (mine || header.dst == Address::UNASSIGNED)
+        {
+            self.control(port, &frame, now_us, store, stamp);
             None
         } else if header.dst == Address::HOST {
             // Bound up but coming down: the tree is changing under it.
-            self.router.count_reroute();
+            self.router.reroute(meta.take());
             None
         } else if mine {
             self.local(&frame)
@@ -103,6 +141,11 @@ impl Cell {
             self.router.downstream(frame);
             None
         };
+        if let Some(meta) = meta {
+            // Sent upstream, taken here as something else: only a corrupted
+            // frame that passed its CRC gets here.
+            self.router.give_up(meta);
+        }
         self.sync();
         delivered
     }
@@ -117,9 +160,12 @@ impl Cell {
         }
     }
 
-    fn control(&mut self, port: Port, frame: &Frame, now_us: u64, store: &mut impl IdStore) {
+    fn control(&mut self, port: Port, frame: &Frame, now_us: u64, store: &mut impl IdStore, stamp: &mut impl Stamp<M>) {
         match frame.message() {
-            Ok(m) => self.organizer.handle(port, frame.header(), &m, now_us, store, &mut self.router),
+            Ok(m) => {
+                let outs = &mut Stamped { router: &mut self.router, stamp };
+                self.organizer.handle(port, frame.header(), &m, now_us, store, outs)
+            }
             Err(_) => self.router.count_corrupt(),
         }
     }
@@ -133,9 +179,9 @@ impl Cell {
     }
 
     /// Lets time pass: probes, timeouts, retries.
-    pub fn poll(&mut self, now_us: u64) {
+    pub fn poll(&mut self, now_us: u64, stamp: &mut impl Stamp<M>) {
         let busy = if now_us >= self.organizer.next_probe_us() { self.router.take_sent() } else { 0 };
-        self.organizer.poll(now_us, busy, &mut self.router);
+        self.organizer.poll(now_us, busy, &mut Stamped { router: &mut self.router, stamp });
         self.sync();
     }
 
@@ -145,19 +191,24 @@ impl Cell {
     }
 
     /// Sends one of this cell's own messages (sample, event, ack) upstream.
-    pub fn send(&mut self, message: &Message) -> Result<(), SendError> {
+    pub fn send(&mut self, message: &Message, stamp: &mut impl Stamp<M>) -> Result<(), SendError> {
         if self.id() == Address::UNASSIGNED {
             return Err(SendError::NoId);
         }
         let frame = Frame::new(self.id(), Address::HOST, message);
-        self.router.upstream(Source::Own, frame).map_err(|e| match e {
-            Drop::QueueFull | Drop::Reroute => SendError::QueueFull,
+        self.router.upstream(Source::Own, frame, None, stamp).map_err(|e| match e {
+            Discard::QueueFull | Discard::Reroute => SendError::QueueFull,
         })
     }
 
     /// The next frame for `port`'s transmitter, if any.
     pub fn transmit(&mut self, port: Port) -> Option<Frame> {
         self.router.transmit(port)
+    }
+
+    /// [`Cell::transmit`], with the metadata of an upstream frame.
+    pub fn transmit_meta(&mut self, port: Port) -> Option<(Frame, Option<M>)> {
+        self.router.transmit_meta(port)
     }
 
     /// True when `port` has a frame waiting.
@@ -182,8 +233,8 @@ mod tests {
     #[test]
     fn only_ports_that_sent_nothing_are_probed() {
         let mut store = Some(Address(5));
-        let mut cell = Cell::new(Config::default(), &store, 0);
-        cell.poll(0);
+        let mut cell: Cell = Cell::new(Config::default(), &store, 0);
+        cell.poll(0, &mut ());
         assert_eq!(probes_queued(&mut cell), [true; 4]);
         // A sink on port 2 sends a wave every 10 ms and makes it the master.
         let mut seq = 0;
@@ -193,8 +244,13 @@ mod tests {
                 let beacon = crate::message::Beacon { interface: 0, seq, hops: 0 };
                 let frame = Frame::new(Address(0xFF00), Address::BROADCAST, &Message::Beacon(beacon));
                 let now = u64::from(seq) * 10_000 - 9_000;
-                cell.receive(Port::P2, frame.as_bytes(), now, &mut store);
-                cell.poll(now);
+                cell.receive(
+                    Received { port: Port::P2, bytes: frame.as_bytes(), meta: None },
+                    now,
+                    &mut store,
+                    &mut (),
+                );
+                cell.poll(now, &mut ());
             }
         };
         waves_until(&mut cell, 1);
@@ -203,16 +259,16 @@ mod tests {
         // its repeat included), and only the other ports are probed.
         waves_until(&mut cell, 60_000);
         let _ = probes_queued(&mut cell);
-        cell.send(&Message::ConfigAck(ConfigAck { tag: 1, accepted: true })).unwrap();
+        cell.send(&Message::ConfigAck(ConfigAck { tag: 1, accepted: true }), &mut ()).unwrap();
         let sent: std::vec::Vec<Kind> = core::iter::from_fn(|| cell.transmit(Port::P2)).map(|f| f.kind()).collect();
         assert!(sent.contains(&Kind::ConfigAck), "{sent:?}");
         let period = Config::default().keepalive_period_us;
         waves_until(&mut cell, period);
-        cell.poll(period);
+        cell.poll(period, &mut ());
         assert_eq!(probes_queued(&mut cell), [true, true, false, true]);
         // Nothing sent since: every port is probed again.
         waves_until(&mut cell, 2 * period);
-        cell.poll(2 * period);
+        cell.poll(2 * period, &mut ());
         assert_eq!(probes_queued(&mut cell), [true; 4]);
     }
 }

@@ -13,6 +13,8 @@
 //! - [`organize`]: the four-phase network self-organization of one cell,
 //!   the interface-port side of it, and the ID allocator of the host.
 //! - [`cell`]: one cell's network stack, `organize` and `router` joined.
+//! - [`app`]: one cell's application (settings, acknowledgements, refused
+//!   sends, boot), on that stack or on any uplink.
 //! - [`event`]: Table 3 tactile levels with hysteresis, and send-on-delta.
 //! - [`processing`]: a cell's local filtering, offsets, events and send decision.
 //! - [`interface`]: the UDP datagram between an interface port and the host.
@@ -22,6 +24,7 @@
 #![warn(missing_docs)]
 
 pub mod address;
+pub mod app;
 pub mod cell;
 pub mod event;
 pub mod frame;

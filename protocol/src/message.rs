@@ -257,6 +257,12 @@ impl AccelRange {
             AccelRange::G16 => 16.0,
         }
     }
+
+    /// Counts per g of a 10-bit reading at this range (256 at +-2 g): what
+    /// the host needs to turn counts into accelerations.
+    pub fn counts_per_g(self) -> f64 {
+        f64::from(crate::sample::ACCEL_MAX - crate::sample::ACCEL_MIN + 1) / (2.0 * f64::from(self.full_scale_g()))
+    }
 }
 
 /// One setting of a cell, written by the host.
@@ -324,7 +330,29 @@ impl Setting {
             Setting::Traffic(_) | Setting::AccelRange(_) | Setting::Calibrate => true,
         }
     }
+
+    /// Where a cell keeps this setting among [`SETTING_SLOTS`]: a later
+    /// write of the same kind (and level, channel or cell) replaces it.
+    /// `None` for a command (calibrate), which is not state to restore.
+    pub fn slot(&self) -> Option<usize> {
+        Some(match *self {
+            Setting::SampleRateHz(_) => 0,
+            Setting::Traffic(_) => 1,
+            Setting::FilterCutoffHz(_) => 2,
+            Setting::ForceLevel { level, .. } => 2 + usize::from(level.clamp(1, 4)),
+            Setting::ProximityLevel { level, .. } => 6 + usize::from(level.clamp(1, 4)),
+            Setting::Hysteresis(_) => 11,
+            Setting::Delta { channel, .. } => 12 + usize::from(channel.min(7)),
+            Setting::ForceGain { cell, .. } => 20 + usize::from(cell.min(2)),
+            Setting::AccelRange(_) => 23,
+            Setting::Calibrate => return None,
+        })
+    }
 }
+
+/// Slots of the settings a cell keeps: one per kind of [`Setting`] (and per
+/// level, channel or cell).
+pub const SETTING_SLOTS: usize = 24;
 
 /// A configuration write, addressed to one cell or broadcast.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, MaxSize)]

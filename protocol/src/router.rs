@@ -10,12 +10,44 @@
 //! Every frame handed to the router is, at any time, either transmitted,
 //! dropped with a reason, or still queued: [`Counters`] and
 //! [`Router::queued`] account for all of them.
+//!
+//! Beside each upstream frame the router carries metadata of the caller's
+//! type ([`Meta`]), as smoltcp's `PacketMeta`: `()` in the firmware, where it
+//! costs nothing; the simulator follows every frame with it from its making
+//! to the host, and learns of every upstream frame given up with its
+//! metadata ([`Router::take_discarded`]) instead of guessing from queue
+//! lengths.
 
 use heapless::Deque;
 
 use crate::frame::Frame;
 use crate::message::Port;
 use crate::organize::{Out, Outbox};
+
+/// Metadata carried beside an upstream frame through the router's queues.
+pub trait Meta: Copy {
+    /// The frame entered an upstream queue behind `ahead` frames.
+    fn queued(&mut self, _ahead: usize) {}
+}
+
+/// No metadata: the firmware's choice, zero bytes per frame.
+impl Meta for () {}
+
+/// Makes the metadata of an upstream frame that arrived without any: one
+/// the cell made, or one received without metadata.
+pub trait Stamp<M> {
+    /// The metadata of `frame`, entering from `from`.
+    fn made(&mut self, frame: &Frame, from: Source) -> M;
+}
+
+/// The stamp of `()` metadata.
+impl Stamp<()> for () {
+    fn made(&mut self, _: &Frame, _: Source) {}
+}
+
+/// Upstream frames given up whose metadata the caller has not taken yet:
+/// enough for one call of a cell (one frame refused, one queue cleared).
+const DISCARD_LOG: usize = UP_QUEUE + 1;
 
 /// Capacity of each upstream input queue (4 ports + own), in frames.
 pub const UP_QUEUE: usize = 16;
@@ -39,7 +71,7 @@ pub enum Source {
 /// Why the router gave up a frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Drop {
+pub enum Discard {
     /// Its queue was full.
     QueueFull,
     /// The tree changed under it: it would have gone back where it came from,
@@ -67,10 +99,10 @@ pub struct Counters {
     pub corrupt: u32,
 }
 
-/// The forwarding state of one cell.
+/// The forwarding state of one cell, with metadata `M` on upstream frames.
 #[derive(Debug)]
-pub struct Router {
-    up: [Deque<Frame, UP_QUEUE>; 5],
+pub struct Router<M = ()> {
+    up: [Deque<(Frame, M), UP_QUEUE>; 5],
     /// Frames in all of `up`, so the master port's check is one compare.
     up_total: usize,
     down: [Deque<Frame, DOWN_QUEUE>; 4],
@@ -85,17 +117,19 @@ pub struct Router {
     /// [`Router::take_sent`], so the neighbour heard from us anyway.
     sent: u8,
     counters: Counters,
+    /// Upstream frames given up, with their metadata, not taken yet.
+    discarded: Deque<(M, Discard), DISCARD_LOG>,
 }
 
-impl Default for Router {
+impl<M: Meta> Default for Router<M> {
     fn default() -> Self {
         Router::new()
     }
 }
 
-impl Router {
+impl<M: Meta> Router<M> {
     /// An empty router with no master port and no children.
-    pub fn new() -> Router {
+    pub fn new() -> Router<M> {
         Router {
             up: Default::default(),
             up_total: 0,
@@ -107,7 +141,22 @@ impl Router {
             children: [false; 4],
             sent: 0,
             counters: Counters::default(),
+            discarded: Deque::new(),
         }
+    }
+
+    /// Keeps the metadata of an upstream frame given up, for the caller.
+    fn discard(&mut self, meta: M, why: Discard) {
+        // Without metadata there is nothing to tell: the counters have it.
+        if core::mem::size_of::<M>() > 0 {
+            let _ = self.discarded.push_back((meta, why));
+        }
+    }
+
+    /// The next upstream frame given up since the last call, with its
+    /// metadata (only for metadata that is not zero-sized).
+    pub fn take_discarded(&mut self) -> Option<(M, Discard)> {
+        self.discarded.pop_front()
     }
 
     /// The port upstream traffic leaves on.
@@ -123,10 +172,11 @@ impl Router {
         }
         self.master = master;
         if let Some(m) = master {
-            let q = &mut self.up[m.index()];
-            self.counters.dropped_reroute += q.len() as u32;
-            self.up_total -= q.len();
-            q.clear();
+            self.counters.dropped_reroute += self.up[m.index()].len() as u32;
+            self.up_total -= self.up[m.index()].len();
+            while let Some((_, meta)) = self.up[m.index()].pop_front() {
+                self.discard(meta, Discard::Reroute);
+            }
         }
     }
 
@@ -146,26 +196,43 @@ impl Router {
         }
     }
 
-    /// Queues an upstream frame from a neighbour or from this cell.
-    pub fn upstream(&mut self, from: Source, frame: Frame) -> Result<(), Drop> {
-        let i = match from {
+    /// Queues an upstream frame from a neighbour or from this cell, with
+    /// its `meta`data, or, when it has none, what `stamp` makes for it as
+    /// it is queued. A refused frame with metadata is kept for
+    /// [`Router::take_discarded`]; one without never entered the books.
+    pub fn upstream(
+        &mut self,
+        from: Source,
+        frame: Frame,
+        meta: Option<M>,
+        stamp: &mut impl Stamp<M>,
+    ) -> Result<(), Discard> {
+        let q = match from {
             Source::Port(p) if Some(p) == self.master => {
                 self.counters.dropped_reroute += 1;
-                return Err(Drop::Reroute);
+                return self.refuse(meta, Discard::Reroute);
             }
             Source::Port(p) => p.index(),
             Source::Own => OWN,
         };
-        match self.up[i].push_back(frame) {
-            Ok(()) => {
-                self.up_total += 1;
-                Ok(())
-            }
-            Err(_) => {
-                self.counters.dropped_full += 1;
-                Err(Drop::QueueFull)
-            }
+        if self.up[q].is_full() {
+            self.counters.dropped_full += 1;
+            return self.refuse(meta, Discard::QueueFull);
         }
+        let mut meta = meta.unwrap_or_else(|| stamp.made(&frame, from));
+        meta.queued(self.up[q].len());
+        // Not full: checked above.
+        let _ = self.up[q].push_back((frame, meta));
+        self.up_total += 1;
+        Ok(())
+    }
+
+    /// An upstream frame refused: its metadata, if any, is kept.
+    fn refuse(&mut self, meta: Option<M>, why: Discard) -> Result<(), Discard> {
+        if let Some(meta) = meta {
+            self.discard(meta, why);
+        }
+        Err(why)
     }
 
     /// Copies a downstream frame to every child port. Returns how many copies
@@ -186,11 +253,11 @@ impl Router {
     }
 
     /// Queues a link-local frame (probe, beacon, ...) for one port.
-    pub fn link(&mut self, port: Port, frame: Frame) -> Result<(), Drop> {
+    pub fn link(&mut self, port: Port, frame: Frame) -> Result<(), Discard> {
         self.waiting |= 1 << port.index();
         self.link[port.index()].push_back(frame).map_err(|_| {
             self.counters.dropped_full += 1;
-            Drop::QueueFull
+            Discard::QueueFull
         })
     }
 
@@ -206,6 +273,12 @@ impl Router {
     /// link-local first, then on the master port the round robin over the
     /// upstream queues, then downstream copies on a child port.
     pub fn transmit(&mut self, port: Port) -> Option<Frame> {
+        self.transmit_meta(port).map(|(frame, _)| frame)
+    }
+
+    /// [`Router::transmit`], with the metadata of an upstream frame.
+    #[inline]
+    pub fn transmit_meta(&mut self, port: Port) -> Option<(Frame, Option<M>)> {
         let p = port.index();
         if let Some(f) = self.link[p].pop_front() {
             self.counters.sent_link += 1;
@@ -213,20 +286,21 @@ impl Router {
                 self.sent |= 1 << p;
             }
             self.recount(port);
-            return Some(f);
+            return Some((f, None));
         }
-        let frame = self.next_data(port)?;
+        let sent = self.next_data(port)?;
         self.sent |= 1 << p;
         self.recount(port);
-        Some(frame)
+        Some(sent)
     }
 
-    fn next_data(&mut self, port: Port) -> Option<Frame> {
+    #[inline]
+    fn next_data(&mut self, port: Port) -> Option<(Frame, Option<M>)> {
         let p = port.index();
         if self.master == Some(port) && self.up_total > 0 {
             for k in 0..self.up.len() {
                 let i = (self.next + k) % self.up.len();
-                if let Some(f) = self.up[i].pop_front() {
+                if let Some((f, meta)) = self.up[i].pop_front() {
                     self.up_total -= 1;
                     self.next = (i + 1) % self.up.len();
                     if i == OWN {
@@ -234,13 +308,13 @@ impl Router {
                     } else {
                         self.counters.forwarded_up += 1;
                     }
-                    return Some(f);
+                    return Some((f, Some(meta)));
                 }
             }
         }
         let f = self.down[p].pop_front()?;
         self.counters.forwarded_down += 1;
-        Some(f)
+        Some((f, None))
     }
 
     /// True when `port` has something to send.
@@ -261,9 +335,13 @@ impl Router {
     }
 
     /// Counts a frame that the tree's shape made pointless: bound for the
-    /// host but arriving from the master port (a transient loop).
-    pub fn count_reroute(&mut self) {
+    /// host but arriving from the master port (a transient loop), or a
+    /// frame with metadata that did not go upstream.
+    pub fn reroute(&mut self, meta: Option<M>) {
         self.counters.dropped_reroute += 1;
+        if let Some(meta) = meta {
+            self.discard(meta, Discard::Reroute);
+        }
     }
 
     /// Frames waiting in all queues.
@@ -282,6 +360,17 @@ impl Router {
         core::array::from_fn(|i| self.up[i].len())
     }
 
+    /// The metadata of every frame waiting upstream.
+    pub fn upstream_metas(&self) -> impl Iterator<Item = &M> {
+        self.up.iter().flat_map(|q| q.iter().map(|(_, meta)| meta))
+    }
+
+    /// Keeps the metadata of an upstream frame the cell took in as
+    /// something else (a corrupted frame that passed its CRC), as given up.
+    pub fn give_up(&mut self, meta: M) {
+        self.discard(meta, Discard::Reroute);
+    }
+
     /// Counts a received frame that failed to parse.
     pub fn count_corrupt(&mut self) {
         self.counters.corrupt += 1;
@@ -293,13 +382,21 @@ impl Router {
     }
 }
 
+/// A router and the stamp of the frames the organizer makes.
+pub struct Stamped<'a, M, S> {
+    /// Where the frames go.
+    pub router: &'a mut Router<M>,
+    /// What metadata they get.
+    pub stamp: &'a mut S,
+}
+
 /// The organizer's frames go straight into the queues; a full queue drops
 /// and counts, and the organizer repeats everything that matters.
-impl Outbox for Router {
+impl<M: Meta, S: Stamp<M>> Outbox for Stamped<'_, M, S> {
     fn send(&mut self, out: Out) {
         let _ = match out {
-            Out::Link(p, f) => self.link(p, f),
-            Out::Up(f) => self.upstream(Source::Own, f),
+            Out::Link(p, f) => self.router.link(p, f),
+            Out::Up(f) => self.router.upstream(Source::Own, f, None, self.stamp),
         };
     }
 }
@@ -337,7 +434,7 @@ mod tests {
         /// sent, dropped or still queued.
         #[test]
         fn round_robin_is_fair_and_bounded(ops in proptest::collection::vec(op(), 1..600)) {
-            let mut r = Router::new();
+            let mut r: Router = Router::new();
             r.set_master(Some(Port::P0));
             let mut waited = [0usize; 5];
             let mut pushed = 0u32;
@@ -346,7 +443,7 @@ mod tests {
                     Op::Push(i) => {
                         let from = if i == OWN { Source::Own } else { Source::Port(Port::ALL[i]) };
                         pushed += 1;
-                        let _ = r.upstream(from, frame(i as u8));
+                        let _ = r.upstream(from, frame(i as u8), None, &mut ());
                     }
                     Op::Serve => {
                         let before = r.upstream_lens();
@@ -381,7 +478,7 @@ mod tests {
 
     #[test]
     fn downstream_goes_to_children_only_and_link_frames_go_first() {
-        let mut r = Router::new();
+        let mut r: Router = Router::new();
         r.set_master(Some(Port::P0));
         r.set_child(Port::P1, true);
         r.set_child(Port::P3, true);
@@ -396,13 +493,51 @@ mod tests {
         assert_eq!(r.queued(), 0);
     }
 
+    /// A frame's tag, and how many frames were ahead of it when queued.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    struct Tag(u8, usize);
+
+    impl Meta for Tag {
+        fn queued(&mut self, ahead: usize) {
+            self.1 = ahead;
+        }
+    }
+
+    impl Stamp<Tag> for u8 {
+        fn made(&mut self, _: &Frame, _: Source) -> Tag {
+            Tag(*self, 0)
+        }
+    }
+
+    #[test]
+    fn metadata_travels_with_its_frame_and_comes_back_when_given_up() {
+        let mut r: Router<Tag> = Router::new();
+        r.set_master(Some(Port::P0));
+        r.upstream(Source::Port(Port::P1), frame(1), Some(Tag(1, 9)), &mut 0).unwrap();
+        r.upstream(Source::Port(Port::P1), frame(2), Some(Tag(2, 9)), &mut 0).unwrap();
+        r.upstream(Source::Own, frame(3), None, &mut 3).unwrap();
+        r.upstream(Source::Port(Port::P2), frame(4), Some(Tag(4, 9)), &mut 0).unwrap();
+        assert_eq!(r.upstream(Source::Port(Port::P0), frame(5), Some(Tag(5, 0)), &mut 0), Err(Discard::Reroute));
+        assert_eq!(r.take_discarded(), Some((Tag(5, 0), Discard::Reroute)));
+        assert_eq!(r.transmit_meta(Port::P0), Some((frame(1), Some(Tag(1, 0)))));
+        assert_eq!(r.transmit_meta(Port::P0), Some((frame(4), Some(Tag(4, 0)))));
+        assert_eq!(r.transmit_meta(Port::P0), Some((frame(3), Some(Tag(3, 0)))));
+        // Port 1 becomes the master: what came in on it is given up.
+        r.set_master(Some(Port::P1));
+        assert_eq!(r.take_discarded(), Some((Tag(2, 1), Discard::Reroute)));
+        assert_eq!(r.take_discarded(), None);
+        assert_eq!(r.queued(), 0);
+        r.link(Port::P1, frame(6)).unwrap();
+        assert_eq!(r.transmit_meta(Port::P1), Some((frame(6), None)), "link-local frames carry none");
+    }
+
     #[test]
     fn full_queues_drop_and_count() {
-        let mut r = Router::new();
+        let mut r: Router = Router::new();
         for _ in 0..UP_QUEUE {
-            r.upstream(Source::Own, frame(0)).unwrap();
+            r.upstream(Source::Own, frame(0), None, &mut ()).unwrap();
         }
-        assert_eq!(r.upstream(Source::Own, frame(0)), Err(Drop::QueueFull));
+        assert_eq!(r.upstream(Source::Own, frame(0), None, &mut ()), Err(Discard::QueueFull));
         assert_eq!(r.counters().dropped_full, 1);
         // Without a master, upstream frames wait.
         assert_eq!(r.transmit(Port::P0), None);

@@ -5,7 +5,7 @@
 use std::collections::{BTreeMap, HashMap, HashSet, VecDeque};
 
 use skin_protocol::address::Address;
-use skin_protocol::cell::Cell;
+use skin_protocol::cell::{Cell, Received};
 use skin_protocol::frame::Frame;
 use skin_protocol::message::{Message, Neighbour, Port};
 use skin_protocol::organize::{Allocator, Config, FromCell, Sink};
@@ -114,7 +114,12 @@ impl Net {
             self.trace.push((now, to, *frame.as_bytes()));
             match to {
                 End::Cell(i, p) if now >= self.boot_at[i] => {
-                    self.cells[i].receive(p, frame.as_bytes(), now, &mut self.stores[i]);
+                    self.cells[i].receive(
+                        Received { port: p, bytes: frame.as_bytes(), meta: None },
+                        now,
+                        &mut self.stores[i],
+                        &mut (),
+                    );
                 }
                 End::Cell(..) => {}
                 End::Sink(k) => {
@@ -127,7 +132,7 @@ impl Net {
         // Timers.
         for i in 0..self.cells.len() {
             if now >= self.boot_at[i] && self.cells[i].poll_at() <= now {
-                self.cells[i].poll(now);
+                self.cells[i].poll(now, &mut ());
             }
         }
         for s in &mut self.sinks {

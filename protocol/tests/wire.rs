@@ -4,7 +4,7 @@
 use proptest::prelude::*;
 
 use skin_protocol::address::Address;
-use skin_protocol::cell::Cell;
+use skin_protocol::cell::{Cell, Received};
 use skin_protocol::frame::{self, Frame, FrameError, FRAME_LEN};
 use skin_protocol::interface::{self, Datagram, DatagramHeader, MAX_FRAMES};
 use skin_protocol::message::*;
@@ -201,7 +201,7 @@ proptest! {
         ], 0..20_000u64), 1..200)
     ) {
         let mut store = None;
-        let mut cell = Cell::new(Config::default(), &store, 0);
+        let mut cell: Cell = Cell::new(Config::default(), &store, 0);
         let mut sink = Sink::new(0, Config::default(), 0).unwrap();
         let mut now = 0;
         for (port, (src, dst, m), dt) in inputs {
@@ -210,8 +210,8 @@ proptest! {
                 Some(m) => frame::encode(src, dst, &m),
                 None => [0xA5; FRAME_LEN],
             };
-            cell.receive(port, &bytes, now, &mut store);
-            cell.poll(now);
+            cell.receive(Received { port, bytes: &bytes, meta: None }, now, &mut store, &mut ());
+            cell.poll(now, &mut ());
             let _ = sink.receive(&bytes, now);
             sink.poll(now);
             let org = cell.organizer();

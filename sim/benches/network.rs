@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode};
 use skin_protocol::address::Address;
-use skin_protocol::cell::Cell;
+use skin_protocol::cell::{Arrived, Cell};
 use skin_protocol::frame::Frame;
 use skin_protocol::message::{Beacon, Message, Port, Probe, TrafficMode};
 use skin_protocol::organize::Config;
@@ -94,12 +94,13 @@ fn speed(
 /// in ns.
 fn hop(c: &mut Criterion) -> f64 {
     let mut store = Some(Address(5));
-    let mut cell = Cell::new(Config::default(), &store, 0);
+    let mut cell: Cell = Cell::new(Config::default(), &store, 0);
     let sink = Address::interface(0).expect("interface 0");
     let beacon = Frame::new(sink, Address::BROADCAST, &Message::Beacon(Beacon { interface: 0, seq: 1, hops: 0 }));
-    cell.receive_frame(Port::P0, beacon, 0, &mut store);
+    cell.receive_frame(Arrived { port: Port::P0, frame: beacon, meta: None }, 0, &mut store, &mut ());
     let probe = Probe { port: Port::P2, id: Address(9), master: true, known: true, lost: false };
-    cell.receive_frame(Port::P1, Frame::new(Address(9), Address::BROADCAST, &Message::Probe(probe)), 0, &mut store);
+    let probe = Frame::new(Address(9), Address::BROADCAST, &Message::Probe(probe));
+    cell.receive_frame(Arrived { port: Port::P1, frame: probe, meta: None }, 0, &mut store, &mut ());
     for p in Port::ALL {
         while cell.transmit(p).is_some() {}
     }
@@ -109,7 +110,12 @@ fn hop(c: &mut Criterion) -> f64 {
         b.iter_custom(|iters| {
             let start = Instant::now();
             for _ in 0..iters {
-                cell.receive_frame(Port::P1, black_box(sample), 1, &mut store);
+                cell.receive_frame(
+                    Arrived { port: Port::P1, frame: black_box(sample), meta: None },
+                    1,
+                    &mut store,
+                    &mut (),
+                );
                 black_box(cell.transmit(Port::P0));
             }
             let t = start.elapsed();

@@ -12,7 +12,7 @@ use skin_sim::network::scenario::pump;
 use skin_sim::network::stimulus::StimulusKind;
 use skin_sim::network::topology::PortRef;
 use skin_sim::network::transport::Transport;
-use skin_sim::network::{Network, NetworkConfig, Report, Scenario, Topology};
+use skin_sim::network::{Network, NetworkConfig, NetworkReport, Scenario, Topology};
 
 fn config(traffic: TrafficMode, stimulus: StimulusKind, seed: u64) -> NetworkConfig {
     NetworkConfig { traffic, stimulus, seed, ..NetworkConfig::default() }
@@ -22,11 +22,11 @@ fn patch(rows: usize, cols: usize, interfaces: usize) -> Topology {
     Topology::hex(rows, cols).and_then(|t| t.with_interfaces(interfaces)).unwrap()
 }
 
-fn run(scenario: &Scenario) -> Report {
+fn run(scenario: &Scenario) -> NetworkReport {
     scenario.run(&mut Transport::memory(), &mut |_| {}).unwrap()
 }
 
-fn organized(r: &Report) {
+fn organized(r: &NetworkReport) {
     assert!(r.organize_time_s.is_some(), "did not organize: {}", r.summary());
     assert!(r.ids_unique, "{}", r.summary());
     assert_eq!(r.neighbours_correct, Some(true), "{}", r.summary());

@@ -25,7 +25,7 @@ use skin_host::config::{CellSettings, InterfaceConfig};
 use skin_host::control::params::Params;
 use skin_host::explore::check::check;
 use skin_host::explore::{Exploration, ExploreConfig, SensoryMotorMap};
-use skin_host::grasping::{grasp, learn, objects, GraspError, GraspRun, Taught};
+use skin_host::grasping::{grasp, learn, Experimenter, GraspError, GraspRun, Taught};
 use skin_host::interface::Interface;
 use skin_host::pipeline::OrganizeConfig;
 use skin_host::remote::{Remote, RobotLink};
@@ -35,6 +35,7 @@ use skin_sim::network::NetworkConfig;
 use skin_sim::robot::hrp2;
 use skin_sim::scene::experiment::Setup;
 use skin_sim::scene::object::Object;
+use skin_sim::scene::operator::{Note, Order};
 use skin_sim::world::{World, WorldConfig};
 
 use super::job::{self, bar, Steps};
@@ -125,6 +126,28 @@ pub(super) fn serve_experiment(seed: u64) -> Result<(Running, Remote, Steps), Bo
     Ok((endpoint, remote, steps))
 }
 
+/// The simulated person of the robot's endpoint, over its side channel.
+struct Person<'a>(&'a mut Running);
+
+impl Experimenter for Person<'_> {
+    fn order(&mut self, order: Order) -> Result<(), GraspError> {
+        self.0.order(order).map_err(|e| GraspError::Person(e.to_string()))
+    }
+
+    fn heard(&mut self, out: &mut Vec<Note>) {
+        out.extend(self.0.notes());
+    }
+}
+
+/// The objects a command-line choice names: one, all of Figure 16, or none.
+pub(super) fn objects(choice: &str) -> Result<Vec<Option<Object>>, GraspError> {
+    match choice {
+        "all" => Ok(Object::figure_16().into_iter().map(Some).collect()),
+        "none" => Ok(vec![None]),
+        name => Object::by_name(name).map(|o| vec![Some(o)]).ok_or_else(|| GraspError::UnknownObject(name.into())),
+    }
+}
+
 /// Teaching by the person at the robot, then a grasp of each of `objects`.
 pub(super) fn teach_and_grasp(
     remote: &mut Remote,
@@ -135,6 +158,7 @@ pub(super) fn teach_and_grasp(
 ) -> Result<(Taught, Vec<GraspRun>), GraspError> {
     let progress = bar("{msg:32} [{bar:30}] {pos}/{len} steps");
     progress.set_length((6 + objects.len()) as u64);
+    let person = &mut Person(person);
     let taught = learn(remote, person, map, params, &mut |step| {
         progress.set_message(step.to_owned());
         progress.inc(1);

@@ -13,9 +13,10 @@ use std::process::ExitCode;
 
 use skin_host::control::grasp::State;
 use skin_host::control::params::Params;
-use skin_host::grasping::{objects, write_traces, GraspRun, Taught};
+use skin_host::grasping::{GraspRun, Taught};
+use skin_host::report::traces::write_traces;
 
-use super::demo::{serve_experiment, teach_and_grasp};
+use super::demo::{objects, serve_experiment, teach_and_grasp};
 use super::job;
 
 /// Arguments of `skin grasp`.

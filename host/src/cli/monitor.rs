@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 use skin_host::config::{Config, PortConfig};
-use skin_host::interface::{Counters, DatagramReject, Event, EventKind, FrameReject, Interface, PortStats};
+use skin_host::interface::{DatagramReject, Event, EventKind, FrameReject, Interface, InterfaceCounters, PortStats};
 use skin_host::registry::Topology;
 use skin_protocol::event::{FORCE_NAMES, PROXIMITY_NAMES};
 use skin_protocol::message::Channel;
@@ -130,7 +130,7 @@ struct View {
     recent: VecDeque<String>,
     touched: BTreeSet<Address>,
     acks: [u64; 2],
-    last: (u64, Counters, Vec<PortStats>),
+    last: (u64, InterfaceCounters, Vec<PortStats>),
     /// The topology, recomputed only when a report changed or a cell joined:
     /// keyed by (topology version, cells heard).
     topology: ((u64, usize), Topology),
@@ -144,7 +144,7 @@ impl View {
             recent: VecDeque::with_capacity(RECENT),
             touched: BTreeSet::new(),
             acks: [0; 2],
-            last: (0, Counters::default(), interface.ports().iter().map(|p| *p.stats()).collect()),
+            last: (0, InterfaceCounters::default(), interface.ports().iter().map(|p| *p.stats()).collect()),
             topology: ((0, 0), Topology::default()),
         }
     }
@@ -276,7 +276,7 @@ struct Snapshot {
     /// Over the last refresh period (the whole run for the final snapshot).
     datagrams_per_s: f64,
     frames_per_s: f64,
-    counters: Counters,
+    counters: InterfaceCounters,
     ports: Vec<PortView>,
     cells: CellsView,
     acks_accepted: u64,

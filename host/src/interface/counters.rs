@@ -121,7 +121,7 @@ pub struct FrameCounters {
 
 /// Everything the interface counted.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
-pub struct Counters {
+pub struct InterfaceCounters {
     /// Datagrams from the skin.
     pub datagrams: DatagramCounters,
     /// Frames in accepted datagrams.
@@ -171,7 +171,7 @@ impl FrameCounters {
     }
 }
 
-impl Counters {
+impl InterfaceCounters {
     /// True when every datagram and every frame received is accepted or
     /// rejected for one reason: nothing vanished uncounted.
     pub fn balanced(&self) -> bool {

@@ -9,7 +9,7 @@ use skin_protocol::frame::FrameError;
 use skin_protocol::interface::{Datagram, DatagramError, HEADER_LEN};
 use skin_protocol::{Address, Frame, Kind, Message, FRAME_LEN};
 
-use super::counters::{Counters, DatagramReject, FrameReject};
+use super::counters::{DatagramReject, FrameReject, InterfaceCounters};
 use super::event::{Event, EventKind};
 use super::ports::Ports;
 use super::ratelog::RateLimit;
@@ -21,7 +21,7 @@ use crate::registry::{Registry, Seen};
 pub struct Ingest {
     ports: Ports,
     registry: Registry,
-    counters: Counters,
+    counters: InterfaceCounters,
     datagram_log: [RateLimit; DatagramReject::ALL.len()],
     frame_log: [RateLimit; FrameReject::ALL.len()],
     exhausted_log: RateLimit,
@@ -43,7 +43,7 @@ impl Ingest {
         Ingest {
             ports: Ports::new(ports),
             registry: Registry::new(),
-            counters: Counters::default(),
+            counters: InterfaceCounters::default(),
             datagram_log: Default::default(),
             frame_log: Default::default(),
             exhausted_log: RateLimit::default(),
@@ -202,7 +202,7 @@ impl Ingest {
     }
 
     /// What was counted.
-    pub fn counters(&self) -> &Counters {
+    pub fn counters(&self) -> &InterfaceCounters {
         &self.counters
     }
 
@@ -216,7 +216,7 @@ impl Ingest {
         &self.ports
     }
 
-    pub(crate) fn ports_and_counters(&mut self) -> (&mut Ports, &mut Counters) {
+    pub(crate) fn ports_and_counters(&mut self) -> (&mut Ports, &mut InterfaceCounters) {
         (&mut self.ports, &mut self.counters)
     }
 

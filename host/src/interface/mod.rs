@@ -36,7 +36,7 @@ use skin_protocol::interface::{MAX_DATAGRAM, MAX_FRAMES};
 use skin_protocol::message::{ConfigWrite, Setting};
 use skin_protocol::{Address, Frame, Message};
 
-pub use counters::{Counters, DatagramCounters, DatagramReject, FrameCounters, FrameReject};
+pub use counters::{DatagramCounters, DatagramReject, FrameCounters, FrameReject, InterfaceCounters};
 pub use event::{Event, EventKind};
 pub use ingest::Ingest;
 pub use ports::{Port, PortStats, Ports};
@@ -220,7 +220,7 @@ impl Interface {
     }
 
     /// Everything counted so far.
-    pub fn counters(&self) -> &Counters {
+    pub fn counters(&self) -> &InterfaceCounters {
         self.ingest.counters()
     }
 

@@ -103,7 +103,7 @@ pub fn grid(path: &Path, g: &Grid<'_>) -> Result<(), DrawError> {
 }
 
 /// A node of a drawn tree.
-pub struct Node {
+pub struct DrawnNode {
     /// Text in the node.
     pub label: String,
     /// The parent node and the edge's label; `None` for a root.
@@ -114,7 +114,7 @@ pub struct Node {
 
 /// Positions of a forest laid out top-down: depth gives y, the order of
 /// leaves gives x, and a parent sits over the middle of its children.
-fn layout(nodes: &[Node]) -> (Vec<(f64, usize)>, usize, usize) {
+fn layout(nodes: &[DrawnNode]) -> (Vec<(f64, usize)>, usize, usize) {
     let n = nodes.len();
     let mut children: Vec<Vec<usize>> = vec![Vec::new(); n];
     let mut roots = Vec::new();
@@ -162,7 +162,7 @@ fn layout(nodes: &[Node]) -> (Vec<(f64, usize)>, usize, usize) {
 pub fn forest(
     path: &Path,
     title: &str,
-    nodes: &[Node],
+    nodes: &[DrawnNode],
     extra: &[(usize, usize)],
     legend: &[(String, RGBColor)],
 ) -> Result<(), DrawError> {
@@ -254,7 +254,7 @@ mod tests {
 
     #[test]
     fn a_forest_is_laid_out_by_depth_and_leaves_and_a_cycle_ends() {
-        let node = |parent: Option<usize>| Node {
+        let node = |parent: Option<usize>| DrawnNode {
             label: String::new(),
             parent: parent.map(|p| (p, String::new())),
             colour: BLACK,

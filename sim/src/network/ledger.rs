@@ -149,6 +149,21 @@ pub struct Quantiles {
     pub count: u64,
 }
 
+/// The smallest value with at least fraction `q` of all `total` values at
+/// or below it, from (value, count) pairs, smallest value first; `None`
+/// when they hold fewer values than that.
+pub fn quantile(counts: impl IntoIterator<Item = (u64, u64)>, total: u64, q: f64) -> Option<u64> {
+    let rank = ((q * total as f64).ceil() as u64).max(1);
+    let mut seen = 0;
+    counts
+        .into_iter()
+        .find(|(_, n)| {
+            seen += n;
+            seen >= rank
+        })
+        .map(|(value, _)| value)
+}
+
 impl Histogram {
     const EXACT_US: usize = 100_000;
 
@@ -162,15 +177,7 @@ impl Histogram {
     /// The smallest value with at least fraction `q` of all values at or
     /// below it (values of 100 ms and more count as 100 ms).
     fn quantile(&self, q: f64) -> u64 {
-        let rank = ((q * self.n as f64).ceil() as u64).max(1);
-        let mut seen = 0;
-        for (us, c) in self.counts.iter().enumerate() {
-            seen += c;
-            if seen >= rank {
-                return (us as u64).min(self.max_us);
-            }
-        }
-        self.max_us
+        quantile(self.counts(), self.n, q).map_or(self.max_us, |us| us.min(self.max_us))
     }
 
     /// Every latency recorded and how often, in microseconds, smallest

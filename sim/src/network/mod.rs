@@ -1,7 +1,7 @@
 //! A discrete-event simulator of skin networks (section 2.2).
 //!
-//! Every simulated cell runs the firmware's own protocol code
-//! ([`skin_protocol::cell::Cell`] and [`skin_protocol::processing::Processor`]),
+//! Every simulated cell runs the firmware's own cell application
+//! ([`skin_protocol::app::CellApp`]),
 //! every interface port a [`skin_protocol::organize::Sink`], on a virtual
 //! clock, over links timed as on the real skin (4 Mbit/s UART, 20-byte
 //! frames, round-robin routing; 1 Gbit/s UDP at the interface).
@@ -17,7 +17,7 @@
 //!   without the real one.
 //! - [`transport`]: datagrams in memory or over a loopback UDP socket.
 //! - [`model`]: the paper's capacity figures from the link model.
-//! - [`scenario`]: one whole run (organize, traffic, faults) and its [`Report`].
+//! - [`scenario`]: one whole run (organize, traffic, faults) and its [`NetworkReport`].
 
 pub mod fault;
 pub mod host;
@@ -31,8 +31,8 @@ pub mod stimulus;
 pub mod topology;
 pub mod transport;
 
-pub use scenario::{Report, Scenario};
-pub use simulator::{HostDatagram, Network, NetworkConfig};
+pub use scenario::{NetworkReport, Scenario};
+pub use simulator::{HostDatagram, Network, NetworkConfig, SimCell, Stamper, Trace};
 pub use topology::Topology;
 
 /// What can go wrong building or running a network simulation.
@@ -51,6 +51,15 @@ pub enum NetworkError {
         /// What is wrong with it.
         why: String,
     },
+    /// A topology file cannot be read.
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What the OS said.
+        #[source]
+        source: std::io::Error,
+    },
     /// A command-line value is out of range or malformed.
     #[error("{0}")]
     Flag(String),
@@ -60,4 +69,20 @@ pub enum NetworkError {
     /// The UDP socket failed.
     #[error("udp: {0}")]
     Udp(#[from] std::io::Error),
+    /// A datagram from the host names an interface port the skin lacks.
+    #[error("datagram for interface port {0}, which this skin does not have")]
+    NoSuchInterface(u8),
+    /// The simulated world refused a command.
+    #[error("the simulated world: {0}")]
+    World(#[from] crate::world::WorldError),
+    /// The robot has more DoFs than the robot link carries.
+    #[error("the robot has {0} DoFs; the robot link carries at most {max}", max = skin_protocol::robot_link::MAX_DOFS)]
+    TooManyDofs(usize),
+    /// The simulated robot's thread ended (stopped or failed to start);
+    /// what it reported, if anything, came first.
+    #[error("the simulated robot has stopped")]
+    Stopped,
+    /// The simulated robot's thread panicked.
+    #[error("the simulated robot's thread panicked")]
+    Panicked,
 }

@@ -102,7 +102,7 @@ pub struct Traffic {
 
 /// What a run shows; `--json` prints it as one object.
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Report {
+pub struct NetworkReport {
     /// Cells in the skin.
     pub cells: usize,
     /// Interface ports.
@@ -191,7 +191,7 @@ impl Scenario {
     }
 
     /// Runs it; `progress` hears the fraction of virtual time done.
-    pub fn run(&self, transport: &mut Transport, progress: &mut dyn FnMut(f64)) -> Result<Report, NetworkError> {
+    pub fn run(&self, transport: &mut Transport, progress: &mut dyn FnMut(f64)) -> Result<NetworkReport, NetworkError> {
         if !(self.duration_s.is_finite() && self.duration_s >= 0.0) {
             return Err(NetworkError::Flag(format!("duration {} s: give a duration >= 0 s", self.duration_s)));
         }
@@ -238,7 +238,7 @@ impl Scenario {
         organize_time_s: Option<f64>,
         ids_kept: bool,
         wall_time_s: f64,
-    ) -> Report {
+    ) -> NetworkReport {
         let c = &self.config;
         let m: Measurements = net.measurements();
         let l = &m.ledger;
@@ -252,7 +252,7 @@ impl Scenario {
         let capacity = (c.timing.frames_per_s() - control_hz).max(0.0);
         let cells_per_interface = (peak_per_cell_hz > 0.0).then(|| capacity / peak_per_cell_hz);
         let latency_us = m.latency.quantiles();
-        Report {
+        NetworkReport {
             cells: net.cells(),
             interfaces: net.interfaces(),
             rate_hz: f64::from(c.rate_hz),
@@ -368,7 +368,7 @@ fn organization(net: &Network, transport: &Transport) -> Organization {
     Organization { ids_unique, neighbours_correct, attached, reachable: reachable.len(), max_tree_depth }
 }
 
-impl Report {
+impl NetworkReport {
     /// A short summary for people.
     pub fn summary(&self) -> String {
         let yes = |b: bool| if b { "yes" } else { "NO" };

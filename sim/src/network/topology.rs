@@ -186,7 +186,8 @@ impl Topology {
             Some("json") => true,
             _ => return Err(file("the file name must end in .toml or .json".into())),
         };
-        let text = std::fs::read_to_string(path).map_err(|e| file(e.to_string()))?;
+        let text =
+            std::fs::read_to_string(path).map_err(|source| NetworkError::Read { path: path.to_owned(), source })?;
         Topology::from_text(&text, json).map_err(|e| match e {
             NetworkError::Topology(why) => file(why),
             e => e,

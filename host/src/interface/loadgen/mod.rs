@@ -23,7 +23,7 @@ use std::time::{Duration, Instant};
 
 use skin_protocol::Address;
 
-pub use skin::SimSkin;
+pub use skin::{AppCell, SimSkin};
 
 use super::socket::{is_no_datagram, BatchSocket};
 use crate::config::Traffic;

@@ -1,29 +1,79 @@
 //! The simulated skin of the load generator, without sockets: skin time in,
 //! encoded interface datagrams out, port by port; configuration writes in,
-//! acknowledgements out.
+//! acknowledgements out. Every cell runs the protocol's cell application
+//! ([`App`]) straight onto its interface port: no cell-2-cell network.
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use skin_protocol::app::{App, MemoryStore, Uplink};
+use skin_protocol::cell::SendError;
 use skin_protocol::interface::{self, Datagram, DatagramHeader, MAX_DATAGRAM, MAX_FRAMES};
-use skin_protocol::message::{ConfigAck, Neighbour, NeighbourReport, Port, Setting, TrafficMode};
-use skin_protocol::processing::Processor;
+use skin_protocol::message::{ConfigWrite, Neighbour, NeighbourReport, Port, Setting, TrafficMode};
 use skin_protocol::{Address, Frame, Message, Sample};
 
 use super::LoadSpec;
 use crate::config::Traffic;
 
-struct SimCell {
-    id: Address,
+struct LoadCell {
     port: usize,
     /// Position in its patch, in cell pitches.
     row: f64,
     col: f64,
-    processor: Processor,
+    app: AppCell,
     report: NeighbourReport,
     next_report_us: u64,
+}
+
+/// A load generator's cell: the cell application with an ID, sending
+/// straight to its interface port (which never refuses).
+#[derive(Debug)]
+pub struct AppCell {
+    id: Address,
+    app: App<MemoryStore>,
+}
+
+/// The frames a port gathers, as a cell's uplink.
+struct Gather<'a> {
+    id: Address,
+    frames: &'a mut Vec<Frame>,
+}
+
+impl Uplink for Gather<'_> {
+    fn send(&mut self, message: &Message) -> Result<(), SendError> {
+        self.frames.push(Frame::new(self.id, Address::HOST, message));
+        Ok(())
+    }
+}
+
+impl AppCell {
+    /// Cell `id` booting from `store`.
+    pub fn new(id: Address, store: MemoryStore) -> AppCell {
+        AppCell { id, app: App::new(store) }
+    }
+
+    /// The sampling period.
+    pub fn period_us(&self) -> u64 {
+        self.app.processor().period_us()
+    }
+
+    /// Takes a raw sample; what it sends goes to `frames`.
+    pub fn sample(&mut self, raw: &Sample, frames: &mut Vec<Frame>) {
+        self.app.sample(raw, &mut Gather { id: self.id, frames });
+    }
+
+    /// Applies, keeps and acknowledges a configuration write into `frames`.
+    pub fn configure(&mut self, write: &ConfigWrite, frames: &mut Vec<Frame>) {
+        self.app.configure(write, &mut Gather { id: self.id, frames });
+    }
+
+    /// Powers the cell off and on: it boots again from its store.
+    pub fn reboot(&mut self) {
+        let store = *self.app.store();
+        self.app = App::new(store);
+    }
 }
 
 /// Datagrams waiting to leave one port.
@@ -37,7 +87,7 @@ struct Outgoing {
 /// The simulated cells and what their interface ports have gathered.
 pub struct SimSkin {
     spec: LoadSpec,
-    cells: Vec<SimCell>,
+    cells: Vec<LoadCell>,
     /// Next sampling time of every cell, earliest first: (time, cell index).
     due: BinaryHeap<Reverse<(u64, usize)>>,
     rng: ChaCha8Rng,
@@ -93,18 +143,17 @@ impl SimSkin {
                         None => None,
                     };
                 }
-                let mut processor = Processor::new();
-                processor.apply(&Setting::SampleRateHz(spec.rate_hz as f32));
-                processor.apply(&Setting::Traffic(mode));
+                // Calibrated at the factory, with the load's rate and traffic kept.
+                let settings = [Setting::SampleRateHz(spec.rate_hz as f32), Setting::Traffic(mode)];
+                let app = AppCell::new(id(j), MemoryStore::with(Some([0; 8]), settings));
                 // The cells of a port sample at evenly spread phases, and the
                 // heartbeats of the whole skin are spread over their period.
-                due.push(Reverse((j as u64 * processor.period_us() / m as u64, cells.len())));
-                cells.push(SimCell {
-                    id: id(j),
+                due.push(Reverse((j as u64 * app.period_us() / m as u64, cells.len())));
+                cells.push(LoadCell {
                     port: p,
                     row: (j / cols) as f64,
                     col: (j % cols) as f64,
-                    processor,
+                    app,
                     report,
                     next_report_us: (first + j) as u64 * report_period_us / n as u64,
                 });
@@ -150,7 +199,7 @@ impl SimSkin {
             let Some(Reverse((t, index))) = self.due.pop() else { break };
             self.sample(index, t);
             let cell = &self.cells[index];
-            self.due.push(Reverse((t + cell.processor.period_us().max(1), index)));
+            self.due.push(Reverse((t + cell.app.period_us().max(1), index)));
             // A port forwards at once without a flush period, and early when
             // its datagram is nearly full.
             if self.spec.flush_us == 0 || self.pending[cell.port].len() + 5 > MAX_FRAMES {
@@ -165,12 +214,11 @@ impl SimSkin {
     fn sample(&mut self, index: usize, t_us: u64) {
         let raw = self.raw(index, t_us as f64 / 1e6);
         let cell = &mut self.cells[index];
-        for message in cell.processor.process(&raw) {
-            self.pending[cell.port].push(Frame::new(cell.id, Address::HOST, &message));
-        }
+        cell.app.sample(&raw, &mut self.pending[cell.port]);
         if t_us >= cell.next_report_us {
             cell.next_report_us += self.report_period_us;
-            self.pending[cell.port].push(Frame::new(cell.id, Address::HOST, &Message::NeighbourReport(cell.report)));
+            let report = Message::NeighbourReport(cell.report);
+            self.pending[cell.port].push(Frame::new(cell.app.id, Address::HOST, &report));
         }
     }
 
@@ -215,10 +263,9 @@ impl SimSkin {
         for frame in datagram.frames().flatten() {
             let Ok(Message::ConfigWrite(write)) = frame.message() else { continue };
             let dst = frame.dst();
-            for cell in self.cells.iter_mut().filter(|c| c.port == p && (dst == Address::BROADCAST || dst == c.id)) {
-                let accepted = cell.processor.apply(&write.setting);
-                let ack = Message::ConfigAck(ConfigAck { tag: write.tag, accepted });
-                self.pending[p].push(Frame::new(cell.id, Address::HOST, &ack));
+            for cell in self.cells.iter_mut().filter(|c| c.port == p && (dst == Address::BROADCAST || dst == c.app.id))
+            {
+                cell.app.configure(&write, &mut self.pending[p]);
                 applied += 1;
             }
         }

@@ -22,29 +22,30 @@
 //! control period's start and notes sent before that period's feedback, so
 //! a lockstep run stays the same for a seed.
 
+mod rig;
+mod running;
+
 use std::io::ErrorKind;
 use std::net::{SocketAddr, UdpSocket};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{mpsc, Arc};
-use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use skin_protocol::interface::MAX_DATAGRAM;
 use skin_protocol::message::Neighbour;
-use skin_protocol::robot_link::{self, FromRobot, Refusal, ToRobot, MAX_DOFS, MAX_NAME};
-use skin_protocol::{Address, Sample};
+use skin_protocol::robot_link::{self, ToRobot, MAX_DOFS};
+use skin_protocol::Address;
 
 use crate::network::{Network, NetworkConfig, NetworkError, Topology};
 use crate::robot::hrp2;
 use crate::scene::experiment::Setup;
-use crate::scene::operator::{Note, Operator, Order};
+use crate::scene::operator::Operator;
 use crate::world::World;
+
+pub use rig::Rig;
+pub use running::Running;
 
 /// How long one wait for a request lasts before the stop flag is looked at.
 const STOP_CHECK: Duration = Duration::from_millis(50);
-/// A real-time robot stops when no command came for this long (a host
-/// that died must not leave the arms moving).
-const WATCHDOG: Duration = Duration::from_millis(200);
 
 /// How simulated time advances.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -102,32 +103,12 @@ pub struct Truth {
 
 /// The simulated robot and skin behind their sockets.
 pub struct Endpoint {
-    world: World,
-    network: Network,
-    /// `world_cell[n]`: the world's skin index of network cell `n`.
-    world_cell: Vec<usize>,
+    rig: Rig,
     robot_socket: UdpSocket,
     ports: Vec<UdpSocket>,
     host: SocketAddr,
-    pacing: Pacing,
-    command: Vec<f64>,
-    /// When the last command came.
-    commanded_at: Option<Instant>,
-    /// Who sent the last command, its `seq` and the answer, for retries.
-    last: Option<(SocketAddr, u32, FromRobot)>,
-    samples: Vec<(Address, Sample)>,
-    raw: Vec<Sample>,
-    served: Served,
-    /// The person of an experiment.
-    operator: Option<Operator>,
-    /// The experimenter's side channel, when served by [`Running`].
-    side: Option<Side>,
-}
-
-/// The endpoint's end of the experimenter's side channel.
-struct Side {
-    orders: mpsc::Receiver<Order>,
-    notes: mpsc::Sender<Note>,
+    /// Datagrams for the host, by interface port, not sent yet.
+    up: Vec<(usize, Vec<u8>)>,
 }
 
 impl Endpoint {
@@ -151,7 +132,7 @@ impl Endpoint {
         let (world, scene) = setup.world(robot.clone(), seed);
         let world_cell = hrp2_wiring(&world);
         let mut endpoint = Endpoint::new(world, &Topology::hrp2(), world_cell, config)?;
-        endpoint.operator = Some(Operator::new(robot, setup, scene));
+        endpoint.rig.operator = Some(Operator::new(robot, setup, scene));
         Ok(endpoint)
     }
 
@@ -183,7 +164,7 @@ impl Endpoint {
             )));
         }
         if world.robot().dofs().len() > MAX_DOFS {
-            return Err(NetworkError::Flag(format!("the robot link carries at most {MAX_DOFS} DoFs")));
+            return Err(NetworkError::TooManyDofs(world.robot().dofs().len()));
         }
         let network = Network::new(topology, config.network)?;
         let local = SocketAddr::new(config.robot.ip(), 0);
@@ -191,21 +172,11 @@ impl Endpoint {
         let robot_socket = UdpSocket::bind(config.robot)?;
         robot_socket.set_read_timeout(Some(STOP_CHECK))?;
         Ok(Endpoint {
-            command: vec![0.0; world.robot().dofs().len()],
-            raw: vec![Sample::default(); cells],
-            world,
-            network,
-            world_cell,
+            rig: Rig::new(world, network, world_cell, config.pacing),
             robot_socket,
             ports,
             host: config.host,
-            commanded_at: None,
-            pacing: config.pacing,
-            last: None,
-            samples: Vec::new(),
-            served: Served::default(),
-            operator: None,
-            side: None,
+            up: Vec::new(),
         })
     }
 
@@ -219,39 +190,19 @@ impl Endpoint {
         Ok(self.ports.iter().map(UdpSocket::local_addr).collect::<Result<_, _>>()?)
     }
 
-    /// The ID each of the world's skin cells has in the network now
-    /// ([`Address::UNASSIGNED`] before it got one), in the world's skin order.
-    fn assigned_ids(&self) -> Vec<Address> {
-        let mut ids = vec![Address::UNASSIGNED; self.world_cell.len()];
-        for (n, &w) in self.world_cell.iter().enumerate() {
-            ids[w] = self.network.cell(n).map_or(Address::UNASSIGNED, |c| c.id());
-        }
-        ids
-    }
-
     /// What only the simulator knows, now.
     pub fn truth(&self) -> Truth {
-        let m = self.network.measurements();
-        Truth {
-            served: self.served,
-            ids: self.assigned_ids(),
-            neighbours: (0..self.network.cells())
-                .filter_map(|n| Some((self.network.cell(n)?.id(), self.network.true_neighbours(n))))
-                .filter(|(id, _)| id.is_cell())
-                .collect(),
-            latency_us: m.latency.counts().collect(),
-            sensor_frames_lost: m.ledger.sensor_dropped,
-        }
+        self.rig.truth()
     }
 
     /// Serves the host until `stop` is set.
     pub fn serve(&mut self, stop: &AtomicBool) -> Result<Served, NetworkError> {
-        let tick_s = self.world.config().tick_s;
+        let tick_s = self.rig.world.config().tick_s;
         let start = Instant::now();
         let mut buf = [0u8; robot_link::MAX_DATAGRAM + 1];
         while !stop.load(Ordering::Relaxed) {
-            if self.pacing == Pacing::RealTime {
-                let due = start + Duration::from_secs_f64(tick_s * (self.served.ticks + 1) as f64);
+            if self.rig.pacing == Pacing::RealTime {
+                let due = start + Duration::from_secs_f64(tick_s * (self.rig.served.ticks + 1) as f64);
                 match due.checked_duration_since(Instant::now()) {
                     None => {
                         self.advance()?;
@@ -268,115 +219,32 @@ impl Endpoint {
                 Err(e) => return Err(e.into()),
             };
             let Ok(request) = robot_link::decode::<ToRobot>(&buf[..n]) else {
-                self.served.rejected += 1;
+                self.rig.rejected();
                 continue;
             };
-            let answer = self.answer(request, from)?;
+            self.take_from_host()?;
+            let answer = self.rig.answer(request, from, Instant::now(), &mut self.up)?;
+            self.send_up()?;
             let mut out = [0u8; robot_link::MAX_DATAGRAM];
             let len = robot_link::encode(&answer, &mut out).expect("answers fit a robot-link datagram");
             self.robot_socket.send_to(&out[..len], from)?;
         }
-        Ok(self.served)
+        Ok(self.rig.served)
     }
 
-    fn answer(&mut self, request: ToRobot, from: SocketAddr) -> Result<FromRobot, NetworkError> {
-        let dofs = self.world.robot().dofs();
-        Ok(match request {
-            ToRobot::Hello => FromRobot::Info {
-                dofs: dofs.len() as u8,
-                period_us: (self.world.config().tick_s * 1e6).round() as u32,
-                lockstep: self.pacing == Pacing::Lockstep,
-            },
-            ToRobot::DofName { index } => match dofs.get(usize::from(index)) {
-                Some(d) => {
-                    let name = d.name.char_indices().take_while(|(i, c)| i + c.len_utf8() <= MAX_NAME);
-                    FromRobot::DofName { index, name: name.map(|(_, c)| c).collect() }
-                }
-                None => FromRobot::Refused { seq: 0, reason: Refusal::NoSuchDof },
-            },
-            ToRobot::Command { seq, velocities } => {
-                if let Some((asker, last, answer)) = &self.last {
-                    if *asker == from && *last == seq {
-                        return Ok(answer.clone());
-                    }
-                }
-                let refusal = if velocities.len() != dofs.len() {
-                    Some(Refusal::WrongLength)
-                } else if velocities.iter().any(|v| !v.is_finite()) {
-                    Some(Refusal::NotFinite)
-                } else {
-                    None
-                };
-                if let Some(reason) = refusal {
-                    self.served.refused += 1;
-                    return Ok(FromRobot::Refused { seq, reason });
-                }
-                self.command.clear();
-                self.command.extend_from_slice(&velocities);
-                self.commanded_at = Some(Instant::now());
-                if self.pacing == Pacing::Lockstep {
-                    self.advance()?;
-                }
-                let answer = FromRobot::State {
-                    seq,
-                    time_us: (self.world.time_s() * 1e6).round() as u64,
-                    positions: self.world.positions().iter().copied().collect(),
-                };
-                self.last = Some((from, seq, answer.clone()));
-                answer
-            }
-        })
-    }
-
-    /// One control period: what the host sent down goes into the skin, the
-    /// world moves under the held command, and the network runs to the
-    /// period's end, every datagram it delivers going up to the host.
+    /// One control period on the wall clock.
     fn advance(&mut self) -> Result<(), NetworkError> {
         self.take_from_host()?;
-        if self.pacing == Pacing::RealTime && self.commanded_at.is_none_or(|t| t.elapsed() > WATCHDOG) {
-            self.command.iter_mut().for_each(|w| *w = 0.0);
-        }
-        // Checked when it arrived: the right length, finite.
-        self.world.command(&self.command).map_err(|e| NetworkError::Flag(e.to_string()))?;
-        self.take_orders();
-        self.samples.clear();
-        self.world.step(&mut self.samples);
-        if let (Some(op), Some(side)) = (&self.operator, &self.side) {
-            if let Some(note) = op.watch(&self.world) {
-                // The experimenter may have gone; the robot serves on.
-                let _ = side.notes.send(note);
-            }
-        }
-        for (n, &w) in self.world_cell.iter().enumerate() {
-            self.raw[n] = self.samples[w].1;
-        }
-        self.network.feed(&self.raw)?;
-        let until_ns = (self.world.time_s() * 1e9).round() as u64;
-        while let Some(d) = self.network.step(until_ns) {
-            let port = usize::from(d.bytes[3]);
-            self.ports[port].send_to(&d.bytes, self.host)?;
-            self.served.datagrams_up += 1;
-        }
-        self.served.ticks += 1;
-        Ok(())
+        self.rig.advance(Instant::now(), &mut self.up)?;
+        self.send_up()
     }
 
-    /// Carries out the experimenter's orders, then lets the person act once.
-    fn take_orders(&mut self) {
-        let Some(side) = &self.side else { return };
-        let orders: Vec<Order> = side.orders.try_iter().collect();
-        let ids = if orders.is_empty() { Vec::new() } else { self.assigned_ids() };
-        let mut notes = Vec::new();
-        match &mut self.operator {
-            Some(op) => {
-                notes.extend(orders.into_iter().filter_map(|o| op.order(o, &self.world, &ids)));
-                notes.extend(op.act(&self.world));
-            }
-            None => notes.extend(orders.iter().map(|o| Note::Refused(format!("{o:?}: nobody is at this robot")))),
+    /// Sends the datagrams the skin delivered, each from its interface port.
+    fn send_up(&mut self) -> Result<(), NetworkError> {
+        for (port, bytes) in self.up.drain(..) {
+            self.ports[port].send_to(&bytes, self.host)?;
         }
-        for note in notes {
-            let _ = side.notes.send(note);
-        }
+        Ok(())
     }
 
     /// Hands every datagram the host sent to an interface port to the network.
@@ -385,13 +253,9 @@ impl Endpoint {
         for k in 0..self.ports.len() {
             loop {
                 match self.ports[k].recv_from(&mut buf) {
-                    // Only the host's datagrams for this very port.
-                    Ok((n, from)) if from == self.host && n > 3 && usize::from(buf[3]) == k => {
-                        if self.network.inject(&buf[..n]).is_err() {
-                            self.served.datagrams_refused += 1;
-                        }
-                    }
-                    Ok(_) => self.served.datagrams_refused += 1,
+                    // Only the host's datagrams (the rig checks the port).
+                    Ok((n, from)) if from == self.host => self.rig.from_host(k, &buf[..n]),
+                    Ok(_) => self.rig.served.datagrams_refused += 1,
                     Err(e) if e.kind() == ErrorKind::WouldBlock => break,
                     Err(e) if e.kind() == ErrorKind::ConnectionRefused => {}
                     Err(e) => return Err(e.into()),
@@ -419,76 +283,12 @@ fn bind(addr: SocketAddr) -> Result<UdpSocket, NetworkError> {
     Ok(socket)
 }
 
-/// An endpoint serving on a thread of its own (the world is not `Send`, so
-/// it is built there), with the experimenter's side channel to the person
-/// at the robot ([`Running::order`], [`Running::notes`]).
-#[derive(Debug)]
-pub struct Running {
-    /// The robot-link address.
-    pub robot: SocketAddr,
-    /// Each interface port's address, by port number.
-    pub interfaces: Vec<SocketAddr>,
-    stop: Arc<AtomicBool>,
-    thread: JoinHandle<Result<Truth, NetworkError>>,
-    orders: mpsc::Sender<Order>,
-    notes: mpsc::Receiver<Note>,
-}
-
-impl Running {
-    /// Builds an endpoint with `build` on a new thread and serves until
-    /// [`Running::stop`].
-    pub fn spawn(
-        build: impl FnOnce() -> Result<Endpoint, NetworkError> + Send + 'static,
-    ) -> Result<Running, NetworkError> {
-        let stop = Arc::new(AtomicBool::new(false));
-        let (tx, rx) = mpsc::channel();
-        let (orders, orders_rx) = mpsc::channel();
-        let (notes_tx, notes) = mpsc::channel();
-        let flag = stop.clone();
-        let thread = std::thread::Builder::new().name("simulated robot".into()).spawn(move || {
-            let mut endpoint = match build().and_then(|e| Ok((e.robot_addr()?, e.interface_addrs()?, e))) {
-                Ok((robot, interfaces, mut e)) => {
-                    e.side = Some(Side { orders: orders_rx, notes: notes_tx });
-                    let _ = tx.send(Ok((robot, interfaces)));
-                    e
-                }
-                Err(e) => {
-                    let _ = tx.send(Err(e));
-                    return Err(NetworkError::Flag("the endpoint could not be built".into()));
-                }
-            };
-            endpoint.serve(&flag)?;
-            Ok(endpoint.truth())
-        })?;
-        match rx.recv() {
-            Ok(Ok((robot, interfaces))) => Ok(Running { robot, interfaces, stop, thread, orders, notes }),
-            Ok(Err(e)) => Err(e),
-            Err(_) => Err(NetworkError::Flag("the endpoint thread ended before it was ready".into())),
-        }
-    }
-
-    /// Gives the person an order, carried out at the start of the next
-    /// control period (an endpoint without a person refuses it).
-    pub fn order(&self, order: Order) -> Result<(), NetworkError> {
-        self.orders.send(order).map_err(|_| NetworkError::Flag("the simulated robot has stopped".into()))
-    }
-
-    /// What the person said since the last call, oldest first.
-    pub fn notes(&self) -> impl Iterator<Item = Note> + '_ {
-        self.notes.try_iter()
-    }
-
-    /// Stops serving and returns what the simulator knows.
-    pub fn stop(self) -> Result<Truth, NetworkError> {
-        self.stop.store(true, Ordering::Relaxed);
-        self.thread.join().map_err(|_| NetworkError::Flag("the simulated robot's thread panicked".into()))?
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::scene::object::Object;
+    use crate::scene::operator::{Note, Order};
+    use skin_protocol::robot_link::FromRobot;
 
     /// One period with the robot held still, as a bare host asks for it.
     fn period(link: &UdpSocket, robot: SocketAddr, seq: u32) {

@@ -1,0 +1,230 @@
+//! What `report.json` holds: the data of every figure, section by section.
+
+use serde::Serialize;
+
+use crate::explore::Exploration;
+use crate::grasping::{GraspRun, Lesson};
+use crate::interface::InterfaceCounters;
+use crate::pipeline::Organized;
+
+/// The robot as it described itself on the robot link.
+#[derive(Clone, Debug, Serialize)]
+pub struct RobotSection {
+    /// What was driven, e.g. the built-in simulated robot or an address.
+    pub source: String,
+    /// DoF names, command order.
+    pub dof_names: Vec<String>,
+    /// Control period, s.
+    pub period_s: f64,
+    /// One period per command (a simulator) rather than real time.
+    pub lockstep: bool,
+}
+
+/// How long each step took, on the wall clock and on the robot's clock.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Timing {
+    /// Everything, from the start until the report's files were written, wall clock, s.
+    pub total_wall_s: f64,
+    /// Self-organization, wall clock, s.
+    pub organize_wall_s: f64,
+    /// Structural and sensory-motor exploration, wall clock, s.
+    pub explore_wall_s: f64,
+    /// Teaching and grasping, wall clock, s.
+    pub grasp_wall_s: f64,
+    /// Self-organization, robot time, s.
+    pub organize_robot_s: f64,
+    /// Structural exploration, robot time, s.
+    pub structure_robot_s: f64,
+    /// Sensory-motor exploration, robot time, s.
+    pub smm_robot_s: f64,
+}
+
+/// The robot link's trouble.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct LinkSection {
+    /// Requests sent again.
+    pub retries: u64,
+    /// Datagrams that were not the answer awaited.
+    pub ignored: u64,
+}
+
+/// One joint of the learned tree.
+#[derive(Clone, Debug, Serialize)]
+pub struct JointSection {
+    /// Its DoFs by name.
+    pub dofs: Vec<String>,
+    /// The body part it is mounted on.
+    pub parent_body_part: usize,
+    /// The body part it moves.
+    pub child_body_part: usize,
+}
+
+/// What the exploration learned.
+#[derive(Clone, Debug, Serialize)]
+pub struct ExplorationSection {
+    /// Cell IDs, the rows of `activity` and `smm_weights`.
+    pub cells: Vec<u16>,
+    /// DoF names, their columns.
+    pub dofs: Vec<String>,
+    /// The activity matrix before merging: does DoF d move cell u.
+    pub activity: Vec<Vec<bool>>,
+    /// Body parts (merged cells), depth first from the root.
+    pub body_parts: Vec<Vec<u16>>,
+    /// Joints (merged DoFs); joint n carries body part n + 1.
+    pub joints: Vec<JointSection>,
+    /// The merged matrix, strictly lower triangular: body parts x joints.
+    pub merged: Vec<Vec<bool>>,
+    /// Body parts without child joints.
+    pub leaves: Vec<usize>,
+    /// Chains of joints from the root to each leaf.
+    pub limbs: Vec<Vec<usize>>,
+    /// The pose of the sensory-motor map's first tile, rad.
+    pub smm_pose_rad: Vec<f64>,
+    /// Its weights, cells x DoFs, in [-1, 1].
+    pub smm_weights: Vec<Vec<f32>>,
+    /// What the user should know.
+    pub warnings: Vec<String>,
+}
+
+/// Latency of the skin network's sensor frames (from the simulator).
+#[derive(Clone, Debug, Serialize)]
+pub struct LatencySection {
+    /// (microseconds, frames), smallest first.
+    pub bins_us: Vec<(u64, u64)>,
+    /// Frames counted.
+    pub frames: u64,
+    /// Median, us.
+    pub p50_us: u64,
+    /// 99th percentile, us.
+    pub p99_us: u64,
+    /// Largest, us.
+    pub max_us: u64,
+    /// Sensor frames lost in the network.
+    pub sensor_frames_lost: u64,
+}
+
+impl LatencySection {
+    /// From a histogram as (microseconds, frames).
+    pub fn new(bins_us: Vec<(u64, u64)>, sensor_frames_lost: u64) -> LatencySection {
+        let frames: u64 = bins_us.iter().map(|b| b.1).sum();
+        let at = |q: f64| skin_sim::network::ledger::quantile(bins_us.iter().copied(), frames, q).unwrap_or(0);
+        LatencySection {
+            frames,
+            p50_us: at(0.5),
+            p99_us: at(0.99),
+            max_us: bins_us.last().map_or(0, |b| b.0),
+            sensor_frames_lost,
+            bins_us,
+        }
+    }
+}
+
+/// Teaching and grasping.
+#[derive(Clone, Debug, Serialize)]
+pub struct GraspSection {
+    /// How they were run.
+    pub how: String,
+    /// Each key pose taught.
+    pub lessons: Vec<Lesson>,
+    /// Each grasp (traces in the CSV and SVG files).
+    pub runs: Vec<GraspRun>,
+}
+
+/// The host's results checked against what only the simulator knows.
+#[derive(Clone, Debug, Serialize)]
+pub struct TruthSection {
+    /// Cells of the simulated skin.
+    pub cells_in_skin: usize,
+    /// Cells with an ID.
+    pub cells_with_id: usize,
+    /// No two cells share an ID.
+    pub ids_unique: bool,
+    /// Every cell's neighbour table in the registry is the true one.
+    pub neighbours_correct: bool,
+    /// The learned kinematic tree is the true one.
+    pub tree_correct: bool,
+    /// Activity matrix entries that differ from the truth.
+    pub wrong_activity_entries: usize,
+    /// Mean |w - w_true| of the sensory-motor map.
+    pub smm_mean_abs_error: f64,
+    /// The same where the DoF truly moves the cell.
+    pub smm_mean_abs_error_moved: f64,
+}
+
+/// One figure of the report.
+#[derive(Clone, Debug, Serialize)]
+pub struct Figure {
+    /// File name in the report folder.
+    pub file: String,
+    /// Heading.
+    pub title: String,
+    /// What it shows.
+    pub caption: String,
+}
+
+/// Everything the report holds; serialized as `report.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct Report {
+    /// The robot.
+    pub robot: RobotSection,
+    /// How long each step took.
+    pub timing: Timing,
+    /// The organized skin.
+    pub organization: Organized,
+    /// What the interface counted.
+    pub interface: InterfaceCounters,
+    /// The robot link's trouble.
+    pub link: LinkSection,
+    /// What the exploration learned.
+    pub exploration: ExplorationSection,
+    /// Network latency (simulated skins only).
+    pub latency: Option<LatencySection>,
+    /// Teaching and grasps (simulation only).
+    pub grasps: Option<GraspSection>,
+    /// Checks against the simulator's truth (simulation only).
+    pub truth: Option<TruthSection>,
+    /// The figures, in the order `index.html` shows them.
+    pub figures: Vec<Figure>,
+}
+
+impl ExplorationSection {
+    /// The parts of an exploration the report shows.
+    pub fn new(found: &Exploration) -> ExplorationSection {
+        let tree = &found.tree;
+        let tile = &found.smm.tiles()[0];
+        ExplorationSection {
+            cells: found.cells.iter().map(|a| a.0).collect(),
+            dofs: found.dof_names.clone(),
+            activity: found.activity.rows(),
+            body_parts: tree.body_parts().iter().map(|p| p.cells.iter().map(|a| a.0).collect()).collect(),
+            joints: tree
+                .joints()
+                .iter()
+                .map(|j| JointSection {
+                    dofs: j.dofs.iter().map(|&d| found.dof_names[d].clone()).collect(),
+                    parent_body_part: j.parent,
+                    child_body_part: j.child,
+                })
+                .collect(),
+            merged: tree.lower_triangular(),
+            leaves: tree.leaves(),
+            limbs: tree.limbs(),
+            smm_pose_rad: tile.pose().to_vec(),
+            smm_weights: (0..found.cells.len()).map(|u| tile.weights(u).to_vec()).collect(),
+            warnings: found.warnings.clone(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::LatencySection;
+
+    #[test]
+    fn latency_quantiles_come_from_the_counts() {
+        let l = LatencySection::new(vec![(100, 50), (200, 49), (900, 1)], 3);
+        assert_eq!((l.frames, l.p50_us, l.p99_us, l.max_us, l.sensor_frames_lost), (100, 100, 200, 900, 3));
+        let empty = LatencySection::new(Vec::new(), 0);
+        assert_eq!((empty.frames, empty.p50_us, empty.max_us), (0, 0, 0));
+    }
+}
