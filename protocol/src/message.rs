@@ -236,6 +236,9 @@ pub enum TrafficMode {
     Event,
 }
 
+/// Standard gravity, m/s^2: the "g" of the accelerometer ranges.
+pub const G0: f64 = 9.806_65;
+
 /// BMA250 measurement range.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -259,7 +262,7 @@ impl AccelRange {
     }
 
     /// Counts per g of a 10-bit reading at this range (256 at +-2 g): what
-    /// the host needs to turn counts into accelerations.
+    /// the host needs to turn counts into accelerations (with [`G0`]).
     pub fn counts_per_g(self) -> f64 {
         f64::from(crate::sample::ACCEL_MAX - crate::sample::ACCEL_MIN + 1) / (2.0 * f64::from(self.full_scale_g()))
     }

@@ -13,16 +13,8 @@ use rand_distr::{Distribution, StandardNormal};
 use skin_protocol::message::AccelRange;
 use skin_protocol::sample::{ACCEL_MAX, ACCEL_MIN};
 
-/// Standard gravity, m/s^2.
-pub const G0: f64 = 9.806_65;
-
-/// Counts per g of a 10-bit reading at `range`: [`AccelRange::counts_per_g`],
-/// which the protocol defines. Only the host's exploration still calls it
-/// here (host/src/explore is being rewritten); it goes once that calls the
-/// protocol's.
-pub fn counts_per_g(range: AccelRange) -> f64 {
-    range.counts_per_g()
-}
+/// Standard gravity, m/s^2 (the protocol's).
+pub use skin_protocol::message::G0;
 
 /// Sensor parameters; the defaults are typical BMA250 datasheet values.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -33,7 +33,7 @@ use super::fit::LeastSquares;
 use super::session::{Trace, Window};
 use super::StructureConfig;
 use crate::robot::DofKind;
-use skin_sim::accel::G0;
+use skin_protocol::message::G0;
 
 /// One entry of the activity matrix.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -7,9 +7,9 @@
 use std::collections::HashMap;
 
 use skin_protocol::message::AccelRange;
+use skin_protocol::message::G0;
 use skin_protocol::sample::{ACCEL_MAX, ACCEL_MIN};
 use skin_protocol::{Address, Sample};
-use skin_sim::accel::{counts_per_g, G0};
 
 use super::ExploreError;
 use crate::robot::{Robot, RobotError, SampleSource};
@@ -102,7 +102,7 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
             index: cells.iter().enumerate().map(|(i, a)| (*a, i)).collect(),
             cells,
             dofs,
-            mps2_per_count: G0 / counts_per_g(range),
+            mps2_per_count: G0 / range.counts_per_g(),
             tick_s: rig.tick_s(),
             elapsed_s: 0.0,
             rig,
