@@ -19,7 +19,7 @@ use skin_protocol::robot_link::{self, FromRobot, ToRobot, MAX_DOFS};
 use skin_protocol::{Address, Sample};
 
 use crate::interface::{Event, EventKind, Interface};
-use crate::robot::{Robot, RobotError, SampleSource};
+use crate::robot::{DofKind, Robot, RobotError, SampleSource};
 
 /// Tries of one request before the robot counts as gone.
 const TRIES: u32 = 5;
@@ -29,6 +29,8 @@ const TRIES: u32 = 5;
 pub struct RobotInfo {
     /// DoF names, in command order.
     pub dof_names: Vec<String>,
+    /// DoF kinds, in command order.
+    pub dof_kinds: Vec<DofKind>,
     /// The robot's control period, s.
     pub period_s: f64,
     /// The robot advances one period per command (a simulator).
@@ -72,7 +74,7 @@ impl RobotLink {
         let mut link = RobotLink {
             socket,
             robot,
-            info: RobotInfo { dof_names: Vec::new(), period_s: 0.0, lockstep: false },
+            info: RobotInfo { dof_names: Vec::new(), dof_kinds: Vec::new(), period_s: 0.0, lockstep: false },
             timeout,
             seq: 0,
             command: Vec::new(),
@@ -99,7 +101,19 @@ impl RobotLink {
                 other => return Err(gone(robot, format!("has no name for DoF {index}: {other:?}"))),
             }
         }
-        link.info = RobotInfo { dof_names: names, period_s: f64::from(period_us) * 1e-6, lockstep };
+        let mut kinds = Vec::with_capacity(usize::from(dofs));
+        for index in 0..dofs {
+            let answer = link.exchange(&ToRobot::DofKind { index }, |m| {
+                matches!(m, FromRobot::DofKind { index: i, .. } if *i == index)
+                    || matches!(m, FromRobot::Refused { .. })
+            })?;
+            // A robot that does not know the request has revolute DoFs only.
+            kinds.push(match answer {
+                FromRobot::DofKind { kind, .. } => kind,
+                _ => DofKind::Revolute,
+            });
+        }
+        link.info = RobotInfo { dof_names: names, dof_kinds: kinds, period_s: f64::from(period_us) * 1e-6, lockstep };
         link.command = vec![0.0; usize::from(dofs)];
         link.tick()?;
         Ok(link)
@@ -177,6 +191,10 @@ impl RobotLink {
 impl Robot for RobotLink {
     fn dof_names(&self) -> Vec<String> {
         self.info.dof_names.clone()
+    }
+
+    fn dof_kinds(&self) -> Vec<DofKind> {
+        self.info.dof_kinds.clone()
     }
 
     fn command_velocities(&mut self, omega_rad_s: &[f64]) -> Result<(), RobotError> {
@@ -264,6 +282,10 @@ impl Robot for Remote {
         self.link.dof_names()
     }
 
+    fn dof_kinds(&self) -> Vec<DofKind> {
+        self.link.dof_kinds()
+    }
+
     fn command_velocities(&mut self, omega_rad_s: &[f64]) -> Result<(), RobotError> {
         self.link.command_velocities(omega_rad_s)
     }
@@ -302,6 +324,8 @@ mod tests {
             let answer = match robot_link::decode::<ToRobot>(&buf[..n]) {
                 Ok(ToRobot::Hello) => FromRobot::Info { dofs: claimed_dofs, period_us: 4000, lockstep: true },
                 Ok(ToRobot::DofName { index }) => FromRobot::DofName { index, name: "j".chars().collect() },
+                // A robot of the first link version: it does not know kinds.
+                Ok(ToRobot::DofKind { .. }) => FromRobot::Refused { seq: 0, reason: robot_link::Refusal::NoSuchDof },
                 Ok(ToRobot::Command { seq, velocities }) => {
                     if !std::mem::replace(&mut swallowed, true) {
                         continue;
@@ -336,6 +360,8 @@ mod tests {
             (link.dof_names(), link.info().period_s, link.info().lockstep),
             (vec!["j".into(), "j".into()], 0.004, true)
         );
+        // It refused to tell the kinds: revolute, as the paper's robots.
+        assert_eq!(link.dof_kinds(), vec![DofKind::Revolute; 2]);
         link.command_velocities(&[1.0, 0.0]).unwrap();
         link.tick().unwrap();
         assert!((link.positions()[0] - 0.004).abs() < 1e-12 && link.time_s() > 0.0);

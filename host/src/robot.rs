@@ -45,14 +45,7 @@ impl From<WorldError> for RobotError {
     }
 }
 
-/// How a DoF moves what it carries.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum DofKind {
-    /// Turns about an axis: positions in rad, velocities in rad/s.
-    Revolute,
-    /// Slides along an axis (torso lifts, grippers, linear axes): m and m/s.
-    Prismatic,
-}
+pub use skin_protocol::robot_link::DofKind;
 
 /// A robot with DoFs under velocity control.
 pub trait Robot {
@@ -110,11 +103,7 @@ impl Robot for SimRobot {
     }
 
     fn dof_kinds(&self) -> Vec<DofKind> {
-        let kind = |k| match k {
-            skin_sim::robot::DofKind::Revolute => DofKind::Revolute,
-            skin_sim::robot::DofKind::Prismatic => DofKind::Prismatic,
-        };
-        self.world.robot().dofs().iter().map(|d| kind(d.kind)).collect()
+        self.world.robot().dofs().iter().map(|d| d.kind).collect()
     }
 
     fn command_velocities(&mut self, omega_rad_s: &[f64]) -> Result<(), RobotError> {

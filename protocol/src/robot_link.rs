@@ -16,6 +16,7 @@
 //! |---------------------------------|--------------------------------------------|
 //! | `Hello`                         | `Info { dofs, period_us, lockstep }`       |
 //! | `DofName { index }`             | `DofName { index, name }`                  |
+//! | `DofKind { index }`             | `DofKind { index, kind }`                  |
 //! | `Command { seq, velocities }`   | `State { seq, time_us, positions }`        |
 //! | anything it cannot follow       | `Refused { seq, reason }`                  |
 //!
@@ -54,13 +55,20 @@ pub enum ToRobot {
         /// 0-based, in command order.
         index: u8,
     },
-    /// Velocities per DoF, rad/s, in command order, held until the next
-    /// command. Answered with [`FromRobot::State`].
+    /// Velocities per DoF (rad/s, or m/s for a prismatic DoF), in command
+    /// order, held until the next command. Answered with [`FromRobot::State`].
     Command {
         /// Command number, one more for each new command (wrapping).
         seq: u32,
         /// One velocity per DoF, rad/s.
         velocities: Vec<f64, MAX_DOFS>,
+    },
+    /// How DoF `index` moves. Answered with [`FromRobot::DofKind`]; a robot
+    /// that refuses it has revolute DoFs only. Last, so the encodings of
+    /// the others stay those of the first version.
+    DofKind {
+        /// 0-based, in command order.
+        index: u8,
     },
 }
 
@@ -101,6 +109,23 @@ pub enum FromRobot {
         /// Why.
         reason: Refusal,
     },
+    /// How a DoF moves.
+    DofKind {
+        /// 0-based, in command order.
+        index: u8,
+        /// Revolute or prismatic.
+        kind: DofKind,
+    },
+}
+
+/// How a DoF moves what it carries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DofKind {
+    /// Turns about an axis: positions in rad, velocities in rad/s.
+    Revolute,
+    /// Slides along an axis (torso lifts, grippers, linear axes): m and m/s.
+    Prismatic,
 }
 
 /// Why a robot refused a request.
@@ -202,6 +227,8 @@ mod tests {
         roundtrip(&FromRobot::Info { dofs: 64, period_us: u32::MAX, lockstep: true });
         roundtrip(&FromRobot::Refused { seq: 7, reason: Refusal::NoSuchDof });
         roundtrip(&ToRobot::Hello);
+        roundtrip(&ToRobot::DofKind { index: 255 });
+        roundtrip(&FromRobot::DofKind { index: 255, kind: DofKind::Prismatic });
     }
 
     #[test]

@@ -14,7 +14,7 @@
 //!   the paper's "change the posture of the robot", done by the robot.
 //!
 //! Between measurements, entries that the decided ones imply in a
-//! kinematic tree are settled without moving ([`infer`]): the cells of two
+//! kinematic tree are settled without moving (`infer`): the cells of two
 //! DoFs are nested or disjoint. A cell that no reachable posture decides
 //! stays undecided, with its [`Doubt`], and the exploration says so.
 
@@ -483,8 +483,8 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
             return None;
         }
         let p = &mut self.pooled[i];
-        for a in 0..3 {
-            p[a] += w * e.lever[a];
+        for (sum, l) in p.iter_mut().zip(e.lever) {
+            *sum += w * l;
         }
         p[3] += w;
         let mean = [p[0] / p[3], p[1] / p[3], p[2] / p[3]];
@@ -705,9 +705,9 @@ mod tests {
                 }
             }
             infer(&mut m);
-            for u in 0..6 {
-                for d in 0..3 {
-                    let truth = if rows[u][d] { Activity::Moved } else { Activity::Still };
+            for (u, row) in rows.iter().enumerate() {
+                for (d, &moved) in row.iter().enumerate() {
+                    let truth = if moved { Activity::Moved } else { Activity::Still };
                     prop_assert!(m.get(u, d) == Activity::Unknown || m.get(u, d) == truth, "cell {} DoF {}", u, d);
                 }
             }

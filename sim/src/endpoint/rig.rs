@@ -130,6 +130,10 @@ impl Rig {
                 }
                 None => FromRobot::Refused { seq: 0, reason: Refusal::NoSuchDof },
             },
+            ToRobot::DofKind { index } => match dofs.get(usize::from(index)) {
+                Some(d) => FromRobot::DofKind { index, kind: d.kind },
+                None => FromRobot::Refused { seq: 0, reason: Refusal::NoSuchDof },
+            },
             ToRobot::Command { seq, velocities } => {
                 if let Some((asker, last, answer)) = &self.last {
                     if *asker == from && *last == seq {

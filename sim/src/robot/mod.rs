@@ -41,14 +41,9 @@ pub enum Drive {
     },
 }
 
-/// How a joint moves its child: turning about its axis or sliding along it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum DofKind {
-    /// Revolute or continuous: positions in rad, velocities in rad/s.
-    Revolute,
-    /// Prismatic: positions in m, velocities in m/s.
-    Prismatic,
-}
+/// How a joint moves its child: turning about its axis or sliding along
+/// it; the robot link's type, so the simulator tells the host exactly.
+pub use skin_protocol::robot_link::DofKind;
 
 /// A movable joint between two bodies.
 #[derive(Clone, Debug)]
