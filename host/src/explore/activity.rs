@@ -501,8 +501,9 @@ mod tests {
             assert!(blind);
             assert_eq!(readings[0], Reading::Unknown(Doubt::NearAxis), "lever {lever} m");
         }
-        // A lever of 1 cm is a movement, with or without gravity's help.
-        let step = Step::measure(&rest(g), &rest(g), &stepped(0.2, 0.01, g), 0.004, 0.038);
+        // A lever of 3 cm is a movement in one step, with or without
+        // gravity's help (smaller ones need pooled repeats: `structure`).
+        let step = Step::measure(&rest(g), &rest(g), &stepped(0.2, 0.03, g), 0.004, 0.038);
         assert_eq!(step.decide(&cfg, DofKind::Revolute).0[0], Reading::Moved { by_static: false });
     }
 
