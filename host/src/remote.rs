@@ -90,28 +90,21 @@ impl RobotLink {
         if usize::from(dofs) > MAX_DOFS || period_us == 0 {
             return Err(gone(robot, format!("claims {dofs} DoFs and a period of {period_us} us")));
         }
-        let mut names = Vec::with_capacity(usize::from(dofs));
+        let (mut names, mut kinds) = (Vec::with_capacity(usize::from(dofs)), Vec::with_capacity(usize::from(dofs)));
         for index in 0..dofs {
-            let answer = link.exchange(&ToRobot::DofName { index }, |m| {
-                matches!(m, FromRobot::DofName { index: i, .. } if *i == index)
-                    || matches!(m, FromRobot::Refused { .. })
+            let refused = |m: &FromRobot| matches!(m, FromRobot::Refused { .. });
+            let name = link.exchange(&ToRobot::DofName { index }, |m| {
+                matches!(m, FromRobot::DofName { index: i, .. } if *i == index) || refused(m)
             })?;
-            match answer {
+            match name {
                 FromRobot::DofName { name, .. } => names.push(name.as_str().to_owned()),
                 other => return Err(gone(robot, format!("has no name for DoF {index}: {other:?}"))),
             }
-        }
-        let mut kinds = Vec::with_capacity(usize::from(dofs));
-        for index in 0..dofs {
-            let answer = link.exchange(&ToRobot::DofKind { index }, |m| {
-                matches!(m, FromRobot::DofKind { index: i, .. } if *i == index)
-                    || matches!(m, FromRobot::Refused { .. })
+            let kind = link.exchange(&ToRobot::DofKind { index }, |m| {
+                matches!(m, FromRobot::DofKind { index: i, .. } if *i == index) || refused(m)
             })?;
             // A robot that does not know the request has revolute DoFs only.
-            kinds.push(match answer {
-                FromRobot::DofKind { kind, .. } => kind,
-                _ => DofKind::Revolute,
-            });
+            kinds.push(if let FromRobot::DofKind { kind, .. } = kind { kind } else { DofKind::Revolute });
         }
         link.info = RobotInfo { dof_names: names, dof_kinds: kinds, period_s: f64::from(period_us) * 1e-6, lockstep };
         link.command = vec![0.0; usize::from(dofs)];
