@@ -41,11 +41,12 @@ pub struct StructureConfig {
     /// Static threshold floor as a fraction of the largest change `g |step|`
     /// (the paper: 0.1 m/s^2 for 0.1 rad, i.e. 10 %).
     pub static_fraction: f64,
-    /// A lever arm above this means the cell moved, m (below it, a standing
-    /// robot's rocking can fake one).
+    /// A lever arm above this in one step means the cell moved, m (below
+    /// it, a standing robot still ringing from the step before can fake one).
     pub lever_threshold_m: f64,
-    /// The same for an axis aligned with gravity, which does not rock the
-    /// base: the resolution of "on the axis", m.
+    /// The same for the pooled repeats of a step whose axis is aligned with
+    /// gravity, which does not rock the base: the resolution of "on the
+    /// axis", m.
     pub axis_lever_m: f64,
     /// Margin of every decision, in standard deviations of its noise.
     pub confidence_sigmas: f64,
