@@ -84,6 +84,19 @@ fn bad_flags_and_files_fail_with_a_message() {
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--fault", "dead:99@0"], "no such"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--rate", "0"], "rate"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "-1"], "duration"),
+        (
+            vec!["network", "--topology", "hex:2x2", "--duration", "1e300"],
+            "--duration 1e300: give a number of seconds in [0, 1e9]",
+        ),
+        (
+            vec!["network", "--topology", "hex:2x2", "--duration", "1", "--organize-timeout", "1e300"],
+            "--organize-timeout 1e300: give a number of seconds in [0, 1e9]",
+        ),
+        (
+            vec!["network", "--topology", "hex:2x2", "--duration", "1", "--fault", "dead:1@1e300"],
+            "the time must be in [0, 1e9] s",
+        ),
+        (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--keepalive-ms", "1e300"], "--keepalive-ms"),
         (vec!["network", "--topology", "hex:1x1", "--duration", "1", "--interfaces", "9"], "free ports"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--udp", "10.1.2.3:9"], "127.0.0.1"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--delta", "nose=3"], "CHANNEL=COUNTS"),

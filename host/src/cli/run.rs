@@ -22,6 +22,7 @@ use skin_host::remote::{Remote, RobotLink};
 use skin_protocol::message::AccelRange;
 
 use super::job::{self, Steps};
+use super::seconds;
 
 /// Arguments of `skin run`.
 #[derive(clap::Args)]
@@ -56,9 +57,6 @@ pub struct Args {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
-    /// A time limit that is not a positive number.
-    #[error("--organize-timeout must be a number of seconds > 0, not {0}")]
-    Timeout(f64),
     /// A robot timeout of zero.
     #[error("--robot-timeout-ms must be at least 1")]
     RobotTimeout,
@@ -66,9 +64,7 @@ pub enum Error {
 
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let wall = Instant::now();
-    if !(args.organize_timeout.is_finite() && args.organize_timeout > 0.0) {
-        return Err(Error::Timeout(args.organize_timeout).into());
-    }
+    let organize_timeout_s = seconds::positive("--organize-timeout", args.organize_timeout)?;
     if args.robot_timeout_ms == 0 {
         return Err(Error::RobotTimeout.into());
     }
@@ -107,7 +103,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let steps = Steps {
         organize: OrganizeConfig {
             expected_cells: args.cells,
-            timeout_s: args.organize_timeout,
+            timeout_s: organize_timeout_s,
             ..OrganizeConfig::default()
         },
         settings: cells.settings(),
