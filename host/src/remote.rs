@@ -23,6 +23,11 @@ use crate::robot::{DofKind, Robot, RobotError, SampleSource};
 
 /// Tries of one request before the robot counts as gone.
 const TRIES: u32 = 5;
+/// Longest wall-clock time the robot's clock may stand still while it
+/// answers: the wall-clock bound of every wait counted in robot time (a
+/// lockstep robot advances it on every command, a real-time one every
+/// period).
+const CLOCK_STALL: Duration = Duration::from_secs(2);
 
 /// What the robot said about itself when the link opened.
 #[derive(Clone, Debug, PartialEq)]
@@ -57,6 +62,8 @@ pub struct RobotLink {
     command: Vec<f64>,
     positions: Vec<f64>,
     time_us: u64,
+    /// When `time_us` last advanced, on the host's clock.
+    clock_moved: Instant,
     counters: LinkCounters,
 }
 
@@ -80,6 +87,7 @@ impl RobotLink {
             command: Vec::new(),
             positions: Vec::new(),
             time_us: 0,
+            clock_moved: Instant::now(),
             counters: LinkCounters::default(),
         };
         let (dofs, period_us, lockstep) =
@@ -115,6 +123,7 @@ impl RobotLink {
         }
         link.info = RobotInfo { dof_names: names, dof_kinds: kinds, period_s: f64::from(period_us) * 1e-6, lockstep };
         link.command = vec![0.0; usize::from(dofs)];
+        link.clock_moved = Instant::now();
         link.tick()?;
         Ok(link)
     }
@@ -134,7 +143,9 @@ impl RobotLink {
         self.counters
     }
 
-    /// Sends the held command as a new one and waits for its feedback.
+    /// Sends the held command as a new one and waits for its feedback; a
+    /// robot clock that runs backwards, or stands still for
+    /// [`CLOCK_STALL`], is an error.
     pub fn tick(&mut self) -> Result<(), RobotError> {
         self.seq = self.seq.wrapping_add(1);
         let seq = self.seq;
@@ -145,13 +156,31 @@ impl RobotLink {
         })?;
         match answer {
             FromRobot::State { time_us, positions, .. } if positions.len() == self.command.len() => {
-                self.time_us = time_us;
+                self.clock(time_us)?;
                 self.positions.clear();
                 self.positions.extend_from_slice(&positions);
                 Ok(())
             }
             other => Err(gone(self.robot, format!("answered command {seq} with {other:?}"))),
         }
+    }
+
+    /// Takes the robot's clock from a feedback.
+    fn clock(&mut self, time_us: u64) -> Result<(), RobotError> {
+        let now = Instant::now();
+        if time_us < self.time_us {
+            return Err(RobotError::ClockBackwards { from_s: self.time_s(), to_s: time_us as f64 * 1e-6 });
+        }
+        if time_us > self.time_us {
+            self.clock_moved = now;
+        } else if now - self.clock_moved > CLOCK_STALL {
+            return Err(RobotError::ClockStopped {
+                at_s: self.time_s(),
+                wall_s: (now - self.clock_moved).as_secs_f64(),
+            });
+        }
+        self.time_us = time_us;
+        Ok(())
     }
 
     /// Sends `request` until an answer `wanted` comes, at most [`TRIES`] times.

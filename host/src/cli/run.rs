@@ -39,7 +39,7 @@ pub struct Args {
     /// Cells the skin has: wait until that many have organized [default: whatever reports and stays unchanged].
     #[arg(long, value_name = "N")]
     cells: Option<usize>,
-    /// Longest time the skin may take to organize, robot seconds.
+    /// Longest time the skin may take to organize, s, in robot time and in wall-clock time (whichever ends first).
     #[arg(long, value_name = "S", default_value_t = 30.0)]
     organize_timeout: f64,
     /// Longest wait for one answer of the robot, milliseconds.
