@@ -376,7 +376,10 @@ mod tests {
             ("[cells]\nsample_rate_hz = 0.001\n", "`cells.sample_rate_hz` = 0.001: must be in [1, 10000] Hz"),
             ("[cells]\nfilter_cutoff_hz = 1e30\n", "`cells.filter_cutoff_hz` = 1e30: must be in (0, 125] Hz"),
             ("[cells]\nsample_rate_hz = 100\nfilter_cutoff_hz = 60\n", "(0, 50] Hz, at most half the sample rate"),
-            ("[cells]\nhysteresis = 2.0\n", "`cells.hysteresis` is out of range: expected a normalized value in [0, 1]"),
+            (
+                "[cells]\nhysteresis = 2.0\n",
+                "`cells.hysteresis` is out of range: expected a normalized value in [0, 1]",
+            ),
             ("[cells]\naccel_range_g = 4\n", "cells.accel_range_g"),
             ("[interface]\nlisten = \"nowhere\"\n", "listen"),
             ("[[interface.ports]]\nnumber = 1\n[[interface.ports]]\nnumber = 1\n", "interface.ports[1].number"),
