@@ -115,3 +115,17 @@ fn a_robot_clock_that_crawls_ends_organizing_on_the_wall_clock() {
     assert_eq!(code, Some(1), "{err}");
     assert!(err.starts_with("error: the skin did not organize within 1 s of wall-clock time: 0 cells heard"), "{err}");
 }
+
+#[test]
+fn an_out_folder_that_cannot_be_written_is_refused_before_the_robot_is_asked() {
+    // A folder under a plain file; nobody listens at the robot address, so
+    // a later check would blame the robot instead.
+    let file = std::env::temp_dir().join(format!("skin-hostile-cli-{}-file", std::process::id()));
+    std::fs::write(&file, b"").unwrap();
+    let out = file.join("report");
+    let out = out.to_str().unwrap();
+    let says = format!("cannot write {out}: Not a directory (os error 20) (choose another folder with --out DIR)");
+    refused(&["run", "--robot", &free_addr(), "--out", out], &says);
+    refused(&["demo", "--quick", "--out", out], &says);
+    std::fs::remove_file(&file).unwrap();
+}

@@ -19,6 +19,7 @@ use skin_host::explore::ExploreConfig;
 use skin_host::interface::Interface;
 use skin_host::pipeline::OrganizeConfig;
 use skin_host::remote::{Remote, RobotLink};
+use skin_host::report::check_folder;
 use skin_protocol::message::AccelRange;
 
 use super::job::{self, Steps};
@@ -68,6 +69,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     if args.robot_timeout_ms == 0 {
         return Err(Error::RobotTimeout.into());
     }
+    check_folder(&args.out)?;
     let mut config = match &args.config {
         Some(path) => Config::load(path)?,
         None => Config::default(),
