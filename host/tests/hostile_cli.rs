@@ -129,3 +129,19 @@ fn an_out_folder_that_cannot_be_written_is_refused_before_the_robot_is_asked() {
     refused(&["demo", "--quick", "--out", out], &says);
     std::fs::remove_file(&file).unwrap();
 }
+
+#[test]
+fn sim_endpoint_refuses_port_0_for_the_host_and_names_an_address_in_use() {
+    refused(
+        &["sim-endpoint", "--host", "127.0.0.1:0"],
+        "host address 127.0.0.1:0: port 0 is nowhere to send to; give the port the host listens on",
+    );
+    let taken = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let robot = taken.local_addr().unwrap().to_string();
+    refused(
+        &["sim-endpoint", "--robot", &robot, "--host", &free_addr()],
+        &format!(
+            "cannot bind {robot}: Address already in use (os error 98) (is another endpoint running there? choose another port)"
+        ),
+    );
+}
