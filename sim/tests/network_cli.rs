@@ -78,6 +78,10 @@ fn bad_flags_and_files_fail_with_a_message() {
     for (args, says) in [
         (vec!["network", "--topology", "hex:3x3"], "--duration"),
         (vec!["network", "--topology", "hex:3", "--duration", "1"], "hex:ROWSxCOLS"),
+        (
+            vec!["network", "--topology", "chain:4294967296", "--duration", "1"],
+            "4294967296 cells; a skin has 1..=60000",
+        ),
         (vec!["network", "--topology", "none.toml", "--duration", "1"], "none.toml"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--traffic", "burst"], "burst"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--fault", "melt:1@1"], "cut:CELL.PORT"),
