@@ -147,8 +147,8 @@ impl RobotLink {
     }
 
     /// Sends the held command as a new one and waits for its feedback; a
-    /// robot clock that runs backwards, or stands still for
-    /// [`CLOCK_STALL`], is an error.
+    /// robot clock that runs backwards, or stands still for 2 s of
+    /// wall-clock time, is an error.
     pub fn tick(&mut self) -> Result<(), RobotError> {
         self.seq = self.seq.wrapping_add(1);
         let seq = self.seq;
