@@ -11,6 +11,7 @@
 //! here changes.
 
 use std::net::SocketAddr;
+use std::ops::RangeInclusive;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -124,6 +125,14 @@ pub enum Traffic {
     Event,
 }
 
+/// Sampling rates a configuration may ask for, Hz: below 1 Hz the
+/// exploration's averages starve; the cells' sensors give at most 10 kHz.
+const RATE_HZ: RangeInclusive<f32> = 1.0..=10_000.0;
+/// Force-cell calibration gains a configuration may ask for: a factor of
+/// 100 either way is calibration, beyond it a typo that saturates every
+/// force level.
+const FORCE_GAIN: RangeInclusive<f32> = 0.01..=100.0;
+
 /// The settings written into every cell (section 2.1.4, Table 3).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -216,15 +225,26 @@ impl CellSettings {
         if ![2, 8, 16].contains(&self.accel_range_g) {
             return Err(("accel_range_g".into(), format!("= {}: must be 2, 8 or 16", self.accel_range_g)));
         }
+        let rate = self.sample_rate_hz;
+        if !RATE_HZ.contains(&rate) {
+            return Err(("sample_rate_hz".into(), format!("= {rate:?}: must be in [1, 10000] Hz")));
+        }
+        let (cutoff, nyquist) = (self.filter_cutoff_hz, rate / 2.0);
+        if !(cutoff > 0.0 && cutoff <= nyquist) {
+            return Err((
+                "filter_cutoff_hz".into(),
+                format!("= {cutoff:?}: must be in (0, {nyquist}] Hz, at most half the sample rate (Nyquist)"),
+            ));
+        }
+        for (i, gain) in self.force_gains.iter().enumerate() {
+            if !FORCE_GAIN.contains(gain) {
+                return Err((format!("force_gains[{i}]"), format!("= {gain:?}: must be in [0.01, 100]")));
+            }
+        }
+        // What is left: the normalized levels and hysteresis.
         for (key, setting) in self.keyed() {
             if !setting.is_valid() {
-                let expected = match setting {
-                    Setting::SampleRateHz(_) => "a rate in (0, 10000] Hz",
-                    Setting::FilterCutoffHz(_) => "a positive frequency in Hz",
-                    Setting::ForceGain { .. } => "a positive, finite gain",
-                    _ => "a normalized value in [0, 1]",
-                };
-                return Err((key, format!("is out of range: expected {expected}")));
+                return Err((key, "is out of range: expected a normalized value in [0, 1]".into()));
             }
         }
         for (key, levels) in [("force_levels", self.force_levels), ("proximity_levels", self.proximity_levels)] {
@@ -352,6 +372,14 @@ mod tests {
             ("[cells]\nsample_rate_hz = -5.0\n", "cells.sample_rate_hz"),
             ("[cells]\nforce_levels = [0.1, 0.05, 0.3, 0.45]\n", "cells.force_levels"),
             ("[cells]\nforce_gains = [1.0, 0.0, 1.0]\n", "cells.force_gains[1]"),
+            ("[cells]\nforce_gains = [1e38, 1.0, 1.0]\n", "`cells.force_gains[0]` = 1e38: must be in [0.01, 100]"),
+            ("[cells]\nsample_rate_hz = 0.001\n", "`cells.sample_rate_hz` = 0.001: must be in [1, 10000] Hz"),
+            ("[cells]\nfilter_cutoff_hz = 1e30\n", "`cells.filter_cutoff_hz` = 1e30: must be in (0, 125] Hz"),
+            ("[cells]\nsample_rate_hz = 100\nfilter_cutoff_hz = 60\n", "(0, 50] Hz, at most half the sample rate"),
+            (
+                "[cells]\nhysteresis = 2.0\n",
+                "`cells.hysteresis` is out of range: expected a normalized value in [0, 1]",
+            ),
             ("[cells]\naccel_range_g = 4\n", "cells.accel_range_g"),
             ("[interface]\nlisten = \"nowhere\"\n", "listen"),
             ("[[interface.ports]]\nnumber = 1\n[[interface.ports]]\nnumber = 1\n", "interface.ports[1].number"),

@@ -7,6 +7,8 @@
 //! zero velocities every period, which is also what lets a lockstep
 //! simulator's clock run.
 
+use std::time::Instant;
+
 use serde::Serialize;
 use skin_protocol::message::Setting;
 use skin_protocol::Address;
@@ -25,11 +27,14 @@ pub enum PipelineError {
     Robot(#[from] RobotError),
     /// The skin did not organize in time.
     #[error(
-        "the skin did not organize within {timeout_s} s of robot time: {cells} cells heard, {with_tables} with a neighbour table{expected} (check the cables and interface ports; `skin monitor` shows what arrives)"
+        "the skin did not organize within {timeout_s} s of {clock}: {cells} cells heard, {with_tables} with a neighbour table{expected} (check the cables and interface ports; `skin monitor` shows what arrives)"
     )]
     NotOrganized {
         /// The limit, s.
         timeout_s: f64,
+        /// The clock that reached it: robot time, or wall-clock time when
+        /// the robot's clock runs slower.
+        clock: &'static str,
         /// Cells heard.
         cells: usize,
         /// Cells that reported their neighbours and tree.
@@ -52,7 +57,8 @@ pub struct OrganizeConfig {
     pub expected_cells: Option<usize>,
     /// Robot time the set of cells and their tables must stay unchanged, s.
     pub settle_s: f64,
-    /// Longest robot time to wait, s.
+    /// Longest time to wait, s, in robot time and in wall-clock time
+    /// (whichever ends first: a robot clock that crawls cannot hang it).
     pub timeout_s: f64,
 }
 
@@ -106,6 +112,7 @@ pub fn organize(
     let zero = vec![0.0; remote.dof_count()];
     remote.command_velocities(&zero)?;
     let start_s = remote.link().time_s();
+    let wall = Instant::now();
     let mut last_change_s = start_s;
     let mut seen = (0, 0);
     loop {
@@ -125,14 +132,20 @@ pub fn organize(
         if complete && now_s - last_change_s >= cfg.settle_s {
             break;
         }
-        if now_s - start_s > cfg.timeout_s {
-            return Err(PipelineError::NotOrganized {
-                timeout_s: cfg.timeout_s,
-                cells: registry.len(),
-                with_tables,
-                expected: cfg.expected_cells.map_or(String::new(), |n| format!(", {n} expected")),
-            });
-        }
+        let clock = if now_s - start_s > cfg.timeout_s {
+            "robot time"
+        } else if wall.elapsed().as_secs_f64() > cfg.timeout_s {
+            "wall-clock time"
+        } else {
+            continue;
+        };
+        return Err(PipelineError::NotOrganized {
+            timeout_s: cfg.timeout_s,
+            clock,
+            cells: registry.len(),
+            with_tables,
+            expected: cfg.expected_cells.map_or(String::new(), |n| format!(", {n} expected")),
+        });
     }
     Ok(Organized {
         time_s: last_change_s - start_s,

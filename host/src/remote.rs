@@ -15,7 +15,7 @@
 use std::net::{SocketAddr, UdpSocket};
 use std::time::{Duration, Instant};
 
-use skin_protocol::robot_link::{self, FromRobot, ToRobot, MAX_DOFS};
+use skin_protocol::robot_link::{self, FromRobot, ToRobot, MAX_DOFS, MAX_NAME};
 use skin_protocol::{Address, Sample};
 
 use crate::interface::{Event, EventKind, Interface};
@@ -23,6 +23,11 @@ use crate::robot::{DofKind, Robot, RobotError, SampleSource};
 
 /// Tries of one request before the robot counts as gone.
 const TRIES: u32 = 5;
+/// Longest wall-clock time the robot's clock may stand still while it
+/// answers: the wall-clock bound of every wait counted in robot time (a
+/// lockstep robot advances it on every command, a real-time one every
+/// period).
+const CLOCK_STALL: Duration = Duration::from_secs(2);
 
 /// What the robot said about itself when the link opened.
 #[derive(Clone, Debug, PartialEq)]
@@ -57,6 +62,8 @@ pub struct RobotLink {
     command: Vec<f64>,
     positions: Vec<f64>,
     time_us: u64,
+    /// When `time_us` last advanced, on the host's clock.
+    clock_moved: Instant,
     counters: LinkCounters,
 }
 
@@ -80,6 +87,7 @@ impl RobotLink {
             command: Vec::new(),
             positions: Vec::new(),
             time_us: 0,
+            clock_moved: Instant::now(),
             counters: LinkCounters::default(),
         };
         let (dofs, period_us, lockstep) =
@@ -87,6 +95,9 @@ impl RobotLink {
                 FromRobot::Info { dofs, period_us, lockstep } => (dofs, period_us, lockstep),
                 other => return Err(gone(robot, format!("answered hello with {other:?}"))),
             };
+        if dofs == 0 {
+            return Err(gone(robot, "claims no DoFs: there is nothing to explore or move"));
+        }
         if usize::from(dofs) > MAX_DOFS || period_us == 0 {
             return Err(gone(robot, format!("claims {dofs} DoFs and a period of {period_us} us")));
         }
@@ -108,6 +119,7 @@ impl RobotLink {
         }
         link.info = RobotInfo { dof_names: names, dof_kinds: kinds, period_s: f64::from(period_us) * 1e-6, lockstep };
         link.command = vec![0.0; usize::from(dofs)];
+        link.clock_moved = Instant::now();
         link.tick()?;
         Ok(link)
     }
@@ -127,7 +139,9 @@ impl RobotLink {
         self.counters
     }
 
-    /// Sends the held command as a new one and waits for its feedback.
+    /// Sends the held command as a new one and waits for its feedback; a
+    /// robot clock that runs backwards, or stands still for 2 s of
+    /// wall-clock time, is an error.
     pub fn tick(&mut self) -> Result<(), RobotError> {
         self.seq = self.seq.wrapping_add(1);
         let seq = self.seq;
@@ -138,7 +152,7 @@ impl RobotLink {
         })?;
         match answer {
             FromRobot::State { time_us, positions, .. } if positions.len() == self.command.len() => {
-                self.time_us = time_us;
+                self.clock(time_us)?;
                 self.positions.clear();
                 self.positions.extend_from_slice(&positions);
                 Ok(())
@@ -147,11 +161,31 @@ impl RobotLink {
         }
     }
 
+    /// Takes the robot's clock from a feedback.
+    fn clock(&mut self, time_us: u64) -> Result<(), RobotError> {
+        let now = Instant::now();
+        if time_us < self.time_us {
+            return Err(RobotError::ClockBackwards { from_s: self.time_s(), to_s: time_us as f64 * 1e-6 });
+        }
+        if time_us > self.time_us {
+            self.clock_moved = now;
+        } else if now - self.clock_moved > CLOCK_STALL {
+            return Err(RobotError::ClockStopped {
+                at_s: self.time_s(),
+                wall_s: (now - self.clock_moved).as_secs_f64(),
+            });
+        }
+        self.time_us = time_us;
+        Ok(())
+    }
+
     /// Sends `request` until an answer `wanted` comes, at most [`TRIES`] times.
     fn exchange(&mut self, request: &ToRobot, wanted: impl Fn(&FromRobot) -> bool) -> Result<FromRobot, RobotError> {
         let mut out = [0u8; robot_link::MAX_DATAGRAM];
         let len = robot_link::encode(request, &mut out).map_err(|e| gone(self.robot, e))?;
         let mut buf = [0u8; robot_link::MAX_DATAGRAM + 1];
+        // What the robot itself sent that this host cannot read, if anything.
+        let mut unreadable = None;
         for attempt in 0..TRIES {
             if attempt > 0 {
                 self.counters.retries += 1;
@@ -173,11 +207,28 @@ impl RobotLink {
                 };
                 match robot_link::decode::<FromRobot>(&buf[..n]) {
                     Ok(answer) if from == self.robot && wanted(&answer) => return Ok(answer),
+                    Err(e) if from == self.robot => {
+                        unreadable = Some(e);
+                        self.counters.ignored += 1;
+                    }
                     _ => self.counters.ignored += 1,
                 }
             }
         }
-        Err(gone(self.robot, format!("no answer after {TRIES} tries of {:?} each", self.timeout)))
+        Err(gone(
+            self.robot,
+            match unreadable {
+                Some(e) => format!(
+                    "answered {request:?} with a datagram this host cannot read ({e}){}",
+                    if matches!(request, ToRobot::DofName { .. }) {
+                        format!(": a DoF name may be at most {MAX_NAME} bytes of UTF-8")
+                    } else {
+                        String::new()
+                    }
+                ),
+                None => format!("no answer after {TRIES} tries of {:?} each", self.timeout),
+            },
+        ))
     }
 }
 
@@ -307,8 +358,9 @@ impl SampleSource for Remote {
 mod tests {
     use super::*;
 
-    /// A robot of two DoFs that swallows the first command it gets.
-    fn flaky_robot(socket: UdpSocket, claimed_dofs: u8) {
+    /// A robot of two DoFs that swallows the first command it gets; its
+    /// DoF names are `name_bytes` long.
+    fn flaky_robot(socket: UdpSocket, claimed_dofs: u8, name_bytes: usize) {
         let mut buf = [0u8; robot_link::MAX_DATAGRAM];
         let mut out = [0u8; robot_link::MAX_DATAGRAM];
         let mut swallowed = false;
@@ -316,6 +368,10 @@ mod tests {
         while let Ok((n, from)) = socket.recv_from(&mut buf) {
             let answer = match robot_link::decode::<ToRobot>(&buf[..n]) {
                 Ok(ToRobot::Hello) => FromRobot::Info { dofs: claimed_dofs, period_us: 4000, lockstep: true },
+                Ok(ToRobot::DofName { index }) if name_bytes > 1 => {
+                    socket.send_to(&long_name(index, name_bytes), from).unwrap();
+                    continue;
+                }
                 Ok(ToRobot::DofName { index }) => FromRobot::DofName { index, name: "j".chars().collect() },
                 // A robot of the first link version: it does not know kinds.
                 Ok(ToRobot::DofKind { .. }) => FromRobot::Refused { seq: 0, reason: robot_link::Refusal::NoSuchDof },
@@ -337,17 +393,31 @@ mod tests {
         }
     }
 
-    fn spawn_robot(claimed_dofs: u8) -> SocketAddr {
+    /// A `DofName` answer whose name has `bytes` bytes, past what the
+    /// link allows: the one-byte name "j" with its length and bytes swapped.
+    fn long_name(index: u8, bytes: usize) -> Vec<u8> {
+        assert!((128..16_384).contains(&bytes), "a length of two varint bytes");
+        let mut out = [0u8; robot_link::MAX_DATAGRAM];
+        let answer = FromRobot::DofName { index, name: "j".chars().collect() };
+        let len = robot_link::encode(&answer, &mut out).unwrap();
+        assert_eq!(out[len - 2..len], [1, b'j']);
+        let mut datagram = out[..len - 2].to_vec();
+        datagram.extend([0x80 | (bytes & 0x7f) as u8, (bytes >> 7) as u8]);
+        datagram.resize(datagram.len() + bytes, b'x');
+        datagram
+    }
+
+    fn spawn_robot(claimed_dofs: u8, name_bytes: usize) -> SocketAddr {
         let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
         socket.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
         let addr = socket.local_addr().unwrap();
-        std::thread::spawn(move || flaky_robot(socket, claimed_dofs));
+        std::thread::spawn(move || flaky_robot(socket, claimed_dofs, name_bytes));
         addr
     }
 
     #[test]
     fn a_lost_answer_is_asked_for_again_and_commands_are_checked() {
-        let mut link = RobotLink::connect(spawn_robot(2), Duration::from_millis(100)).unwrap();
+        let mut link = RobotLink::connect(spawn_robot(2, 1), Duration::from_millis(100)).unwrap();
         assert_eq!(link.counters().retries, 1, "the first command was swallowed");
         assert_eq!(
             (link.dof_names(), link.info().period_s, link.info().lockstep),
@@ -365,8 +435,22 @@ mod tests {
     #[test]
     fn a_robot_with_feedback_of_the_wrong_length_is_refused() {
         // It claims three DoFs but reports two positions.
-        let e = RobotLink::connect(spawn_robot(3), Duration::from_millis(100)).unwrap_err();
+        let e = RobotLink::connect(spawn_robot(3, 1), Duration::from_millis(100)).unwrap_err();
         assert!(e.to_string().contains("answered command"), "{e}");
+    }
+
+    #[test]
+    fn a_robot_without_dofs_or_with_a_name_too_long_is_explained() {
+        let e = RobotLink::connect(spawn_robot(0, 1), Duration::from_millis(100)).unwrap_err();
+        assert!(e.to_string().ends_with(": claims no DoFs: there is nothing to explore or move"), "{e}");
+        let e = RobotLink::connect(spawn_robot(2, 200), Duration::from_millis(20)).unwrap_err();
+        assert!(
+            e.to_string().ends_with(
+                ": answered DofName { index: 0 } with a datagram this host cannot read \
+                 (robot-link datagram body is not a valid message): a DoF name may be at most 32 bytes of UTF-8"
+            ),
+            "{e}"
+        );
     }
 
     #[test]

@@ -30,6 +30,25 @@ pub enum RobotError {
         "the robot reports a position for DoF {0} that is not finite (NaN or infinite): check its encoder and driver"
     )]
     FeedbackNotFinite(usize),
+    /// The robot's clock went back: a restarted robot or a broken clock.
+    #[error("the robot's clock ran backwards, from {from_s} s to {to_s} s (was the robot restarted?)")]
+    ClockBackwards {
+        /// The clock at the feedback before, s.
+        from_s: f64,
+        /// The clock now, s.
+        to_s: f64,
+    },
+    /// The robot answered but its clock stood still: every wait counted in
+    /// robot time would last forever.
+    #[error(
+        "the robot's clock stood still at {at_s} s for {wall_s:.1} s of wall-clock time while it answered commands (check the robot's clock or simulator)"
+    )]
+    ClockStopped {
+        /// The clock, s.
+        at_s: f64,
+        /// Wall-clock time it stood still, s.
+        wall_s: f64,
+    },
     /// The robot or skin stopped answering.
     #[error("lost contact: {0}")]
     Disconnected(String),

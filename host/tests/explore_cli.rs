@@ -89,7 +89,7 @@ fn mistakes_get_a_message_not_a_panic() {
         (&["explore", "--noise-scale", "-1"][..], "--noise-scale must be a finite number >= 0"),
         (&["explore", "--axis-clearance", "-0.1"][..], "--axis-clearance must be a finite length >= 0 m"),
         (&["explore", "--axis-clearance", "inf"][..], "--axis-clearance must be a finite length >= 0 m"),
-        (&["explore", "--time-budget", "0"][..], "--time-budget must be a finite number of seconds > 0"),
+        (&["explore", "--time-budget", "0"][..], "--time-budget must be a number of seconds in (0, 1e9]"),
         (&["explore", "--skin", "skin.yaml"][..], "cannot read skin file skin.yaml"),
         (&["explore", "--cells-per-link", "2", "--skin", "a.toml"][..], "cannot be used with"),
     ] {

@@ -78,12 +78,29 @@ fn bad_flags_and_files_fail_with_a_message() {
     for (args, says) in [
         (vec!["network", "--topology", "hex:3x3"], "--duration"),
         (vec!["network", "--topology", "hex:3", "--duration", "1"], "hex:ROWSxCOLS"),
+        (
+            vec!["network", "--topology", "chain:4294967296", "--duration", "1"],
+            "4294967296 cells; a skin has 1..=60000",
+        ),
         (vec!["network", "--topology", "none.toml", "--duration", "1"], "none.toml"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--traffic", "burst"], "burst"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--fault", "melt:1@1"], "cut:CELL.PORT"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--fault", "dead:99@0"], "no such"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--rate", "0"], "rate"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "-1"], "duration"),
+        (
+            vec!["network", "--topology", "hex:2x2", "--duration", "1e300"],
+            "--duration 1e300: give a number of seconds in [0, 1e9]",
+        ),
+        (
+            vec!["network", "--topology", "hex:2x2", "--duration", "1", "--organize-timeout", "1e300"],
+            "--organize-timeout 1e300: give a number of seconds in [0, 1e9]",
+        ),
+        (
+            vec!["network", "--topology", "hex:2x2", "--duration", "1", "--fault", "dead:1@1e300"],
+            "the time must be in [0, 1e9] s",
+        ),
+        (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--keepalive-ms", "1e300"], "--keepalive-ms"),
         (vec!["network", "--topology", "hex:1x1", "--duration", "1", "--interfaces", "9"], "free ports"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--udp", "10.1.2.3:9"], "127.0.0.1"),
         (vec!["network", "--topology", "hex:2x2", "--duration", "1", "--delta", "nose=3"], "CHANNEL=COUNTS"),

@@ -29,7 +29,7 @@ use skin_host::grasping::{grasp, learn, Experimenter, GraspError, GraspRun, Taug
 use skin_host::interface::Interface;
 use skin_host::pipeline::OrganizeConfig;
 use skin_host::remote::{Remote, RobotLink};
-use skin_host::report::{GraspSection, LatencySection, TruthSection};
+use skin_host::report::{check_folder, GraspSection, LatencySection, TruthSection};
 use skin_sim::endpoint::{Endpoint, EndpointConfig, Pacing, Running, Truth};
 use skin_sim::network::NetworkConfig;
 use skin_sim::robot::hrp2;
@@ -65,6 +65,7 @@ pub struct Args {
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let wall = Instant::now();
     let seed = args.seed;
+    check_folder(&args.out)?;
     let (mut endpoint, mut remote, steps) = serve_experiment(seed)?;
     let found = job::run(&mut remote, &steps)?;
     let exploration = found.exploration.clone();

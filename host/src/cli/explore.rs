@@ -22,6 +22,8 @@ use skin_sim::robot::{hrp2, Robot, UrdfError};
 use skin_sim::skin::{Skin, SkinError};
 use skin_sim::world::{BaseConfig, World, WorldConfig};
 
+use super::seconds;
+
 /// The exploration the paper timed on HRP-2, for comparison.
 const PAPER_STRUCTURE_S: f64 = 70.0;
 
@@ -100,9 +102,6 @@ pub enum Error {
     /// A flag value out of range.
     #[error("--axis-clearance must be a finite length >= 0 m, not {0}")]
     AxisClearance(f64),
-    /// A flag value out of range.
-    #[error("--time-budget must be a finite number of seconds > 0, not {0}")]
-    TimeBudget(f64),
 }
 
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
@@ -112,9 +111,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     if !(args.axis_clearance.is_finite() && args.axis_clearance >= 0.0) {
         return Err(Error::AxisClearance(args.axis_clearance).into());
     }
-    if !(args.time_budget.is_finite() && args.time_budget > 0.0) {
-        return Err(Error::TimeBudget(args.time_budget).into());
-    }
+    let budget_s = seconds::positive("--time-budget", args.time_budget)?;
     let robot = match &args.urdf {
         Some(path) => Robot::from_urdf_file(path).map_err(Error::from)?,
         None => hrp2::robot(),
@@ -149,7 +146,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     };
     let structure = if args.paper { StructureConfig::paper() } else { StructureConfig::default() };
     let cfg = ExploreConfig {
-        structure: StructureConfig { axis_clearance_m: args.axis_clearance, budget_s: args.time_budget, ..structure },
+        structure: StructureConfig { axis_clearance_m: args.axis_clearance, budget_s, ..structure },
         smm: SmmConfig { evaluation, ..SmmConfig::default() },
         ..ExploreConfig::default()
     };

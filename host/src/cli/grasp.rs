@@ -14,6 +14,7 @@ use std::process::ExitCode;
 use skin_host::control::grasp::State;
 use skin_host::control::params::Params;
 use skin_host::grasping::{GraspRun, Taught};
+use skin_host::report::check_folder;
 use skin_host::report::traces::write_traces;
 
 use super::demo::{objects, serve_experiment, teach_and_grasp};
@@ -45,6 +46,9 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         None => Params::default(),
     };
     let chosen = objects(&args.object)?;
+    if let Some(dir) = &args.traces {
+        check_folder(dir)?;
+    }
     let (mut endpoint, mut remote, steps) = serve_experiment(args.seed)?;
     let found = job::run(&mut remote, &steps)?;
     let exploration_s = found.exploration.exploration_time_s();

@@ -10,6 +10,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use skin_host::config::Traffic;
 use skin_host::interface::loadgen::{LoadGen, LoadSpec, Pace};
 
+use super::seconds;
+
 /// Arguments of `skin loadgen`.
 #[derive(clap::Args)]
 pub struct Args {
@@ -69,9 +71,7 @@ pub enum Error {
 }
 
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
-    if !(args.duration >= 0.0 && args.duration.is_finite()) {
-        return Err(Error::Flag(format!("--duration must be a number of seconds >= 0, not {}", args.duration)).into());
-    }
+    let duration = seconds::duration("--duration", args.duration)?;
     let spec = LoadSpec {
         cells: args.cells,
         ports: args.ports,
@@ -91,7 +91,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
     let mut last_draw = Instant::now();
-    let report = generator.run(Duration::from_secs_f64(args.duration), pace, |r| {
+    let report = generator.run(duration, pace, |r| {
         if last_draw.elapsed() >= Duration::from_millis(100) {
             last_draw = Instant::now();
             let done_s = if args.flat_out { r.wall_time_s } else { r.skin_time_s };

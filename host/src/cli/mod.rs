@@ -8,6 +8,7 @@ mod job;
 mod loadgen;
 mod monitor;
 mod run;
+mod seconds;
 mod sim_endpoint;
 
 use std::process::ExitCode;

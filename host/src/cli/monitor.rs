@@ -18,6 +18,8 @@ use skin_protocol::event::{FORCE_NAMES, PROXIMITY_NAMES};
 use skin_protocol::message::Channel;
 use skin_protocol::Address;
 
+use super::seconds;
+
 /// Arguments of `skin monitor`.
 #[derive(clap::Args)]
 pub struct Args {
@@ -47,15 +49,6 @@ pub struct Args {
     refresh_ms: u64,
 }
 
-/// Why `skin monitor` could not run.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum Error {
-    /// A negative or non-finite --duration.
-    #[error("--duration must be a number of seconds >= 0, not {0}")]
-    Duration(f64),
-}
-
 /// Cells heard within this time count as alive.
 const ALIVE_US: u64 = 1_000_000;
 /// Lines of recent events kept.
@@ -75,10 +68,11 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         config.interface.ports = (0..n).map(|number| PortConfig { number, address: None }).collect();
     }
     config.validate()?;
-    let duration = match args.duration.or((args.once || args.json).then_some(2.0)) {
-        Some(s) if !(s >= 0.0 && s.is_finite()) => return Err(Error::Duration(s).into()),
-        d => d.map(Duration::from_secs_f64),
-    };
+    let duration = args
+        .duration
+        .or((args.once || args.json).then_some(2.0))
+        .map(|s| seconds::duration("--duration", s))
+        .transpose()?;
     let live = !args.once && !args.json && std::io::stdout().is_terminal();
     let periodic = !args.once && !args.json;
 

@@ -19,9 +19,11 @@ use skin_host::explore::ExploreConfig;
 use skin_host::interface::Interface;
 use skin_host::pipeline::OrganizeConfig;
 use skin_host::remote::{Remote, RobotLink};
+use skin_host::report::check_folder;
 use skin_protocol::message::AccelRange;
 
 use super::job::{self, Steps};
+use super::seconds;
 
 /// Arguments of `skin run`.
 #[derive(clap::Args)]
@@ -38,7 +40,7 @@ pub struct Args {
     /// Cells the skin has: wait until that many have organized [default: whatever reports and stays unchanged].
     #[arg(long, value_name = "N")]
     cells: Option<usize>,
-    /// Longest time the skin may take to organize, robot seconds.
+    /// Longest time the skin may take to organize, s, in robot time and in wall-clock time (whichever ends first).
     #[arg(long, value_name = "S", default_value_t = 30.0)]
     organize_timeout: f64,
     /// Longest wait for one answer of the robot, milliseconds.
@@ -56,9 +58,6 @@ pub struct Args {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
-    /// A time limit that is not a positive number.
-    #[error("--organize-timeout must be a number of seconds > 0, not {0}")]
-    Timeout(f64),
     /// A robot timeout of zero.
     #[error("--robot-timeout-ms must be at least 1")]
     RobotTimeout,
@@ -66,12 +65,11 @@ pub enum Error {
 
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let wall = Instant::now();
-    if !(args.organize_timeout.is_finite() && args.organize_timeout > 0.0) {
-        return Err(Error::Timeout(args.organize_timeout).into());
-    }
+    let organize_timeout_s = seconds::positive("--organize-timeout", args.organize_timeout)?;
     if args.robot_timeout_ms == 0 {
         return Err(Error::RobotTimeout.into());
     }
+    check_folder(&args.out)?;
     let mut config = match &args.config {
         Some(path) => Config::load(path)?,
         None => Config::default(),
@@ -107,7 +105,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let steps = Steps {
         organize: OrganizeConfig {
             expected_cells: args.cells,
-            timeout_s: args.organize_timeout,
+            timeout_s: organize_timeout_s,
             ..OrganizeConfig::default()
         },
         settings: cells.settings(),

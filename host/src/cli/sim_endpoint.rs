@@ -6,13 +6,13 @@
 use std::io::Write;
 use std::net::SocketAddr;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use clap::ValueEnum;
-use skin_sim::endpoint::{Endpoint, EndpointConfig, Pacing};
+use skin_sim::endpoint::{Endpoint, EndpointConfig, Pacing, Running};
 use skin_sim::network::NetworkConfig;
+
+use super::seconds;
 
 /// Arguments of `skin sim-endpoint`.
 #[derive(clap::Args)]
@@ -42,47 +42,35 @@ enum Pace {
     Realtime,
 }
 
-/// Why `skin sim-endpoint` could not run.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum Error {
-    /// A negative or non-finite --duration.
-    #[error("--duration must be a number of seconds > 0, not {0}")]
-    Duration(f64),
-}
+/// How often the main thread looks whether the serving thread ended.
+const WATCH: Duration = Duration::from_millis(20);
 
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
-    if let Some(d) = args.duration {
-        if !(d.is_finite() && d > 0.0) {
-            return Err(Error::Duration(d).into());
-        }
-    }
+    let duration = args.duration.map(|s| seconds::duration("--duration", s)).transpose()?;
     let pacing = match args.pace {
         Pace::Lockstep => Pacing::Lockstep,
         Pace::Realtime => Pacing::RealTime,
     };
     let network = NetworkConfig { seed: args.seed, ..NetworkConfig::default() };
-    let mut endpoint =
-        Endpoint::hrp2(args.seed, EndpointConfig { robot: args.robot, host: args.host, pacing, network })?;
-    let ports: Vec<String> = endpoint.interface_addrs()?.iter().map(ToString::to_string).collect();
+    let config = EndpointConfig { robot: args.robot, host: args.host, pacing, network };
+    // Served on a thread of its own, watched from here: when it fails or
+    // panics, the process ends with its error instead of serving nothing.
+    let endpoint = Running::spawn(move || Endpoint::hrp2(args.seed, config))?;
+    let ports: Vec<String> = endpoint.interfaces.iter().map(ToString::to_string).collect();
     // Announced on stdout, so a script can wait for it.
     writeln!(
         std::io::stdout().lock(),
         "serving the simulated robot on {} ({:?}); interface ports {} send to {}",
-        endpoint.robot_addr()?,
+        endpoint.robot,
         pacing,
         ports.join(", "),
         args.host
     )?;
-    let stop = Arc::new(AtomicBool::new(false));
-    if let Some(d) = args.duration {
-        let stop = stop.clone();
-        std::thread::spawn(move || {
-            std::thread::sleep(Duration::from_secs_f64(d));
-            stop.store(true, Ordering::Relaxed);
-        });
+    let deadline = duration.map(|d| Instant::now() + d);
+    while !endpoint.is_finished() && deadline.is_none_or(|d| Instant::now() < d) {
+        std::thread::sleep(WATCH);
     }
-    let served = endpoint.serve(&stop)?;
+    let served = endpoint.stop()?.served;
     eprintln!(
         "served {} control periods, {} datagrams up; refused {} commands, rejected {} datagrams",
         served.ticks, served.datagrams_up, served.refused, served.rejected

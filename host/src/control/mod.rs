@@ -55,7 +55,7 @@ pub enum ControlError {
     #[error("{0} (compare with host/config/grasp.toml)")]
     Toml(String),
     /// A number outside its range.
-    #[error("{what} = {value} is out of range: expected {expected}")]
+    #[error("{what} = {value:?} is out of range: expected {expected}")]
     Range {
         /// The parameter.
         what: String,

@@ -194,17 +194,23 @@ impl Params {
 
     /// Checks every value is usable.
     pub fn check(&self) -> Result<(), ControlError> {
-        for (what, v) in [
-            ("control_period_s", self.control_period_s),
-            ("max_joint_velocity", self.max_joint_velocity),
-            ("evade_max_velocity", self.evade_max_velocity),
+        // Bounded above too: a period of 1e300 s or a gain of 1e38 is a
+        // typo, and no robot's joints turn at more than 10 rad/s.
+        for (what, v, max, expected) in [
+            ("control_period_s", self.control_period_s, 0.1, "a period in (0, 0.1] s"),
+            ("max_joint_velocity", self.max_joint_velocity, 10.0, "a velocity in (0, 10] rad/s"),
+            ("evade_max_velocity", self.evade_max_velocity, 10.0, "a velocity in (0, 10] rad/s"),
         ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(ControlError::Range { what: what.into(), value: v, expected: "a positive number" });
+            if !(v > 0.0 && v <= max) {
+                return Err(ControlError::Range { what: what.into(), value: v, expected });
             }
         }
-        if !(self.smoothing_s.is_finite() && self.smoothing_s >= 0.0) {
-            return Err(ControlError::Range { what: "smoothing_s".into(), value: self.smoothing_s, expected: ">= 0" });
+        if !(0.0..=10.0).contains(&self.smoothing_s) {
+            return Err(ControlError::Range {
+                what: "smoothing_s".into(),
+                value: self.smoothing_s,
+                expected: "a time in [0, 10] s",
+            });
         }
         self.levels.check()?;
         self.timing.check()?;
@@ -306,6 +312,25 @@ mod tests {
     fn mistakes_are_refused_with_the_key() {
         let bad = DEFAULT_TOML.replace("max_joint_velocity = 0.5", "max_joint_velocity = -0.5");
         assert!(matches!(Params::from_toml_str(&bad), Err(ControlError::Range { .. })));
+        for (from, to, says) in [
+            (
+                "control_period_s = 0.004",
+                "control_period_s = 1e300",
+                "control_period_s = 1e300 is out of range: expected a period in (0, 0.1] s",
+            ),
+            (
+                "max_joint_velocity = 0.5",
+                "max_joint_velocity = 1e38",
+                "max_joint_velocity = 1e38 is out of range: expected a velocity in (0, 10] rad/s",
+            ),
+            (
+                "smoothing_s = 0.0",
+                "smoothing_s = nan",
+                "smoothing_s = NaN is out of range: expected a time in [0, 10] s",
+            ),
+        ] {
+            assert_eq!(Params::from_toml_str(&DEFAULT_TOML.replace(from, to)).unwrap_err().to_string(), says);
+        }
         let typo = DEFAULT_TOML.replace("stall_rad", "stall_radians");
         let e = Params::from_toml_str(&typo).unwrap_err().to_string();
         assert!(e.contains("stall_radians"), "{e}");

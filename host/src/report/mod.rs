@@ -50,6 +50,16 @@ impl ReportError {
     }
 }
 
+/// Makes sure the report can be written into `dir` (created if missing)
+/// by writing and removing a probe file: a folder that cannot be written
+/// is refused before the robot spends any time, not after.
+pub fn check_folder(dir: &Path) -> Result<(), ReportError> {
+    std::fs::create_dir_all(dir).map_err(ReportError::write(dir))?;
+    let probe = dir.join(".skin-write-check");
+    std::fs::write(&probe, b"").map_err(ReportError::write(&probe))?;
+    std::fs::remove_file(&probe).map_err(ReportError::write(&probe))
+}
+
 impl Report {
     /// Draws every figure into `dir` (created if missing), then writes
     /// `report.json` and `index.html`; returns the files written.

@@ -12,6 +12,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use skin_protocol::message::TrafficMode;
 use skin_sim::network::fault::{Fault, FaultSpec};
+use skin_sim::network::scenario::{time_s, MAX_TIME_S};
 use skin_sim::network::stimulus::StimulusKind;
 use skin_sim::network::transport::Transport;
 use skin_sim::network::{NetworkConfig, NetworkError, Scenario, Topology};
@@ -117,9 +118,10 @@ fn parse_delta(s: &str) -> Result<(u8, u16), String> {
     Ok((channel as u8, counts))
 }
 
-/// A period flag in ms as whole microseconds.
+/// A period flag in ms as whole microseconds (a later check bounds it
+/// further; this one keeps the microseconds in a `u64`).
 fn period_us(flag: &str, ms: f64) -> Result<u64, NetworkError> {
-    if !(ms.is_finite() && ms > 0.0) {
+    if !(ms > 0.0 && ms <= MAX_TIME_S) {
         return Err(NetworkError::Flag(format!("{flag} {ms}: give a period in ms, e.g. {flag} 100")));
     }
     Ok((ms * 1e3).round() as u64)
@@ -160,11 +162,12 @@ fn network(args: NetworkArgs) -> Result<(), NetworkError> {
             FaultSpec::BitErrorRate(ber) => config.bit_error_rate = ber,
         }
     }
-    if !(args.organize_timeout.is_finite() && args.organize_timeout > 0.0) {
+    let duration_s = time_s("--duration", args.duration)?;
+    let organize_timeout_s = time_s("--organize-timeout", args.organize_timeout)?;
+    if organize_timeout_s == 0.0 {
         return Err(NetworkError::Flag("--organize-timeout: give a time > 0 s".into()));
     }
-    let scenario =
-        Scenario { topology, config, duration_s: args.duration, faults, organize_timeout_s: args.organize_timeout };
+    let scenario = Scenario { topology, config, duration_s, faults, organize_timeout_s };
     let mut transport = match args.udp {
         Some(host) => Transport::udp(host, args.bind)?,
         None => Transport::memory(),

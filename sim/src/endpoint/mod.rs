@@ -152,6 +152,13 @@ impl Endpoint {
                 )));
             }
         }
+        // The skin sends to the host: port 0 would be nowhere.
+        if config.host.port() == 0 {
+            return Err(NetworkError::Flag(format!(
+                "host address {}: port 0 is nowhere to send to; give the port the host listens on",
+                config.host
+            )));
+        }
         let cells = world.skin().cells().len();
         let mut seen = vec![false; cells];
         let one_to_one = world_cell.len() == cells
@@ -169,7 +176,8 @@ impl Endpoint {
         let network = Network::new(topology, config.network)?;
         let local = SocketAddr::new(config.robot.ip(), 0);
         let ports = (0..network.interfaces()).map(|_| bind(local)).collect::<Result<Vec<_>, _>>()?;
-        let robot_socket = UdpSocket::bind(config.robot)?;
+        let robot_socket =
+            UdpSocket::bind(config.robot).map_err(|source| NetworkError::Bind { addr: config.robot, source })?;
         robot_socket.set_read_timeout(Some(STOP_CHECK))?;
         Ok(Endpoint {
             rig: Rig::new(world, network, world_cell, config.pacing),
@@ -278,7 +286,7 @@ fn hrp2_wiring(world: &World) -> Vec<usize> {
 const MIN_WAIT: Duration = Duration::from_micros(100);
 
 fn bind(addr: SocketAddr) -> Result<UdpSocket, NetworkError> {
-    let socket = UdpSocket::bind(addr)?;
+    let socket = UdpSocket::bind(addr).map_err(|source| NetworkError::Bind { addr, source })?;
     socket.set_nonblocking(true)?;
     Ok(socket)
 }

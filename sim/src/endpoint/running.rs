@@ -70,6 +70,12 @@ impl Running {
         self.notes.try_iter()
     }
 
+    /// Whether serving ended on its own: an error or a panic, which
+    /// [`Running::stop`] then returns.
+    pub fn is_finished(&self) -> bool {
+        self.thread.is_finished()
+    }
+
     /// Stops serving and returns what the simulator knows.
     pub fn stop(self) -> Result<Truth, NetworkError> {
         self.stop.store(true, Ordering::Relaxed);

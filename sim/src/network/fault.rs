@@ -8,6 +8,7 @@
 
 use skin_protocol::message::Port;
 
+use super::scenario::MAX_TIME_S;
 use super::topology::PortRef;
 use super::NetworkError;
 
@@ -75,8 +76,8 @@ impl std::str::FromStr for FaultSpec {
         }
         let (target, at) = rest.split_once('@').ok_or_else(|| bad("no `@SECONDS`"))?;
         let at_s: f64 = at.parse().map_err(|_| bad("the time is not a number"))?;
-        if !(at_s.is_finite() && at_s >= 0.0) {
-            return Err(bad("the time must be >= 0 s"));
+        if !(0.0..=MAX_TIME_S).contains(&at_s) {
+            return Err(bad("the time must be in [0, 1e9] s"));
         }
         let cell = |t: &str| t.parse::<usize>().map_err(|_| bad("the cell is not a number"));
         let kind = match kind {

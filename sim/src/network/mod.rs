@@ -66,6 +66,15 @@ pub enum NetworkError {
     /// Bytes from the host are not a datagram.
     #[error("datagram from the host: {0}")]
     Datagram(skin_protocol::interface::DatagramError),
+    /// A UDP socket could not be bound to its address.
+    #[error("cannot bind {addr}: {source} (is another endpoint running there? choose another port)")]
+    Bind {
+        /// The address.
+        addr: std::net::SocketAddr,
+        /// What the OS said.
+        #[source]
+        source: std::io::Error,
+    },
     /// The UDP socket failed.
     #[error("udp: {0}")]
     Udp(#[from] std::io::Error),

@@ -21,6 +21,20 @@ use super::NetworkError;
 /// datagrams between skin and host at the latest.
 const CHECK_NS: u64 = 10_000_000;
 
+/// The longest virtual time a scenario's times may name, s: far past any
+/// run, and its nanoseconds still add to a clock in a `u64`.
+pub const MAX_TIME_S: f64 = 1e9;
+
+/// `s` if it is a virtual time in [0, [`MAX_TIME_S`]]; `what` names it in
+/// the error (a flag, for the command line).
+pub fn time_s(what: &str, s: f64) -> Result<f64, NetworkError> {
+    if (0.0..=MAX_TIME_S).contains(&s) {
+        Ok(s)
+    } else {
+        Err(NetworkError::Flag(format!("{what} {s:?}: give a number of seconds in [0, 1e9]")))
+    }
+}
+
 /// A run to make.
 #[derive(Clone, Debug)]
 pub struct Scenario {
@@ -192,9 +206,8 @@ impl Scenario {
 
     /// Runs it; `progress` hears the fraction of virtual time done.
     pub fn run(&self, transport: &mut Transport, progress: &mut dyn FnMut(f64)) -> Result<NetworkReport, NetworkError> {
-        if !(self.duration_s.is_finite() && self.duration_s >= 0.0) {
-            return Err(NetworkError::Flag(format!("duration {} s: give a duration >= 0 s", self.duration_s)));
-        }
+        time_s("duration", self.duration_s)?;
+        time_s("organize timeout", self.organize_timeout_s)?;
         let wall = Instant::now();
         let mut net = Network::new(&self.topology, self.config)?;
         let timeout_ns = (self.organize_timeout_s * 1e9) as u64;

@@ -159,9 +159,11 @@ impl Topology {
     /// one's west port (2), with an interface port on the first one's west
     /// port: the deepest tree `cells` cells can make.
     pub fn chain(cells: usize) -> Result<Topology, NetworkError> {
-        let positions = (0..cells).map(|i| [i as f64 * CELL_PITCH_M, 0.0]).collect();
-        let links = (1..cells).map(|i| (PortRef::new(i - 1, Port::P0), PortRef::new(i, Port::P2))).collect();
-        Topology::new(cells, Some(positions), links, vec![PortRef::new(0, Port::P2)])
+        // In a row, as `new` places them; links for no more cells than a
+        // skin may have, so `chain:4294967296` is refused, not allocated.
+        let links =
+            (1..cells.min(MAX_CELLS + 1)).map(|i| (PortRef::new(i - 1, Port::P0), PortRef::new(i, Port::P2))).collect();
+        Topology::new(cells, None, links, vec![PortRef::new(0, Port::P2)])
     }
 
     /// The skin of HRP-2 in the paper: 74 cells in five patches, each arm an

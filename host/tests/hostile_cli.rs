@@ -1,0 +1,147 @@
+//! Issue 15's hostile arguments, run as a tester would: every case ends
+//! with a non-zero exit code and one line naming the flag and its range,
+//! never a panic or a process left serving nothing.
+
+use std::net::{SocketAddr, UdpSocket};
+use std::process::{Command, Output};
+use std::time::Duration;
+
+use skin_protocol::robot_link::{self, FromRobot, Refusal, ToRobot};
+
+fn skin(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_skin")).args(args).output().expect("the skin binary runs")
+}
+
+/// Asserts a failure whose whole stderr is the one line `error: {says}`.
+fn refused(args: &[&str], says: &str) {
+    let out = skin(args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+    assert_eq!(err.trim_end(), format!("error: {says}"), "{args:?}");
+}
+
+/// A loopback address nobody listens on.
+fn free_addr() -> String {
+    UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string()
+}
+
+#[test]
+fn seconds_no_clock_holds_are_refused_naming_the_flag() {
+    let robot = free_addr();
+    for (args, flag, range, value) in [
+        (vec!["monitor", "--duration", "1e300"], "--duration", "[0, 1e9]", "1e300"),
+        (vec!["monitor", "--duration", "NaN"], "--duration", "[0, 1e9]", "NaN"),
+        (vec!["sim-endpoint", "--duration", "1e300", "--robot", "127.0.0.1:0"], "--duration", "[0, 1e9]", "1e300"),
+        (vec!["sim-endpoint", "--duration", "inf", "--robot", "127.0.0.1:0"], "--duration", "[0, 1e9]", "inf"),
+        (vec!["loadgen", "--duration", "1e300"], "--duration", "[0, 1e9]", "1e300"),
+        (vec!["run", "--robot", &robot, "--organize-timeout", "1e300"], "--organize-timeout", "(0, 1e9]", "1e300"),
+        (vec!["run", "--robot", &robot, "--organize-timeout", "0"], "--organize-timeout", "(0, 1e9]", "0.0"),
+        (vec!["explore", "--time-budget", "1e300"], "--time-budget", "(0, 1e9]", "1e300"),
+        (vec!["explore", "--time-budget", "-1"], "--time-budget", "(0, 1e9]", "-1.0"),
+    ] {
+        refused(&args, &format!("{flag} must be a number of seconds in {range}, not {value}"));
+    }
+}
+
+#[test]
+fn sim_endpoint_stops_after_its_duration_and_says_what_it_served() {
+    let out = skin(&["sim-endpoint", "--duration", "0.2", "--robot", "127.0.0.1:0", "--host", &free_addr()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("serving the simulated robot on 127.0.0.1:"));
+    assert!(err.starts_with("served "), "{err}");
+}
+
+/// A lockstep robot of one DoF on loopback whose clock reads `clock(seq)`
+/// at the command numbered `seq`; it serves until nobody asks for 5 s.
+fn robot(clock: fn(u32) -> u64) -> SocketAddr {
+    let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
+    socket.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    let addr = socket.local_addr().unwrap();
+    std::thread::spawn(move || {
+        let (mut buf, mut out) = ([0u8; robot_link::MAX_DATAGRAM], [0u8; robot_link::MAX_DATAGRAM]);
+        while let Ok((n, from)) = socket.recv_from(&mut buf) {
+            let answer = match robot_link::decode::<ToRobot>(&buf[..n]) {
+                Ok(ToRobot::Hello) => FromRobot::Info { dofs: 1, period_us: 4000, lockstep: true },
+                Ok(ToRobot::DofName { index }) => FromRobot::DofName { index, name: "j".chars().collect() },
+                Ok(ToRobot::DofKind { .. }) => FromRobot::Refused { seq: 0, reason: Refusal::NoSuchDof },
+                Ok(ToRobot::Command { seq, .. }) => {
+                    FromRobot::State { seq, time_us: clock(seq), positions: [0.0].into_iter().collect() }
+                }
+                Err(_) => continue,
+            };
+            let len = robot_link::encode(&answer, &mut out).unwrap();
+            socket.send_to(&out[..len], from).unwrap();
+        }
+    });
+    addr
+}
+
+/// `skin run` against `robot` with no skin, and `more` flags: its exit code and stderr.
+fn run_against(robot: SocketAddr, more: &[&str]) -> (Option<i32>, String) {
+    let out_dir = std::env::temp_dir().join(format!("skin-hostile-cli-{}-{}", std::process::id(), robot.port()));
+    let out = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(["run", "--interface", "127.0.0.1:0", "--robot", &robot.to_string(), "--out"])
+        .arg(&out_dir)
+        .args(more)
+        .output()
+        .unwrap();
+    (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+#[test]
+fn a_robot_clock_that_freezes_ends_skin_run_on_the_wall_clock() {
+    // It stops at 40 ms, long before the 30 s organization timeout.
+    let (code, err) = run_against(robot(|seq| 4000 * u64::from(seq.min(10))), &[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.starts_with("error: the robot's clock stood still at 0.04"), "{err}");
+    assert!(err.contains("s for 2.0 s of wall-clock time while it answered commands"), "{err}");
+}
+
+#[test]
+fn a_robot_clock_that_runs_backwards_ends_skin_run_at_once() {
+    let (code, err) = run_against(robot(|seq| 4000 * u64::from(1000u32.saturating_sub(seq))), &[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert_eq!(
+        err.trim_end(),
+        "error: the robot's clock ran backwards, from 3.996 s to 3.992 s (was the robot restarted?)"
+    );
+}
+
+#[test]
+fn a_robot_clock_that_crawls_ends_organizing_on_the_wall_clock() {
+    // 1 us per 4 ms command: the 1 s timeout would take 250,000 commands of robot time.
+    let (code, err) = run_against(robot(u64::from), &["--organize-timeout", "1"]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.starts_with("error: the skin did not organize within 1 s of wall-clock time: 0 cells heard"), "{err}");
+}
+
+#[test]
+fn an_out_folder_that_cannot_be_written_is_refused_before_the_robot_is_asked() {
+    // A folder under a plain file; nobody listens at the robot address, so
+    // a later check would blame the robot instead.
+    let file = std::env::temp_dir().join(format!("skin-hostile-cli-{}-file", std::process::id()));
+    std::fs::write(&file, b"").unwrap();
+    let out = file.join("report");
+    let out = out.to_str().unwrap();
+    let says = format!("cannot write {out}: Not a directory (os error 20) (choose another folder with --out DIR)");
+    refused(&["run", "--robot", &free_addr(), "--out", out], &says);
+    refused(&["demo", "--quick", "--out", out], &says);
+    std::fs::remove_file(&file).unwrap();
+}
+
+#[test]
+fn sim_endpoint_refuses_port_0_for_the_host_and_names_an_address_in_use() {
+    refused(
+        &["sim-endpoint", "--host", "127.0.0.1:0"],
+        "host address 127.0.0.1:0: port 0 is nowhere to send to; give the port the host listens on",
+    );
+    let taken = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let robot = taken.local_addr().unwrap().to_string();
+    refused(
+        &["sim-endpoint", "--robot", &robot, "--host", &free_addr()],
+        &format!(
+            "cannot bind {robot}: Address already in use (os error 98) (is another endpoint running there? choose another port)"
+        ),
+    );
+}
