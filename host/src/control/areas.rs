@@ -68,7 +68,7 @@ struct AreasFile {
 
 /// Parses the `[[area]]` tables of a TOML document.
 pub fn parse_specs(text: &str) -> Result<Vec<AreaSpec>, ControlError> {
-    toml::from_str::<AreasFile>(text).map(|f| f.area).map_err(|e| ControlError::Toml(e.to_string()))
+    toml::from_str::<AreasFile>(text).map(|f| f.area).map_err(ControlError::Toml)
 }
 
 /// Reads the `[[area]]` tables of a TOML file.

@@ -53,7 +53,18 @@ pub enum ControlError {
     },
     /// A TOML document is malformed or has an unknown key.
     #[error("{0} (compare with host/config/grasp.toml)")]
-    Toml(String),
+    Toml(#[from] toml::de::Error),
+    /// A state gives some of the keys that go together, not all.
+    #[error("{0}")]
+    Incomplete(String),
+    /// An error in a named file.
+    #[error("{path}: {source}")]
+    InFile {
+        /// The file.
+        path: String,
+        /// What is wrong in it.
+        source: Box<ControlError>,
+    },
     /// A number outside its range.
     #[error("{what} = {value:?} is out of range: expected {expected}")]
     Range {

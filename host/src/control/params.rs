@@ -151,7 +151,7 @@ impl StateParams {
         match (&self.pose, self.max_velocity, self.accuracy) {
             (None, None, None) => Ok(()),
             (Some(_), Some(_), Some(_)) => self.motion().expect("all set").1.check().map_err(|e| in_state(state, e)),
-            _ => Err(ControlError::Toml(format!(
+            _ => Err(ControlError::Incomplete(format!(
                 "state.{state}: give `pose`, `max_velocity` and `accuracy` together, or none of them"
             ))),
         }
@@ -177,7 +177,7 @@ impl Default for Params {
 impl Params {
     /// Parses and checks a parameter file's text.
     pub fn from_toml_str(text: &str) -> Result<Params, ControlError> {
-        let p: Params = toml::from_str(text).map_err(|e| ControlError::Toml(e.to_string()))?;
+        let p: Params = toml::from_str(text).map_err(ControlError::Toml)?;
         p.check()?;
         Ok(p)
     }
@@ -186,10 +186,8 @@ impl Params {
     pub fn read(path: &Path) -> Result<Params, ControlError> {
         let text = std::fs::read_to_string(path)
             .map_err(|source| ControlError::Read { path: path.display().to_string(), source })?;
-        Params::from_toml_str(&text).map_err(|e| match e {
-            ControlError::Toml(m) => ControlError::Toml(format!("{}: {m}", path.display())),
-            other => other,
-        })
+        Params::from_toml_str(&text)
+            .map_err(|e| ControlError::InFile { path: path.display().to_string(), source: Box::new(e) })
     }
 
     /// Checks every value is usable.

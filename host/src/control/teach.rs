@@ -84,7 +84,7 @@ impl KeyPoses {
 
     /// Parses poses from TOML (`name = [angles]`).
     pub fn from_toml_str(text: &str) -> Result<KeyPoses, ControlError> {
-        let raw: BTreeMap<String, Vec<f64>> = toml::from_str(text).map_err(|e| ControlError::Toml(e.to_string()))?;
+        let raw: BTreeMap<String, Vec<f64>> = toml::from_str(text).map_err(ControlError::Toml)?;
         let mut poses = KeyPoses::new();
         for (name, pose) in &raw {
             poses.record(name, pose)?;
