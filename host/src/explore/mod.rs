@@ -171,8 +171,8 @@ pub fn explore<R: Robot + SampleSource>(
     let structure_time_s = session.elapsed_s();
 
     let cells = session.cells().to_vec();
-    let activity = outcome.activity.clone();
-    let undecided: Vec<Undecided> = activity
+    let undecided: Vec<Undecided> = outcome
+        .activity
         .undecided()
         .into_iter()
         .map(|(u, d)| Undecided {
@@ -184,6 +184,7 @@ pub fn explore<R: Robot + SampleSource>(
     if !undecided.is_empty() {
         return Err(ExploreError::Undecided(undecided));
     }
+    let structure::Outcome { activity, postures, .. } = outcome;
     let merged = merge::merge(&activity.rows());
     let tree = KinematicTree::new(&merged, &cells, &dof_names)?;
     let warnings = (0..dofs)
@@ -210,7 +211,7 @@ pub fn explore<R: Robot + SampleSource>(
         cells,
         dof_names,
         dof_kinds,
-        postures: outcome.postures,
+        postures,
         activity,
         tree,
         smm,

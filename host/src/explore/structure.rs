@@ -148,7 +148,8 @@ pub(crate) struct Outcome {
     pub activity: ActivityMatrix,
     /// Every posture measured in, the start first, DoF positions.
     pub postures: Vec<Vec<f64>>,
-    /// Why each entry still undecided is (cell-major, like the matrix).
+    /// The last doubt of each entry (cell-major, like the matrix): why it
+    /// is undecided, for the entries that are.
     pub doubts: Vec<Option<Doubt>>,
     /// Per DoF: the carrying DoFs turned to tilt its axis.
     pub tilted_by: Vec<Vec<usize>>,
@@ -188,7 +189,8 @@ pub(crate) fn explore<R: Robot + SampleSource>(
         grow: vec![0; dofs],
         tilt: vec![None; dofs],
         last_blind: false,
-        stepped: [None; 2],
+        last_step: None,
+        step_before: None,
         pooled: vec![[0.0; 4]; cells * dofs],
         direction: vec![1.0; dofs],
         tilted_by: vec![Vec::new(); dofs],
@@ -229,13 +231,10 @@ pub(crate) fn explore<R: Robot + SampleSource>(
             break;
         }
     }
-    let doubts = (0..cells * dofs)
-        .map(|i| if m.get(i / dofs, i % dofs) == Activity::Unknown { x.doubts[i] } else { None })
-        .collect();
     Ok(Outcome {
         activity: m,
         postures: x.postures,
-        doubts,
+        doubts: x.doubts,
         tilted_by: x.tilted_by,
         longest_average_s: x.longest_average_s,
         measurements: x.done,
@@ -265,8 +264,9 @@ struct Explorer<'x, 'r, R> {
     tilt: Vec<Option<usize>>,
     /// The last measurement's static test was blind.
     last_blind: bool,
-    /// The DoFs of the step before the last and of the one before that.
-    stepped: [Option<usize>; 2],
+    /// The DoF of the last step, and of the step before it.
+    last_step: Option<usize>,
+    step_before: Option<usize>,
     /// Per entry, the inverse-variance weighted sum of the lever vectors of
     /// blind steps in the start posture and the sum of weights.
     pooled: Vec<[f64; 4]>,
@@ -292,11 +292,7 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
     /// One more measurement of DoF `d` with the remedy its doubts call
     /// for; false when none is left.
     fn resolve(&mut self, m: &mut ActivityMatrix, d: usize) -> Result<bool, ExploreError> {
-        let dofs = m.dofs();
-        let open: Vec<Doubt> = (0..m.cells())
-            .filter(|&u| m.get(u, d) == Activity::Unknown)
-            .filter_map(|u| self.doubts[u * dofs + d])
-            .collect();
+        let open = self.open_doubts(m, d);
         let near_axis = open.contains(&Doubt::NearAxis);
         let noisy = open.iter().any(|&doubt| doubt != Doubt::NearAxis);
         if (near_axis || self.blind[d]) && self.kinds[d] == DofKind::Revolute {
@@ -337,13 +333,15 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
         Ok(false)
     }
 
+    /// The doubts of DoF `d`'s undecided entries.
+    fn open_doubts(&self, m: &ActivityMatrix, d: usize) -> Vec<Doubt> {
+        let dofs = m.dofs();
+        (0..m.cells()).filter(|&u| m.get(u, d) == Activity::Unknown).filter_map(|u| self.doubts[u * dofs + d]).collect()
+    }
+
     /// DoF `d` has entries undecided for noise or saturation.
     fn noisy(&self, m: &ActivityMatrix, d: usize) -> bool {
-        let dofs = m.dofs();
-        (0..m.cells()).any(|u| {
-            m.get(u, d) == Activity::Unknown
-                && matches!(self.doubts[u * dofs + d], Some(Doubt::Noise | Doubt::Saturated))
-        })
+        self.open_doubts(m, d).into_iter().any(|doubt| matches!(doubt, Doubt::Noise | Doubt::Saturated))
     }
 
     /// Turns carrier `p` to tilt DoF `d`'s axis, measures `d` there (with
@@ -452,7 +450,7 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
                     let (mut doubt, mut bound) = (doubt, e.lever_m + k * e.lever_sigma);
                     // Pool only steps that follow a step of the same blind
                     // DoF: another DoF's step leaves the base ringing.
-                    if blind && posture == 0 && doubt != Doubt::Saturated && self.stepped[0] == Some(d) {
+                    if blind && posture == 0 && doubt != Doubt::Saturated && self.step_before == Some(d) {
                         match self.pool(i, e) {
                             Some((lever, sigma)) if lever - k * sigma > self.cfg.axis_lever_m => {
                                 m.or(u, d, Activity::Moved, Basis::Dynamic { posture });
@@ -554,7 +552,7 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
             DofKind::Prismatic => self.cfg.step_m,
         };
         let move_s = self.cfg.move_s * (delta.abs() / base).sqrt().max(1.0);
-        self.stepped = [self.stepped[1], Some(d)];
+        self.step_before = self.last_step.replace(d);
         let trace = self.s.trace(d, move_s + self.cfg.settle_s, |t| raised_cosine(delta, move_s, t))?;
         let post = self.s.window(average_s)?;
         let step = Step::measure(&self.pre, &post, &trace, self.s.tick_s(), self.s.lsb_mps2());
