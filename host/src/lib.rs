@@ -22,6 +22,7 @@
 
 pub mod config;
 pub mod control;
+pub mod calibrate;
 pub mod explore;
 pub mod grasping;
 pub mod interface;

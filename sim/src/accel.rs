@@ -101,6 +101,13 @@ impl Bma250 {
         }
     }
 
+    /// Ground truth: the zero-g offset (m/s^2), per-axis gain and mounting
+    /// rotation, `reading = gain * (mount * f) + offset` before filtering,
+    /// noise and quantization.
+    pub fn errors(&self) -> (Vector3<f64>, Vector3<f64>, Rotation3<f64>) {
+        (self.offset, self.gain, self.mount)
+    }
+
     /// The next reading, in counts, for the specific force `f` (m/s^2,
     /// cell frame: at rest it is minus gravity, +9.81 upward).
     pub fn sample(&mut self, f: &Vector3<f64>, rng: &mut impl Rng) -> [i16; 3] {

@@ -210,6 +210,12 @@ impl World {
         &self.cfg
     }
 
+    /// Ground truth: each cell's accelerometer (skin order), for its
+    /// offset, gain and mounting errors.
+    pub fn sensors(&self) -> &[Bma250] {
+        &self.sensors
+    }
+
     /// Virtual time since the start, s.
     pub fn time_s(&self) -> f64 {
         self.ticks as f64 * self.cfg.tick_s

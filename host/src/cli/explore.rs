@@ -6,7 +6,6 @@
 //! `truth` section alone.
 
 use std::io::Write;
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -17,12 +16,8 @@ use skin_host::explore::check::{check, TruthReport};
 use skin_host::explore::smm::Evaluation;
 use skin_host::explore::{explore, Basis, Exploration, ExploreConfig, ExploreError, SmmConfig, StructureConfig};
 use skin_host::robot::SimRobot;
-use skin_sim::accel::Bma250Config;
-use skin_sim::robot::{hrp2, Robot, UrdfError};
-use skin_sim::skin::{Skin, SkinError};
-use skin_sim::world::{BaseConfig, World, WorldConfig};
-
 use super::seconds;
+use super::world::SimArgs;
 
 /// The exploration the paper timed on HRP-2, for comparison.
 const PAPER_STRUCTURE_S: f64 = 70.0;
@@ -30,24 +25,8 @@ const PAPER_STRUCTURE_S: f64 = 70.0;
 /// Arguments of `skin explore`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Robot description; without it, the built-in HRP-2-like upper body (14 DoF, 74 cells).
-    #[arg(long, value_name = "FILE")]
-    urdf: Option<PathBuf>,
-    /// Cells on every link with geometry or mass [default: 4; the built-in robot: its own 74-cell skin].
-    #[arg(long, value_name = "N", conflicts_with = "skin")]
-    cells_per_link: Option<usize>,
-    /// Skin file (TOML or JSON) listing the cells of each link with their poses.
-    #[arg(long, value_name = "FILE")]
-    skin: Option<PathBuf>,
-    /// Seed of everything random: skin placement, sensor errors, noise, sway.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Accelerometer noise relative to the BMA250 datasheet (0: noise-free).
-    #[arg(long, default_value_t = 1.0, value_name = "X", allow_negative_numbers = true)]
-    noise_scale: f64,
-    /// How the static base sits in the world.
-    #[arg(long, value_enum, default_value_t = Base::Standing)]
-    base: Base,
+    #[command(flatten)]
+    sim: SimArgs,
     /// The paper's structural timing (0.5 s settling, 1.0 s averaging, two runs) instead of the fast default.
     #[arg(long)]
     paper: bool,
@@ -69,16 +48,6 @@ pub struct Args {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
-enum Base {
-    /// Upright and balancing, as HRP-2 stood in the paper.
-    Standing,
-    /// Lying on its back.
-    Lying,
-    /// Bolted down and perfectly still.
-    Rigid,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
 enum SmmEvaluation {
     /// Equations (10)-(12) of the paper: peak-to-peak amplitude shares.
     Amplitudes,
@@ -90,54 +59,17 @@ enum SmmEvaluation {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
-    /// The URDF is unusable.
-    #[error(transparent)]
-    Urdf(#[from] UrdfError),
-    /// The skin cannot be built.
-    #[error(transparent)]
-    Skin(#[from] SkinError),
-    /// A flag value out of range.
-    #[error("--noise-scale must be a finite number >= 0, not {0}")]
-    NoiseScale(f64),
     /// A flag value out of range.
     #[error("--axis-clearance must be a finite length >= 0 m, not {0}")]
     AxisClearance(f64),
 }
 
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
-    if !(args.noise_scale.is_finite() && args.noise_scale >= 0.0) {
-        return Err(Error::NoiseScale(args.noise_scale).into());
-    }
     if !(args.axis_clearance.is_finite() && args.axis_clearance >= 0.0) {
         return Err(Error::AxisClearance(args.axis_clearance).into());
     }
     let budget_s = seconds::positive("--time-budget", args.time_budget)?;
-    let robot = match &args.urdf {
-        Some(path) => Robot::from_urdf_file(path).map_err(Error::from)?,
-        None => hrp2::robot(),
-    };
-    let skin = match (&args.skin, args.cells_per_link, &args.urdf) {
-        (Some(path), _, _) => Skin::from_file(&robot, path),
-        (None, Some(n), _) => Skin::per_link(&robot, n, args.seed),
-        (None, None, None) => Skin::with_counts(&robot, &hrp2::SKIN, args.seed),
-        (None, None, Some(_)) => Skin::per_link(&robot, 4, args.seed),
-    }
-    .map_err(Error::from)?;
-    let base = match args.base {
-        Base::Standing => BaseConfig::standing(),
-        Base::Lying => BaseConfig::lying(),
-        Base::Rigid => BaseConfig::rigid(),
-    };
-    let world = World::new(
-        robot,
-        skin,
-        WorldConfig {
-            base,
-            accel: Bma250Config::default().with_noise_scale(args.noise_scale),
-            seed: args.seed,
-            ..WorldConfig::default()
-        },
-    );
+    let world = args.sim.world()?;
     let name = world.robot().name().to_owned();
     let mut rig = SimRobot::new(world);
     let evaluation = match args.smm {

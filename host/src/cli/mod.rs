@@ -1,5 +1,6 @@
 //! The `skin` command line: one module per subcommand, dispatched here.
 
+mod calibrate;
 mod config;
 mod demo;
 mod explore;
@@ -10,6 +11,7 @@ mod monitor;
 mod run;
 mod seconds;
 mod sim_endpoint;
+mod world;
 
 use std::process::ExitCode;
 
@@ -29,6 +31,8 @@ enum Command {
     Demo(demo::Args),
     /// Learn the robot's kinematic tree and sensory-motor map from its skin (section 4).
     Explore(explore::Args),
+    /// Calibrate every skin cell's pose on the robot's own URDF, in simulation: explore, then fit.
+    Calibrate(calibrate::Args),
     /// Teach key poses by touch and grasp the objects of Figure 16 in simulation (sections 5 and 6).
     Grasp(grasp::Args),
     /// Watch the skin live: cells, rates, tactile events, drops.
@@ -53,6 +57,7 @@ pub fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Demo(args) => demo::run(args),
         Command::Explore(args) => explore::run(args),
+        Command::Calibrate(args) => calibrate::run(args),
         Command::Grasp(args) => grasp::run(args),
         Command::Monitor(args) => monitor::run(args),
         Command::Config(args) => config::run(args),

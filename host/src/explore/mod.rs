@@ -14,7 +14,7 @@ pub mod check;
 mod fit;
 pub mod lowpass;
 pub mod merge;
-mod session;
+pub(crate) mod session;
 pub mod smm;
 pub mod structure;
 pub mod tree;

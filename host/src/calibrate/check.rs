@@ -1,0 +1,98 @@
+//! A calibration judged against the simulator's ground truth (read only
+//! after the run): where each cell really is, how its accelerometer is
+//! really turned (the cell frame and the chip's mounting error together).
+//!
+//! Positions are compared along what the calibration calls observable
+//! (the whole error, or the part perpendicular to an unobservable axis);
+//! frames where the calibration says they are known. A cell put on the
+//! wrong link counts as wrong, whatever its numbers.
+
+use std::collections::HashMap;
+
+use nalgebra::Vector3;
+use skin_sim::world::World;
+
+use super::Calibration;
+
+/// Error statistics over the cells that were checked.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Spread {
+    /// Cells in the statistics.
+    pub cells: usize,
+    /// Mean error.
+    pub mean: f64,
+    /// 95th percentile.
+    pub p95: f64,
+    /// Largest error.
+    pub max: f64,
+}
+
+impl Spread {
+    fn of(mut errors: Vec<f64>) -> Spread {
+        if errors.is_empty() {
+            return Spread::default();
+        }
+        errors.sort_by(f64::total_cmp);
+        let n = errors.len();
+        let p95 = errors[((0.95 * n as f64).ceil() as usize).clamp(1, n) - 1];
+        Spread { cells: n, mean: errors.iter().sum::<f64>() / n as f64, p95, max: errors[n - 1] }
+    }
+}
+
+/// How the calibration compares with the truth.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct CalibrationTruth {
+    /// Position error over cells with an observable part, m.
+    pub position_m: Spread,
+    /// Frame error over cells with an observable frame, degrees.
+    pub orientation_deg: Spread,
+    /// Cells whose position the calibration called wholly unobservable.
+    pub position_unobservable: usize,
+    /// Cells whose frame the calibration called unobservable.
+    pub orientation_unobservable: usize,
+    /// Cells put on a link they are not on.
+    pub wrong_link: usize,
+    /// Cells the simulator does not know (none, unless IDs went wrong).
+    pub unknown_cells: usize,
+    /// Largest offset error over all cells, m/s^2.
+    pub offset_error_max_mps2: f64,
+}
+
+/// Compares `calibration` with the truth of `world`.
+pub fn check(calibration: &Calibration, world: &World) -> CalibrationTruth {
+    let cells = world.skin().cells();
+    let index: HashMap<_, _> = cells.iter().enumerate().map(|(i, c)| (c.id, i)).collect();
+    let mut truth = CalibrationTruth::default();
+    let (mut positions, mut frames) = (Vec::new(), Vec::new());
+    for c in &calibration.cells {
+        let Some(&i) = index.get(&c.id) else {
+            truth.unknown_cells += 1;
+            continue;
+        };
+        let real = &cells[i];
+        if real.body != c.body {
+            truth.wrong_link += 1;
+            continue;
+        }
+        let (offset, _, mount) = world.sensors()[i].errors();
+        truth.offset_error_max_mps2 = truth.offset_error_max_mps2.max((c.offset_mps2 - offset).amax());
+        let mut e: Vector3<f64> = c.position - real.pose.translation.vector;
+        for n in &c.unobservable {
+            e -= n * n.dot(&e);
+        }
+        if c.unobservable.len() < 3 {
+            positions.push(e.norm());
+        } else {
+            truth.position_unobservable += 1;
+        }
+        if c.orientation_observable {
+            let accelerometer = real.pose.rotation.to_rotation_matrix() * mount.inverse();
+            frames.push((c.frame.inverse() * accelerometer).angle().to_degrees());
+        } else {
+            truth.orientation_unobservable += 1;
+        }
+    }
+    truth.position_m = Spread::of(positions);
+    truth.orientation_deg = Spread::of(frames);
+    truth
+}

@@ -1,0 +1,103 @@
+//! A calibration as files other programs read: the skin description the
+//! simulator's `--skin` takes (so a calibration can be fed back and
+//! compared), and the user's URDF with one fixed `skin_cell_<ID>` link per
+//! cell, which robot_state_publisher loads as it is.
+
+use std::fmt::Write;
+
+use nalgebra::Isometry3;
+use skin_sim::robot::Robot as Model;
+
+use super::{Calibration, CellPose};
+
+/// Why the URDF cannot take the skin frames.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ExportError {
+    /// The text has no closing `</robot>`.
+    #[error("the URDF has no closing </robot> to add the skin frames before")]
+    NoRobotEnd,
+    /// A name the skin frames need is taken.
+    #[error("the URDF already has an element named \"{0}\"")]
+    NameTaken(String),
+}
+
+/// The cell's pose in its link's own frame (the body frame is that of
+/// the body's first link, which is the one named).
+fn in_link(model: &Model, cell: &CellPose) -> Isometry3<f64> {
+    let pose = Isometry3::from_parts(cell.position.into(), cell.frame.into());
+    match model.link(&cell.link) {
+        Some(link) => link.in_body.inverse() * pose,
+        None => pose,
+    }
+}
+
+fn rpy(pose: &Isometry3<f64>) -> [f64; 3] {
+    let (r, p, y) = pose.rotation.euler_angles();
+    [r, p, y]
+}
+
+/// The skin description (TOML), cells grouped by link, with their IDs.
+pub fn skin_toml(model: &Model, calibration: &Calibration) -> String {
+    let mut links: Vec<&str> = calibration.cells.iter().map(|c| c.link.as_str()).collect();
+    links.sort_unstable();
+    links.dedup();
+    let mut s = String::from("# Skin calibrated by `skin calibrate`: poses in each link's frame, z along the accelerometer's z.\n");
+    for link in links {
+        let _ = writeln!(s, "\n[[link]]\nname = {}\ncell = [", toml_string(link));
+        for c in calibration.cells.iter().filter(|c| c.link == link) {
+            let pose = in_link(model, c);
+            let t = pose.translation.vector;
+            let [r, p, y] = rpy(&pose);
+            let _ = writeln!(
+                s,
+                "  {{ id = {}, xyz = [{:.6}, {:.6}, {:.6}], rpy = [{:.6}, {:.6}, {:.6}] }},",
+                c.id.0, t.x, t.y, t.z, r, p, y
+            );
+        }
+        s.push_str("]\n");
+    }
+    s
+}
+
+/// `urdf` with a fixed `skin_cell_<ID>` link per cell before its `</robot>`.
+pub fn urdf_with_skin(urdf: &str, model: &Model, calibration: &Calibration) -> Result<String, ExportError> {
+    let end = urdf.rfind("</robot>").ok_or(ExportError::NoRobotEnd)?;
+    let mut frames = String::from("\n  <!-- Skin cells calibrated by `skin calibrate`: accelerometer frames. -->\n");
+    for c in &calibration.cells {
+        let name = format!("skin_cell_{}", c.id.0);
+        for taken in [&name, &format!("{name}_joint")] {
+            if urdf.contains(&format!("name=\"{taken}\"")) || urdf.contains(&format!("name='{taken}'")) {
+                return Err(ExportError::NameTaken(taken.clone()));
+            }
+        }
+        let pose = in_link(model, c);
+        let t = pose.translation.vector;
+        let [r, p, y] = rpy(&pose);
+        let unknown: Vec<&str> =
+            ["x", "y", "z"].into_iter().zip(c.observable()).filter(|(_, o)| !o).map(|(a, _)| a).collect();
+        if !unknown.is_empty() {
+            let _ = writeln!(frames, "  <!-- {name}: position along {} unobservable -->", unknown.join(", "));
+        }
+        let _ = write!(
+            frames,
+            "  <link name=\"{name}\"/>\n  <joint name=\"{name}_joint\" type=\"fixed\">\n    <parent link=\"{}\"/>\n    <child link=\"{name}\"/>\n    <origin xyz=\"{:.6} {:.6} {:.6}\" rpy=\"{:.6} {:.6} {:.6}\"/>\n  </joint>\n",
+            escape(&c.link),
+            t.x,
+            t.y,
+            t.z,
+            r,
+            p,
+            y
+        );
+    }
+    Ok(format!("{}{frames}{}", &urdf[..end], &urdf[end..]))
+}
+
+fn toml_string(s: &str) -> String {
+    toml::Value::String(s.to_owned()).to_string()
+}
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;").replace('\'', "&apos;")
+}

@@ -1,0 +1,372 @@
+//! Skin self-calibration: where every cell sits on its link and how its
+//! accelerometer is turned, fitted on the robot's own description.
+//!
+//! After exploration the host knows which cells share a body part and
+//! which DoFs carry it; [`matching`] puts that tree onto the URDF. Then the
+//! robot itself gathers what the fit needs:
+//! 1. still postures spread over the joint ranges, where gravity seen from
+//!    each link turns through many directions: frame, gain and offset of
+//!    every accelerometer ([`gravity`]);
+//! 2. one smooth excitation per revolute DoF, where the tangential and
+//!    centripetal accelerations of the turning links give every cell's
+//!    position ([`lever`]).
+//!
+//! What the motion cannot show (the position along the axis of a link's
+//! only joint, anything on the fixed base, the turn about gravity of a link
+//! that never tilts) is reported as unobservable with its direction, not
+//! filled with a guess.
+
+pub mod check;
+pub mod export;
+pub mod gravity;
+pub mod lever;
+pub mod matching;
+mod motion;
+mod plan;
+
+use nalgebra::{Isometry3, Rotation3, Vector3};
+use skin_protocol::message::AccelRange;
+use skin_protocol::Address;
+use skin_sim::robot::kinematics::{self, BodyState, DofMotion};
+use skin_sim::robot::Robot as Model;
+
+use crate::explore::session::{Session, Window};
+use crate::explore::{Exploration, ExploreError, Progress};
+use crate::robot::{Robot, SampleSource};
+use gravity::{GravityFit, SensorPrior, Still};
+use lever::Lever;
+use matching::Matching;
+
+/// Still readings are never trusted below this spread, m/s^2: a balancing
+/// robot sways by about a milliradian, a hundredth of g.
+const STILL_FLOOR_MPS2: f64 = 0.01;
+
+/// How the robot is moved and how the fit decides.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CalibrateConfig {
+    /// The accelerometer range the cells are set to.
+    pub range: AccelRange,
+    /// Still postures, the start included.
+    pub postures: usize,
+    /// Farthest a still posture takes a revolute DoF from the start, rad
+    /// (a tenth of it in m for a prismatic one).
+    pub posture_spread_rad: f64,
+    /// Distance kept from every joint limit, rad (a tenth in m).
+    pub limit_margin_rad: f64,
+    /// Joint speed between postures, rad/s.
+    pub move_speed_rad_s: f64,
+    /// Wait after arriving before averaging, s.
+    pub settle_s: f64,
+    /// Averaging per still posture, s.
+    pub window_s: f64,
+    /// Excitation frequency, Hz.
+    pub excitation_hz: f64,
+    /// Excitation periods per DoF.
+    pub excitation_periods: u32,
+    /// Largest excitation amplitude, rad.
+    pub excitation_amplitude_rad: f64,
+    /// Peak tangential acceleration allowed at the DoF's farthest reach,
+    /// m/s^2: with gravity, it must stay inside the accelerometer's range.
+    pub excitation_accel_mps2: f64,
+    /// Largest delay of the skin's samples behind the joint feedback (or
+    /// ahead of it) searched for, ticks.
+    pub max_delay_ticks: f64,
+    /// A position direction is observable when its standard deviation is below this, m.
+    pub observable_sigma_m: f64,
+    /// An orientation is observable when its worst standard deviation is below this, rad.
+    pub observable_sigma_rad: f64,
+    /// The sensors' spread before calibration.
+    pub prior: SensorPrior,
+    /// Seed of the posture choice.
+    pub seed: u64,
+}
+
+impl Default for CalibrateConfig {
+    fn default() -> Self {
+        CalibrateConfig {
+            range: AccelRange::G2,
+            postures: 12,
+            posture_spread_rad: 1.0,
+            limit_margin_rad: 0.1,
+            move_speed_rad_s: 0.8,
+            settle_s: 0.5,
+            window_s: 1.0,
+            excitation_hz: 1.0,
+            excitation_periods: 3,
+            excitation_amplitude_rad: 0.6,
+            excitation_accel_mps2: 5.0,
+            max_delay_ticks: 3.0,
+            observable_sigma_m: 0.002,
+            observable_sigma_rad: 1f64.to_radians(),
+            prior: SensorPrior::default(),
+            seed: 0,
+        }
+    }
+}
+
+impl CalibrateConfig {
+    /// Refuses settings no robot can run.
+    pub fn check(&self) -> Result<(), CalibrateError> {
+        let positive = [
+            ("posture spread", self.posture_spread_rad),
+            ("move speed", self.move_speed_rad_s),
+            ("averaging window", self.window_s),
+            ("excitation frequency", self.excitation_hz),
+            ("excitation amplitude", self.excitation_amplitude_rad),
+            ("excitation acceleration", self.excitation_accel_mps2),
+            ("observable position sigma", self.observable_sigma_m),
+            ("observable orientation sigma", self.observable_sigma_rad),
+            ("offset prior", self.prior.offset_mps2),
+            ("gain prior", self.prior.gain),
+        ];
+        if let Some((what, v)) = positive.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
+            return Err(CalibrateError::Config(format!("the {what} must be a finite number > 0, not {v}")));
+        }
+        let non_negative = [self.settle_s, self.limit_margin_rad, self.max_delay_ticks];
+        if !non_negative.iter().all(|v| v.is_finite() && *v >= 0.0) || self.max_delay_ticks > 250.0 {
+            return Err(CalibrateError::Config(
+                "settling time, limit margin and delay search (up to 250 ticks) must be finite and >= 0".into(),
+            ));
+        }
+        if self.postures < 2 || self.excitation_periods == 0 {
+            return Err(CalibrateError::Config("at least 2 postures and 1 excitation period".into()));
+        }
+        Ok(())
+    }
+}
+
+/// Why a calibration could not be made.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CalibrateError {
+    /// Moving the robot or reading the skin failed.
+    #[error(transparent)]
+    Explore(#[from] ExploreError),
+    /// The robot link and the description name different DoFs.
+    #[error("the robot's DoFs and the description's differ: not in the description: [{}]; in the description but not on the robot: [{}]", missing.join(", "), unused.join(", "))]
+    DofMismatch {
+        /// Interface DoFs the description lacks.
+        missing: Vec<String>,
+        /// Description DoFs the interface lacks.
+        unused: Vec<String>,
+    },
+    /// A learned body part has no body in the description.
+    #[error("cells {cells:?} move with exactly the DoFs [{dofs}], and no link of the description does")]
+    NoSuchBody {
+        /// The body part's cells.
+        cells: Vec<Address>,
+        /// The DoFs that move them.
+        dofs: String,
+    },
+    /// A setting out of range.
+    #[error("calibration settings: {0}")]
+    Config(String),
+}
+
+/// One cell's calibrated pose and sensor.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CellPose {
+    /// Network ID.
+    pub id: Address,
+    /// Description body the cell sits on (its frame is that of the body's first link).
+    pub body: usize,
+    /// That link's name.
+    pub link: String,
+    /// Position in the link frame, m (zero along unobservable directions).
+    pub position: Vector3<f64>,
+    /// Accelerometer frame in the link frame.
+    pub frame: Rotation3<f64>,
+    /// Standard deviation per link axis, m; `inf` where unobservable.
+    pub position_sigma_m: Vector3<f64>,
+    /// Unit directions (link frame) the motion did not show.
+    pub unobservable: Vec<Vector3<f64>>,
+    /// Worst standard deviation of the frame, rad.
+    pub orientation_sigma_rad: f64,
+    /// Whether the frame is known to within the configured spread.
+    pub orientation_observable: bool,
+    /// Accelerometer gain per axis.
+    pub gain: Vector3<f64>,
+    /// Accelerometer offset per axis, m/s^2.
+    pub offset_mps2: Vector3<f64>,
+}
+
+impl CellPose {
+    /// Which link axes (x, y, z) of the position the motion showed.
+    pub fn observable(&self) -> [bool; 3] {
+        self.position_sigma_m.map(f64::is_finite).into()
+    }
+
+    /// The frame as URDF roll, pitch, yaw, rad.
+    pub fn rpy(&self) -> [f64; 3] {
+        let (r, p, y) = self.frame.euler_angles();
+        [r, p, y]
+    }
+}
+
+/// The calibrated skin.
+#[derive(Clone, Debug)]
+pub struct Calibration {
+    /// One entry per cell, in exploration order.
+    pub cells: Vec<CellPose>,
+    /// The still postures (interface DoF order), the start first.
+    pub postures: Vec<Vec<f64>>,
+    /// DoFs excited for positions.
+    pub excited: Vec<String>,
+    /// DoFs not excited, and why.
+    pub skipped: Vec<(String, String)>,
+    /// Delay of the skin's samples behind the joint feedback found in each excitation, ms.
+    pub delays_ms: Vec<f64>,
+    /// Robot time spent, s.
+    pub robot_time_s: f64,
+}
+
+/// Calibrates the skin of an explored robot described by `model`, from
+/// its current pose, to which it returns.
+pub fn calibrate<R: Robot + SampleSource>(
+    rig: &mut R,
+    model: &Model,
+    found: &Exploration,
+    cfg: &CalibrateConfig,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Calibration, CalibrateError> {
+    cfg.check()?;
+    let matching = matching::matching(found, model)?;
+    let start = rig.positions();
+    let mut session = Session::with_cells(rig, found.cells.clone(), cfg.range);
+    let postures = plan::still_postures(model, &matching.urdf_dof, &start, cfg);
+    let excitations = plan::excitations(model, &matching, &start, cfg);
+    let total = postures.len() + excitations.planned.len();
+
+    // 1. Still postures: gravity in many directions.
+    let mut stills: Vec<(Vec<f64>, Window)> = Vec::with_capacity(postures.len());
+    for (k, pose) in postures.iter().enumerate() {
+        session.move_to(pose, cfg.move_speed_rad_s, 2e-3, 60.0)?;
+        session.hold(cfg.settle_s)?;
+        let window = session.window(cfg.window_s)?;
+        stills.push((session.positions(), window));
+        progress(Progress { done: k + 1, total });
+    }
+    session.move_to(&start, cfg.move_speed_rad_s, 2e-3, 60.0)?;
+    session.hold(cfg.settle_s)?;
+    let fits = fit_stills(model, &matching, &stills, cfg);
+
+    // 2. Excitations: positions from the motion.
+    let mut levers = vec![Lever::default(); found.cells.len()];
+    let mut delays_ms = Vec::with_capacity(excitations.planned.len());
+    let here = session.positions();
+    for (i, e) in excitations.planned.iter().enumerate() {
+        let seconds = f64::from(cfg.excitation_periods) / cfg.excitation_hz;
+        let w = std::f64::consts::TAU * cfg.excitation_hz;
+        let trace = session.trace(e.dof, seconds, |t| e.amplitude * (1.0 - (w * t).cos()) / 2.0)?;
+        let record = motion::Record { model, matching: &matching, fits: &fits, here: &here, dof: e.dof, trace: &trace, tick_s: session.tick_s(), lsb_mps2: session.lsb_mps2() };
+        let delay = record.delay_ticks(cfg.max_delay_ticks);
+        record.add(delay, &mut levers);
+        delays_ms.push(delay * session.tick_s() * 1e3);
+        session.move_to(&here, cfg.move_speed_rad_s, 2e-3, 60.0)?;
+        progress(Progress { done: postures.len() + i + 1, total });
+    }
+    session.move_to(&start, cfg.move_speed_rad_s, 2e-3, 60.0)?;
+
+    let cells = found
+        .cells
+        .iter()
+        .zip(fits.iter().zip(&levers))
+        .map(|(&id, (&(body, fit), lever))| pose_of(model, id, body, fit, lever, cfg))
+        .collect();
+    Ok(Calibration {
+        cells,
+        postures: stills.into_iter().map(|(q, _)| q).collect(),
+        excited: excitations.planned.iter().map(|e| found.dof_names[e.dof].clone()).collect(),
+        skipped: excitations.skipped.into_iter().map(|(d, why)| (found.dof_names[d].clone(), why)).collect(),
+        delays_ms,
+        robot_time_s: session.elapsed_s(),
+    })
+}
+
+/// The still fit of every cell on each of its candidate bodies; the body
+/// whose gravity directions explain the readings best wins.
+fn fit_stills(
+    model: &Model,
+    matching: &Matching,
+    stills: &[(Vec<f64>, Window)],
+    cfg: &CalibrateConfig,
+) -> Vec<(usize, Option<GravityFit>)> {
+    let states: Vec<Vec<BodyState>> = stills.iter().map(|(q, _)| at_rest(model, &matching.urdf_dof, q)).collect();
+    matching
+        .candidates
+        .iter()
+        .enumerate()
+        .map(|(u, bodies)| {
+            let fit_on = |b: usize| {
+                let seen: Vec<Still> = stills
+                    .iter()
+                    .zip(&states)
+                    .filter(|((_, w), _)| !w.saturated[u])
+                    .map(|((_, w), s)| Still {
+                        up: s[b].pose.rotation.inverse() * Vector3::z(),
+                        mean: Vector3::from(w.mean[u]),
+                        sigma: Vector3::from(w.var[u])
+                            .map(|v| (v / f64::from(w.n[u]) + STILL_FLOOR_MPS2 * STILL_FLOOR_MPS2).sqrt()),
+                    })
+                    .collect();
+                gravity::fit(&seen, &cfg.prior)
+            };
+            let mut best: (usize, Option<GravityFit>) = (bodies.first().copied().unwrap_or(0), None);
+            for &b in bodies {
+                let f = fit_on(b);
+                let better = match (&f, &best.1) {
+                    (Some(f), Some(old)) => f.rms_residual < old.rms_residual,
+                    (Some(_), None) => true,
+                    _ => false,
+                };
+                if better {
+                    best = (b, f);
+                }
+            }
+            best
+        })
+        .collect()
+}
+
+/// Every body at rest for interface positions `q`, the root upright at the origin.
+fn at_rest(model: &Model, urdf_dof: &[usize], q: &[f64]) -> Vec<BodyState> {
+    let n = model.dofs().len();
+    let mut full = vec![0.0; n];
+    for (d, &m) in urdf_dof.iter().enumerate() {
+        full[m] = q[d];
+    }
+    let zero = vec![0.0; n];
+    let mut states = Vec::new();
+    kinematics::forward(
+        model,
+        &BodyState::at_rest(Isometry3::identity()),
+        DofMotion { q: &full, qd: &zero, qdd: &zero },
+        &mut states,
+    );
+    states
+}
+
+fn pose_of(model: &Model, id: Address, body: usize, fit: Option<GravityFit>, lever: &Lever, cfg: &CalibrateConfig) -> CellPose {
+    let link = model.bodies()[body].name.clone();
+    let (frame, gain, offset_mps2, orientation_sigma_rad) = match fit {
+        Some(f) => (f.frame, f.gain, f.offset, f.orientation_sigma_rad),
+        None => (Rotation3::identity(), Vector3::repeat(1.0), Vector3::zeros(), f64::INFINITY),
+    };
+    let (position, position_sigma_m, unobservable) = match lever.solve(cfg.observable_sigma_m) {
+        Some(l) => (l.position, l.sigma_m, l.unobservable),
+        None => (Vector3::zeros(), Vector3::repeat(f64::INFINITY), vec![Vector3::x(), Vector3::y(), Vector3::z()]),
+    };
+    CellPose {
+        id,
+        body,
+        link,
+        position,
+        frame,
+        position_sigma_m,
+        unobservable,
+        orientation_sigma_rad,
+        orientation_observable: orientation_sigma_rad <= cfg.observable_sigma_rad,
+        gain,
+        offset_mps2,
+    }
+}

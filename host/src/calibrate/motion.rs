@@ -1,0 +1,133 @@
+//! One excitation's record turned into every cell's lever equations.
+//!
+//! The skin's samples and the joint feedback reach the host by different
+//! paths, so a sample may belong to a slightly earlier or later moment of
+//! the motion than the feedback beside it: in the simulator the
+//! accelerometer sees a tick's mean acceleration, half a tick before the
+//! feedback's; on a real robot bus and filter latencies add to that. A
+//! half-tick error alone biases levers by millimetres, so the delay is
+//! found first, on the cells that show the motion best, by the residual of
+//! their fit, and the motion is then read at that delay for every cell.
+
+use nalgebra::{Isometry3, Matrix3, Vector3};
+use skin_protocol::message::G0;
+use skin_protocol::sample::ACCEL_MAX;
+use skin_sim::robot::kinematics::{self, BodyState, DofMotion};
+use skin_sim::robot::Robot as Model;
+
+use super::gravity::GravityFit;
+use super::lever::Lever;
+use super::matching::Matching;
+use crate::explore::session::Trace;
+
+/// Cells the delay is judged on.
+const DELAY_CELLS: usize = 8;
+/// Steps of the delay search, ticks.
+const DELAY_STEP_TICKS: f64 = 0.25;
+
+/// One excitation of interface DoF `dof`, the others held at `here`.
+pub struct Record<'a> {
+    pub model: &'a Model,
+    pub matching: &'a Matching,
+    pub fits: &'a [(usize, Option<GravityFit>)],
+    pub here: &'a [f64],
+    pub dof: usize,
+    pub trace: &'a Trace,
+    pub tick_s: f64,
+    pub lsb_mps2: f64,
+}
+
+impl Record<'_> {
+    /// The delay of the samples behind the feedback within `max_ticks`
+    /// that leaves the smallest residual on the cells moving most.
+    pub fn delay_ticks(&self, max_ticks: f64) -> f64 {
+        let cells = self.fits.len();
+        let mut spread: Vec<(f64, usize)> = (0..cells)
+            .filter(|&u| self.fits[u].1.is_some())
+            .map(|u| {
+                let (mut sum, mut sq, mut n) = (Vector3::zeros(), 0.0, 0.0);
+                for k in 0..self.trace.len() {
+                    if let Some(s) = self.sample(k, u) {
+                        sum += s;
+                        sq += s.norm_squared();
+                        n += 1.0;
+                    }
+                }
+                let var = if n > 1.0 { sq / n - (sum / n).norm_squared() } else { 0.0 };
+                (var, u)
+            })
+            .collect();
+        spread.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let chosen: Vec<usize> = spread.iter().take(DELAY_CELLS).map(|&(_, u)| u).collect();
+        let steps = (max_ticks / DELAY_STEP_TICKS).floor() as i64;
+        let mut best = (f64::INFINITY, 0.0);
+        for i in -steps..=steps {
+            let delay = i as f64 * DELAY_STEP_TICKS;
+            let mut levers = vec![Lever::default(); cells];
+            self.accumulate(delay, &chosen, &mut levers);
+            let ss: f64 = chosen.iter().filter_map(|&u| levers[u].solve(f64::INFINITY)).map(|f| f.rms_mps2.powi(2)).sum();
+            if ss < best.0 {
+                best = (ss, delay);
+            }
+        }
+        best.1
+    }
+
+    /// Adds every cell's equations, the motion read `delay` ticks earlier
+    /// than the samples' own ticks.
+    pub fn add(&self, delay: f64, levers: &mut [Lever]) {
+        let all: Vec<usize> = (0..levers.len()).collect();
+        self.accumulate(delay, &all, levers);
+    }
+
+    fn accumulate(&self, delay: f64, cells: &[usize], levers: &mut [Lever]) {
+        let n = self.model.dofs().len();
+        let (_, omega, alpha) = self.trace.motion(self.tick_s);
+        let mut q = vec![0.0; n];
+        for (d, &m) in self.matching.urdf_dof.iter().enumerate() {
+            q[m] = self.here[d];
+        }
+        let (mut qd, mut qdd) = (vec![0.0; n], vec![0.0; n]);
+        let m = self.matching.urdf_dof[self.dof];
+        let up = Vector3::new(0.0, 0.0, G0);
+        let base = BodyState::at_rest(Isometry3::identity());
+        let mut states = Vec::new();
+        for k in 0..self.trace.len() {
+            let at = k as f64 - delay;
+            q[m] = lerp(&self.trace.q, at, self.trace.q0);
+            qd[m] = lerp(&omega, at, 0.0);
+            qdd[m] = lerp(&alpha, at, 0.0);
+            kinematics::forward(self.model, &base, DofMotion { q: &q, qd: &qd, qdd: &qdd }, &mut states);
+            for &u in cells {
+                let (body, Some(fit)) = self.fits[u] else { continue };
+                let Some(s) = self.sample(k, u) else { continue };
+                let state = &states[body];
+                let in_link = fit.frame * (s - fit.offset).component_div(&fit.gain);
+                let rotation: Matrix3<f64> = *state.pose.rotation.to_rotation_matrix().matrix();
+                levers[u].add(&rotation, &state.omega, &state.alpha, &state.accel, &(rotation * in_link), &up);
+            }
+        }
+        for &u in cells {
+            levers[u].finish_excitation();
+        }
+    }
+
+    /// Cell `u`'s reading at tick `k`, m/s^2, unless missing or on a rail.
+    fn sample(&self, k: usize, u: usize) -> Option<Vector3<f64>> {
+        let rail = (f64::from(ACCEL_MAX) - 0.5) * self.lsb_mps2;
+        let s = Vector3::from(self.trace.accel[k * self.fits.len() + u]).cast::<f64>();
+        s.iter().all(|x| x.is_finite() && x.abs() < rail).then_some(s)
+    }
+}
+
+/// `values` read at the fractional index `at`; before the start, `before`;
+/// past the end, the last value.
+fn lerp(values: &[f64], at: f64, before: f64) -> f64 {
+    let value = |i: i64| match values.last() {
+        Some(&last) if i >= 0 => values.get(i as usize).copied().unwrap_or(last),
+        _ => before,
+    };
+    let i = at.floor();
+    let f = at - i;
+    value(i as i64) * (1.0 - f) + value(i as i64 + 1) * f
+}

@@ -1,0 +1,255 @@
+//! `skin calibrate`: every cell's pose on its link, in simulation.
+//!
+//! The simulator builds the robot and its skin; the host explores it and
+//! then calibrates the skin on its own copy of the description, through
+//! the `Robot` trait and the sample stream only. Ground truth is read
+//! afterwards, for the `truth` section alone.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use nalgebra::{Isometry3, Point3, Vector3};
+use serde_json::{json, Value};
+use skin_host::calibrate::check::{check, CalibrationTruth};
+use skin_host::calibrate::export::{skin_toml, urdf_with_skin};
+use skin_host::calibrate::{calibrate, Calibration, CalibrateConfig};
+use skin_host::explore::{explore, ExploreConfig, Progress, StructureConfig};
+use skin_host::report::check_folder;
+use skin_host::report::figures::{skin_views, SkinViews};
+use skin_host::robot::SimRobot;
+use skin_sim::robot::kinematics::{self, BodyState, DofMotion};
+use skin_sim::robot::Robot as Model;
+use skin_sim::world::World;
+
+use super::seconds;
+use super::world::{Base, SimArgs};
+
+/// Arguments of `skin calibrate`.
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    sim: SimArgs,
+    /// Still postures for the accelerometer frames, the start included.
+    #[arg(long, value_name = "N", default_value_t = CalibrateConfig::default().postures)]
+    postures: usize,
+    /// Excitation periods per DoF for the positions (1 Hz each).
+    #[arg(long, value_name = "N", default_value_t = CalibrateConfig::default().excitation_periods)]
+    periods: u32,
+    /// Mounting clearance of the skin from joint axes, m, for the exploration (see `skin explore`).
+    #[arg(long, value_name = "M", default_value_t = 0.0, allow_negative_numbers = true)]
+    axis_clearance: f64,
+    /// Robot time the structural exploration may spend on undecided entries, s.
+    #[arg(long, value_name = "S", default_value_t = StructureConfig::default().budget_s, allow_negative_numbers = true)]
+    time_budget: f64,
+    /// Folder for skin.toml, robot_with_skin.urdf, calibration.json and calibration.svg.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// One JSON object on stdout instead of the human summary.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Why `skin calibrate` could not run.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A flag value out of range.
+    #[error("--axis-clearance must be a finite length >= 0 m, not {0}")]
+    AxisClearance(f64),
+    /// The base lies: the calibration takes the description's root upright.
+    #[error("skin calibrate takes the robot's root upright (z up, as the description has it): use --base standing or rigid")]
+    Lying,
+}
+
+pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
+    if !(args.axis_clearance.is_finite() && args.axis_clearance >= 0.0) {
+        return Err(Error::AxisClearance(args.axis_clearance).into());
+    }
+    if args.sim.base == Base::Lying {
+        return Err(Error::Lying.into());
+    }
+    let budget_s = seconds::positive("--time-budget", args.time_budget)?;
+    let cfg = CalibrateConfig {
+        postures: args.postures,
+        excitation_periods: args.periods,
+        seed: args.sim.seed,
+        ..CalibrateConfig::default()
+    };
+    cfg.check()?;
+    if let Some(dir) = &args.out {
+        check_folder(dir)?;
+    }
+    let urdf = args.sim.urdf_text()?;
+    // The host's own copy of the description, as on a real robot.
+    let model = args.sim.robot()?;
+    let world = args.sim.world()?;
+    let name = world.robot().name().to_owned();
+    let mut rig = SimRobot::new(world);
+
+    let bar = ProgressBar::new(0).with_style(
+        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len}").expect("a valid template").progress_chars("=> "),
+    );
+    let show = |msg: &'static str| {
+        let bar = bar.clone();
+        move |p: Progress| {
+            bar.set_message(msg);
+            bar.set_length(p.total as u64);
+            bar.set_position(p.done as u64);
+        }
+    };
+    let wall = Instant::now();
+    let explore_cfg = ExploreConfig {
+        structure: StructureConfig { axis_clearance_m: args.axis_clearance, budget_s, ..StructureConfig::default() },
+        ..ExploreConfig::default()
+    };
+    let found = explore(&mut rig, &explore_cfg, &mut show("exploring"))?;
+    let calibration = calibrate(&mut rig, &model, &found, &cfg, &mut show("calibrating"))?;
+    let wall_time_s = wall.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+
+    let truth = check(&calibration, rig.world());
+    let report = report(&name, &calibration, &truth, found.exploration_time_s(), wall_time_s);
+    if let Some(dir) = &args.out {
+        write_files(dir, &urdf, &model, &calibration, rig.world(), &report)?;
+    }
+    let text = if args.json {
+        format!("{report:#}")
+    } else {
+        summary(&name, &calibration, &truth, found.exploration_time_s(), wall_time_s)
+    };
+    println!("{text}");
+    Ok(ExitCode::SUCCESS)
+}
+
+fn finite_or_null(x: f64) -> Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        Value::Null
+    }
+}
+
+fn report(name: &str, c: &Calibration, truth: &CalibrationTruth, exploration_s: f64, wall_time_s: f64) -> Value {
+    let cells: Vec<Value> = c
+        .cells
+        .iter()
+        .map(|p| {
+            let observable: Vec<&str> =
+                ["x", "y", "z"].into_iter().zip(p.observable()).filter(|(_, o)| *o).map(|(a, _)| a).collect();
+            json!({
+                "id": p.id.0,
+                "link": p.link,
+                "xyz": p.position.as_slice(),
+                "rpy": p.rpy(),
+                "observable": observable,
+                "unobservable_directions": p.unobservable.iter().map(|v| v.as_slice().to_vec()).collect::<Vec<_>>(),
+                "position_sigma_m": p.position_sigma_m.iter().map(|&s| finite_or_null(s)).collect::<Vec<_>>(),
+                "orientation_observable": p.orientation_observable,
+                "orientation_sigma_deg": finite_or_null(p.orientation_sigma_rad.to_degrees()),
+                "gain": p.gain.as_slice(),
+                "offset_mps2": p.offset_mps2.as_slice(),
+            })
+        })
+        .collect();
+    json!({
+        "robot": name,
+        "cells": cells,
+        "postures": c.postures,
+        "excited": c.excited,
+        "delays_ms": c.delays_ms,
+        "skipped": c.skipped.iter().map(|(d, why)| json!({"dof": d, "reason": why})).collect::<Vec<_>>(),
+        "robot_time_s": { "exploration": exploration_s, "calibration": c.robot_time_s, "total": exploration_s + c.robot_time_s },
+        "wall_time_s": wall_time_s,
+        "truth": truth,
+    })
+}
+
+fn summary(name: &str, c: &Calibration, t: &CalibrationTruth, exploration_s: f64, wall_time_s: f64) -> String {
+    let full = c.cells.iter().filter(|p| p.unobservable.is_empty()).count();
+    let none = c.cells.iter().filter(|p| p.unobservable.len() == 3).count();
+    let mut s = format!("robot {name}: {} cells calibrated on its description\n", c.cells.len());
+    s += &format!(
+        "  moves: {} still postures, excitations of {}\n",
+        c.postures.len(),
+        if c.excited.is_empty() { "no DoF".to_owned() } else { c.excited.join(", ") }
+    );
+    for (dof, why) in &c.skipped {
+        s += &format!("  not excited: {dof}: {why}\n");
+    }
+    if let (Some(lo), Some(hi)) = (c.delays_ms.iter().copied().reduce(f64::min), c.delays_ms.iter().copied().reduce(f64::max)) {
+        s += &format!("  skin samples behind the joint feedback by {lo:.1} to {hi:.1} ms (found per excitation)\n");
+    }
+    s += &format!(
+        "  positions: {full} in 3D, {} in part (along a lone joint axis unobservable), {none} unobservable (on the fixed base or without motion)\n",
+        c.cells.len() - full - none
+    );
+    let frames = c.cells.iter().filter(|p| p.orientation_observable).count();
+    s += &format!("  frames: {frames} known, {} not (a link gravity always meets the same way)\n", c.cells.len() - frames);
+    s += &format!(
+        "  robot time: exploration {exploration_s:.1} s + calibration {:.1} s; wall time {wall_time_s:.2} s\n",
+        c.robot_time_s
+    );
+    s += &format!(
+        "truth: position error mean {:.2} mm, p95 {:.2} mm, max {:.2} mm over {} cells; frame error mean {:.2} deg, p95 {:.2} deg, max {:.2} deg over {} cells; {} on a wrong link",
+        t.position_m.mean * 1e3,
+        t.position_m.p95 * 1e3,
+        t.position_m.max * 1e3,
+        t.position_m.cells,
+        t.orientation_deg.mean,
+        t.orientation_deg.p95,
+        t.orientation_deg.max,
+        t.orientation_deg.cells,
+        t.wrong_link
+    );
+    s
+}
+
+fn write_files(
+    dir: &Path,
+    urdf: &str,
+    model: &Model,
+    c: &Calibration,
+    world: &World,
+    report: &Value,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let write = |file: &str, text: &str| {
+        let path = dir.join(file);
+        std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    };
+    write("skin.toml", &skin_toml(model, c))?;
+    write("robot_with_skin.urdf", &urdf_with_skin(urdf, model, c)?)?;
+    write("calibration.json", &format!("{report:#}"))?;
+    // The picture, in the start posture, with the truth beside the estimate.
+    let zero = vec![0.0; model.dofs().len()];
+    let mut states = Vec::new();
+    let base = BodyState::at_rest(Isometry3::identity());
+    kinematics::forward(model, &base, DofMotion { q: model.home(), qd: &zero, qdd: &zero }, &mut states);
+    let origin = |b: usize| states[b].pose.translation.vector.into();
+    let bones: Vec<([f64; 3], [f64; 3])> = model
+        .bodies()
+        .iter()
+        .enumerate()
+        .filter_map(|(b, body)| Some((origin(model.joints()[body.parent_joint?].parent_body), origin(b))))
+        .collect();
+    let cells: Vec<([f64; 3], [f64; 3])> = c
+        .cells
+        .iter()
+        .map(|p| {
+            let pose = states[p.body].pose;
+            ((pose * Point3::from(p.position)).coords.into(), (pose.rotation * (p.frame * Vector3::z())).into())
+        })
+        .collect();
+    let real = world.skin().cells();
+    let truth: Vec<[f64; 3]> = c
+        .cells
+        .iter()
+        .filter_map(|p| real.iter().find(|r| r.id == p.id))
+        .map(|r| (states[r.body].pose * Point3::from(r.pose.translation.vector)).coords.into())
+        .collect();
+    let truth = if truth.len() == cells.len() { truth } else { Vec::new() };
+    let title = "calibrated skin (blue: estimate and its z axis; red ring: truth)";
+    skin_views(&dir.join("calibration.svg"), &SkinViews { title, bones: &bones, cells: &cells, truth: &truth })?;
+    Ok(())
+}
