@@ -20,9 +20,9 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod calibrate;
 pub mod config;
 pub mod control;
-pub mod calibrate;
 pub mod explore;
 pub mod grasping;
 pub mod interface;

@@ -42,7 +42,9 @@ pub fn skin_toml(model: &Model, calibration: &Calibration) -> String {
     let mut links: Vec<&str> = calibration.cells.iter().map(|c| c.link.as_str()).collect();
     links.sort_unstable();
     links.dedup();
-    let mut s = String::from("# Skin calibrated by `skin calibrate`: poses in each link's frame, z along the accelerometer's z.\n");
+    let mut s = String::from(
+        "# Skin calibrated by `skin calibrate`: poses in each link's frame, z along the accelerometer's z.\n",
+    );
     for link in links {
         let _ = writeln!(s, "\n[[link]]\nname = {}\ncell = [", toml_string(link));
         for c in calibration.cells.iter().filter(|c| c.link == link) {

@@ -187,15 +187,17 @@ mod tests {
         ups.iter()
             .map(|up| {
                 let n = Vector3::from_fn(|_, _| noise * rng.sample::<f64, _>(StandardNormal));
-                Still { up: *up, mean: model(&t.frame, &t.gain, &t.offset, up) + n, sigma: Vector3::repeat(noise.max(1e-3)) }
+                Still {
+                    up: *up,
+                    mean: model(&t.frame, &t.gain, &t.offset, up) + n,
+                    sigma: Vector3::repeat(noise.max(1e-3)),
+                }
             })
             .collect()
     }
 
     fn random_ups(n: usize, rng: &mut ChaCha8Rng) -> Vec<Vector3<f64>> {
-        (0..n)
-            .map(|_| Vector3::from_fn(|_, _| rng.sample::<f64, _>(StandardNormal)).normalize())
-            .collect()
+        (0..n).map(|_| Vector3::from_fn(|_, _| rng.sample::<f64, _>(StandardNormal)).normalize()).collect()
     }
 
     fn angle(a: &Rotation3<f64>, b: &Rotation3<f64>) -> f64 {

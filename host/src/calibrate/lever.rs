@@ -94,37 +94,48 @@ impl Lever {
         self.biases += 3;
     }
 
+    /// The least-squares position along every direction the motion showed
+    /// at all, and its sum of squared residuals.
+    fn least_squares(&self) -> (Vector3<f64>, f64, nalgebra::SymmetricEigen<f64, nalgebra::U3>) {
+        let eig = self.info.symmetric_eigen();
+        let scale = eig.eigenvalues.amax();
+        let mut p = Vector3::zeros();
+        for (i, &lambda) in eig.eigenvalues.iter().enumerate() {
+            if scale.is_finite() && lambda > 1e-9 * scale {
+                let v = eig.eigenvectors.column(i);
+                p += v * (v.dot(&self.rhs) / lambda);
+            }
+        }
+        let ss = (self.yy - 2.0 * p.dot(&self.rhs) + (p.transpose() * self.info * p)[0]).max(0.0);
+        (p, ss, eig)
+    }
+
+    /// Root mean square residual of the equations, m/s^2, whether or not
+    /// the link moved: motion the link's own cannot explain shows here.
+    pub fn residual_rms(&self) -> Option<f64> {
+        let free = self.equations.checked_sub(self.biases).filter(|&d| d > 0)?;
+        let (_, ss, _) = self.least_squares();
+        Some((ss / free as f64).sqrt())
+    }
+
     /// The position, with directions whose standard deviation would exceed
     /// `observable_sigma_m` left out. `None` before enough equations.
     pub fn solve(&self, observable_sigma_m: f64) -> Option<LeverFit> {
         let dof = self.equations.checked_sub(self.biases + 3).filter(|&d| d > 0)?;
-        let eig = self.info.symmetric_eigen();
+        let (_, ss, eig) = self.least_squares();
         let scale = eig.eigenvalues.amax();
         if !(scale.is_finite() && scale > 0.0) {
             return None;
         }
-        // First the directions the motion clearly shows, for the noise estimate.
-        let clear = |lambda: f64| lambda > 1e-9 * scale;
-        let solve_with = |keep: &dyn Fn(f64) -> bool| {
-            let mut p = Vector3::zeros();
-            for (i, &lambda) in eig.eigenvalues.iter().enumerate() {
-                if keep(lambda) {
-                    let v = eig.eigenvectors.column(i);
-                    p += v * (v.dot(&self.rhs) / lambda);
-                }
-            }
-            p
-        };
-        let p = solve_with(&clear);
-        let ss = (self.yy - 2.0 * p.dot(&self.rhs) + (p.transpose() * self.info * p)[0]).max(0.0);
         let var = ss / dof as f64;
-        let observable = |lambda: f64| clear(lambda) && (var / lambda).sqrt() <= observable_sigma_m;
-        let position = solve_with(&observable);
+        let observable = |lambda: f64| lambda > 1e-9 * scale && (var / lambda).sqrt() <= observable_sigma_m;
+        let mut position = Vector3::zeros();
         let mut unobservable = Vec::new();
         let mut variance = Vector3::zeros();
         for (i, &lambda) in eig.eigenvalues.iter().enumerate() {
             let v: Vector3<f64> = eig.eigenvectors.column(i).into_owned();
             if observable(lambda) {
+                position += v * (v.dot(&self.rhs) / lambda);
                 variance += v.component_mul(&v) * (var / lambda);
             } else {
                 unobservable.push(v);
@@ -139,7 +150,7 @@ impl Lever {
                 variance[k].sqrt()
             }
         });
-        let rms_mps2 = (ss / (self.equations as f64 - self.biases as f64)).sqrt();
+        let rms_mps2 = (ss / (self.equations - self.biases) as f64).sqrt();
         Some(LeverFit { position, sigma_m, unobservable, rms_mps2 })
     }
 }
@@ -154,7 +165,14 @@ mod tests {
     const UP: Vector3<f64> = Vector3::new(0.0, 0.0, 9.81);
 
     /// A link turning about `axis` through the origin, `phi = A (1 - cos wt) / 2`.
-    fn excite(lever: &mut Lever, axis: Vector3<f64>, p: Vector3<f64>, noise: f64, bias: Vector3<f64>, rng: &mut ChaCha8Rng) {
+    fn excite(
+        lever: &mut Lever,
+        axis: Vector3<f64>,
+        p: Vector3<f64>,
+        noise: f64,
+        bias: Vector3<f64>,
+        rng: &mut ChaCha8Rng,
+    ) {
         let axis = axis.normalize();
         let (amp, w, dt) = (0.6, std::f64::consts::TAU, 0.004);
         for k in 0..750 {
@@ -164,7 +182,10 @@ mod tests {
             let alpha = axis * (amp * w * w * (w * t).cos() / 2.0);
             let rot = nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), phi);
             let r = rot * p;
-            let f = alpha.cross(&r) + omega.cross(&omega.cross(&r)) + UP + bias
+            let f = alpha.cross(&r)
+                + omega.cross(&omega.cross(&r))
+                + UP
+                + bias
                 + Vector3::from_fn(|_, _| noise * rng.sample::<f64, _>(StandardNormal));
             lever.add(rot.matrix(), &omega, &alpha, &Vector3::zeros(), &f, &UP);
         }

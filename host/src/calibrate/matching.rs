@@ -51,7 +51,8 @@ pub fn matching(found: &Exploration, model: &Model) -> Result<Matching, Calibrat
             }
             at = joint.parent;
         }
-        let candidates: Vec<usize> = (0..bodies).filter(|&b| (0..names.len()).all(|d| moved[d][b] == path[d])).collect();
+        let candidates: Vec<usize> =
+            (0..bodies).filter(|&b| (0..names.len()).all(|d| moved[d][b] == path[d])).collect();
         if candidates.is_empty() {
             let dofs: Vec<&str> = (0..names.len()).filter(|&d| path[d]).map(|d| names[d]).collect();
             return Err(CalibrateError::NoSuchBody { cells: part.cells.clone(), dofs: dofs.join(", ") });

@@ -188,6 +188,12 @@ pub struct CellPose {
     pub gain: Vector3<f64>,
     /// Accelerometer offset per axis, m/s^2.
     pub offset_mps2: Vector3<f64>,
+    /// Root mean square of what the link's motion leaves unexplained, m/s^2.
+    pub motion_residual_mps2: f64,
+    /// The cell moved in a way its link does not: it is on another body.
+    pub inconsistent: bool,
+    /// Other links whose motion explains the cell as well (mimic twins).
+    pub ambiguous_with: Vec<String>,
 }
 
 impl CellPose {
@@ -218,6 +224,8 @@ pub struct Calibration {
     pub delays_ms: Vec<f64>,
     /// Robot time spent, s.
     pub robot_time_s: f64,
+    /// Cells whose body is in doubt, in words.
+    pub warnings: Vec<String>,
 }
 
 /// Calibrates the skin of an explored robot described by `model`, from
@@ -248,31 +256,46 @@ pub fn calibrate<R: Robot + SampleSource>(
     }
     session.move_to(&start, cfg.move_speed_rad_s, 2e-3, 60.0)?;
     session.hold(cfg.settle_s)?;
-    let fits = fit_stills(model, &matching, &stills, cfg);
+    let mut candidates = fit_stills(model, &matching, &stills, cfg);
 
-    // 2. Excitations: positions from the motion.
-    let mut levers = vec![Lever::default(); found.cells.len()];
+    // 2. Excitations: positions from the motion, and which body moves as the cell does.
     let mut delays_ms = Vec::with_capacity(excitations.planned.len());
     let here = session.positions();
     for (i, e) in excitations.planned.iter().enumerate() {
         let seconds = f64::from(cfg.excitation_periods) / cfg.excitation_hz;
         let w = std::f64::consts::TAU * cfg.excitation_hz;
-        let trace = session.trace(e.dof, seconds, |t| e.amplitude * (1.0 - (w * t).cos()) / 2.0)?;
-        let record = motion::Record { model, matching: &matching, fits: &fits, here: &here, dof: e.dof, trace: &trace, tick_s: session.tick_s(), lsb_mps2: session.lsb_mps2() };
-        let delay = record.delay_ticks(cfg.max_delay_ticks);
-        record.add(delay, &mut levers);
-        delays_ms.push(delay * session.tick_s() * 1e3);
+        let trace = session.trace(e.dof, seconds, |t| e.amplitude * (1.0 - (w * t).cos()).powi(2) / 4.0)?;
+        let record = motion::Record {
+            model,
+            urdf_dof: &matching.urdf_dof,
+            here: &here,
+            dof: e.dof,
+            trace: &trace,
+            tick_s: session.tick_s(),
+            lsb_mps2: session.lsb_mps2(),
+        };
+        let delay = if e.levers {
+            let delay = record.delay_ticks(&candidates, cfg.max_delay_ticks);
+            delays_ms.push(delay * session.tick_s() * 1e3);
+            delay
+        } else {
+            median(&delays_ms) / (session.tick_s() * 1e3)
+        };
+        record.add(delay, &mut candidates);
         session.move_to(&here, cfg.move_speed_rad_s, 2e-3, 60.0)?;
         progress(Progress { done: postures.len() + i + 1, total });
     }
     session.move_to(&start, cfg.move_speed_rad_s, 2e-3, 60.0)?;
 
-    let cells = found
+    let noise = still_noise(&stills);
+    let cells: Vec<CellPose> = found
         .cells
         .iter()
-        .zip(fits.iter().zip(&levers))
-        .map(|(&id, (&(body, fit), lever))| pose_of(model, id, body, fit, lever, cfg))
+        .zip(&candidates)
+        .zip(noise)
+        .map(|((&id, c), noise)| pose_of(model, id, c, noise, cfg))
         .collect();
+    let warnings = warnings(&cells);
     Ok(Calibration {
         cells,
         postures: stills.into_iter().map(|(q, _)| q).collect(),
@@ -280,50 +303,74 @@ pub fn calibrate<R: Robot + SampleSource>(
         skipped: excitations.skipped.into_iter().map(|(d, why)| (found.dof_names[d].clone(), why)).collect(),
         delays_ms,
         robot_time_s: session.elapsed_s(),
+        warnings,
     })
 }
 
-/// The still fit of every cell on each of its candidate bodies; the body
-/// whose gravity directions explain the readings best wins.
+/// A body a cell may sit on, with what the fits say of it there.
+#[derive(Clone, Debug)]
+pub(crate) struct Candidate {
+    body: usize,
+    gravity: Option<GravityFit>,
+    lever: Lever,
+}
+
+/// The still fit of every cell on each of its candidate bodies, the best
+/// explained first.
 fn fit_stills(
     model: &Model,
     matching: &Matching,
     stills: &[(Vec<f64>, Window)],
     cfg: &CalibrateConfig,
-) -> Vec<(usize, Option<GravityFit>)> {
+) -> Vec<Vec<Candidate>> {
     let states: Vec<Vec<BodyState>> = stills.iter().map(|(q, _)| at_rest(model, &matching.urdf_dof, q)).collect();
     matching
         .candidates
         .iter()
         .enumerate()
         .map(|(u, bodies)| {
-            let fit_on = |b: usize| {
-                let seen: Vec<Still> = stills
-                    .iter()
-                    .zip(&states)
-                    .filter(|((_, w), _)| !w.saturated[u])
-                    .map(|((_, w), s)| Still {
-                        up: s[b].pose.rotation.inverse() * Vector3::z(),
-                        mean: Vector3::from(w.mean[u]),
-                        sigma: Vector3::from(w.var[u])
-                            .map(|v| (v / f64::from(w.n[u]) + STILL_FLOOR_MPS2 * STILL_FLOOR_MPS2).sqrt()),
-                    })
-                    .collect();
-                gravity::fit(&seen, &cfg.prior)
-            };
-            let mut best: (usize, Option<GravityFit>) = (bodies.first().copied().unwrap_or(0), None);
-            for &b in bodies {
-                let f = fit_on(b);
-                let better = match (&f, &best.1) {
-                    (Some(f), Some(old)) => f.rms_residual < old.rms_residual,
-                    (Some(_), None) => true,
-                    _ => false,
-                };
-                if better {
-                    best = (b, f);
-                }
-            }
-            best
+            let mut fitted: Vec<Candidate> = bodies
+                .iter()
+                .map(|&body| {
+                    let seen: Vec<Still> = stills
+                        .iter()
+                        .zip(&states)
+                        .filter(|((_, w), _)| !w.saturated[u])
+                        .map(|((_, w), s)| Still {
+                            up: s[body].pose.rotation.inverse() * Vector3::z(),
+                            mean: Vector3::from(w.mean[u]),
+                            sigma: Vector3::from(w.var[u])
+                                .map(|v| (v / f64::from(w.n[u]) + STILL_FLOOR_MPS2 * STILL_FLOOR_MPS2).sqrt()),
+                        })
+                        .collect();
+                    Candidate { body, gravity: gravity::fit(&seen, &cfg.prior), lever: Lever::default() }
+                })
+                .collect();
+            let rms = |c: &Candidate| c.gravity.map_or(f64::INFINITY, |g| g.rms_residual);
+            fitted.sort_by(|a, b| rms(a).total_cmp(&rms(b)));
+            fitted
+        })
+        .collect()
+}
+
+/// The median of `values`, 0 without any.
+fn median(values: &[f64]) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => 0.0,
+        n if n % 2 == 1 => v[n / 2],
+        n => (v[n / 2 - 1] + v[n / 2]) / 2.0,
+    }
+}
+
+/// Each cell's reading noise while still, m/s^2 (the mean over postures and axes).
+fn still_noise(stills: &[(Vec<f64>, Window)]) -> Vec<f64> {
+    let cells = stills.first().map_or(0, |(_, w)| w.var.len());
+    (0..cells)
+        .map(|u| {
+            let var: f64 = stills.iter().map(|(_, w)| w.var[u].iter().sum::<f64>() / 3.0).sum();
+            (var / stills.len().max(1) as f64).sqrt()
         })
         .collect()
 }
@@ -346,27 +393,95 @@ fn at_rest(model: &Model, urdf_dof: &[usize], q: &[f64]) -> Vec<BodyState> {
     states
 }
 
-fn pose_of(model: &Model, id: Address, body: usize, fit: Option<GravityFit>, lever: &Lever, cfg: &CalibrateConfig) -> CellPose {
-    let link = model.bodies()[body].name.clone();
-    let (frame, gain, offset_mps2, orientation_sigma_rad) = match fit {
+/// A cell whose motion leaves more than this many times its still noise
+/// (plus a floor for the model's own error, m/s^2) unexplained does not
+/// move as its body does.
+const INCONSISTENT_NOISE: f64 = 3.0;
+const INCONSISTENT_FLOOR_MPS2: f64 = 0.05;
+/// Two bodies whose motion explains a cell within this ratio of
+/// residuals cannot be told apart.
+const AMBIGUOUS_RATIO: f64 = 1.2;
+
+fn pose_of(model: &Model, id: Address, candidates: &[Candidate], noise: f64, cfg: &CalibrateConfig) -> CellPose {
+    let motion = |c: &Candidate| c.lever.residual_rms().unwrap_or(f64::INFINITY);
+    let mut ranked: Vec<&Candidate> = candidates.iter().filter(|c| c.gravity.is_some()).collect();
+    // Stable: among equal motion residuals the gravity order stands.
+    ranked.sort_by(|a, b| motion(a).total_cmp(&motion(b)));
+    let best = ranked.first().copied().or(candidates.first());
+    let body = best.map_or(0, |c| c.body);
+    let residual = best.map_or(f64::INFINITY, motion);
+    let ambiguous_with: Vec<String> = ranked
+        .iter()
+        .skip(1)
+        .filter(|c| motion(c) < AMBIGUOUS_RATIO * residual || !residual.is_finite())
+        .map(|c| model.bodies()[c.body].name.clone())
+        .collect();
+    let inconsistent = residual.is_finite() && residual > INCONSISTENT_NOISE * noise + INCONSISTENT_FLOOR_MPS2;
+    let (frame, gain, offset_mps2, orientation_sigma_rad) = match best.and_then(|c| c.gravity) {
         Some(f) => (f.frame, f.gain, f.offset, f.orientation_sigma_rad),
         None => (Rotation3::identity(), Vector3::repeat(1.0), Vector3::zeros(), f64::INFINITY),
     };
-    let (position, position_sigma_m, unobservable) = match lever.solve(cfg.observable_sigma_m) {
-        Some(l) => (l.position, l.sigma_m, l.unobservable),
-        None => (Vector3::zeros(), Vector3::repeat(f64::INFINITY), vec![Vector3::x(), Vector3::y(), Vector3::z()]),
+    let unknown = || (Vector3::zeros(), Vector3::repeat(f64::INFINITY), vec![Vector3::x(), Vector3::y(), Vector3::z()]);
+    let solved = best.and_then(|c| c.lever.solve(cfg.observable_sigma_m));
+    let (position, position_sigma_m, unobservable) = match solved {
+        // Nothing is claimed for a cell whose body is in doubt.
+        _ if inconsistent || !ambiguous_with.is_empty() => unknown(),
+        // The motion is read through the frame: a frame turned by d puts the
+        // cell about as far off as d times its distance from the link origin
+        // (on the joint axis). A link that only turns about a vertical axis
+        // shows neither its cells' azimuth nor their frames' turn about it:
+        // the two turn together and every reading stays the same.
+        Some(l) => {
+            let from_frame = orientation_sigma_rad * l.position.norm();
+            if from_frame > cfg.observable_sigma_m {
+                unknown()
+            } else {
+                (l.position, l.sigma_m.map(|s| s.hypot(from_frame)), l.unobservable)
+            }
+        }
+        None => unknown(),
     };
     CellPose {
         id,
         body,
-        link,
+        link: model.bodies()[body].name.clone(),
         position,
         frame,
         position_sigma_m,
         unobservable,
         orientation_sigma_rad,
-        orientation_observable: orientation_sigma_rad <= cfg.observable_sigma_rad,
+        orientation_observable: orientation_sigma_rad <= cfg.observable_sigma_rad
+            && !inconsistent
+            && ambiguous_with.is_empty(),
         gain,
         offset_mps2,
+        motion_residual_mps2: residual,
+        inconsistent,
+        ambiguous_with,
     }
+}
+
+/// What the user must know: cells whose body the calibration doubts.
+fn warnings(cells: &[CellPose]) -> Vec<String> {
+    let mut out = Vec::new();
+    let odd: Vec<String> =
+        cells.iter().filter(|c| c.inconsistent).map(|c| format!("{} ({})", c.id.0, c.link)).collect();
+    if !odd.is_empty() {
+        out.push(format!(
+            "cells {} move in a way their link's motion does not explain: the exploration put them on the wrong body part (is a declared --axis-clearance larger than the skin's real one?); their poses are left unknown",
+            odd.join(", ")
+        ));
+    }
+    let twins: Vec<String> = cells
+        .iter()
+        .filter(|c| !c.ambiguous_with.is_empty())
+        .map(|c| format!("{} ({} or {})", c.id.0, c.link, c.ambiguous_with.join(" or ")))
+        .collect();
+    if !twins.is_empty() {
+        out.push(format!(
+            "cells {} sit on one of links that move alike (mimic joints) and nothing measured tells which; their poses are left unknown",
+            twins.join(", ")
+        ));
+    }
+    out
 }

@@ -15,9 +15,8 @@ use skin_protocol::sample::ACCEL_MAX;
 use skin_sim::robot::kinematics::{self, BodyState, DofMotion};
 use skin_sim::robot::Robot as Model;
 
-use super::gravity::GravityFit;
 use super::lever::Lever;
-use super::matching::Matching;
+use super::Candidate;
 use crate::explore::session::Trace;
 
 /// Cells the delay is judged on.
@@ -28,8 +27,7 @@ const DELAY_STEP_TICKS: f64 = 0.25;
 /// One excitation of interface DoF `dof`, the others held at `here`.
 pub struct Record<'a> {
     pub model: &'a Model,
-    pub matching: &'a Matching,
-    pub fits: &'a [(usize, Option<GravityFit>)],
+    pub urdf_dof: &'a [usize],
     pub here: &'a [f64],
     pub dof: usize,
     pub trace: &'a Trace,
@@ -39,15 +37,15 @@ pub struct Record<'a> {
 
 impl Record<'_> {
     /// The delay of the samples behind the feedback within `max_ticks`
-    /// that leaves the smallest residual on the cells moving most.
-    pub fn delay_ticks(&self, max_ticks: f64) -> f64 {
-        let cells = self.fits.len();
-        let mut spread: Vec<(f64, usize)> = (0..cells)
-            .filter(|&u| self.fits[u].1.is_some())
+    /// that leaves the smallest residual on the cells moving most (each on
+    /// the body its still fit prefers).
+    pub fn delay_ticks(&self, cells: &[Vec<Candidate>], max_ticks: f64) -> f64 {
+        let mut spread: Vec<(f64, usize)> = (0..cells.len())
+            .filter(|&u| cells[u].first().is_some_and(|c| c.gravity.is_some()))
             .map(|u| {
                 let (mut sum, mut sq, mut n) = (Vector3::zeros(), 0.0, 0.0);
                 for k in 0..self.trace.len() {
-                    if let Some(s) = self.sample(k, u) {
+                    if let Some(s) = self.sample(k, u, cells.len()) {
                         sum += s;
                         sq += s.norm_squared();
                         n += 1.0;
@@ -58,14 +56,18 @@ impl Record<'_> {
             })
             .collect();
         spread.sort_by(|a, b| b.0.total_cmp(&a.0));
-        let chosen: Vec<usize> = spread.iter().take(DELAY_CELLS).map(|&(_, u)| u).collect();
+        let chosen: Vec<(usize, Candidate)> = spread
+            .iter()
+            .take(DELAY_CELLS)
+            .map(|&(_, u)| (u, Candidate { lever: Lever::default(), ..cells[u][0].clone() }))
+            .collect();
         let steps = (max_ticks / DELAY_STEP_TICKS).floor() as i64;
         let mut best = (f64::INFINITY, 0.0);
         for i in -steps..=steps {
             let delay = i as f64 * DELAY_STEP_TICKS;
-            let mut levers = vec![Lever::default(); cells];
-            self.accumulate(delay, &chosen, &mut levers);
-            let ss: f64 = chosen.iter().filter_map(|&u| levers[u].solve(f64::INFINITY)).map(|f| f.rms_mps2.powi(2)).sum();
+            let mut trial = chosen.clone();
+            self.accumulate(delay, cells.len(), trial.iter_mut().map(|(u, c)| (*u, c)));
+            let ss: f64 = trial.iter().filter_map(|(_, c)| c.lever.residual_rms()).map(|r| r * r).sum();
             if ss < best.0 {
                 best = (ss, delay);
             }
@@ -73,22 +75,24 @@ impl Record<'_> {
         best.1
     }
 
-    /// Adds every cell's equations, the motion read `delay` ticks earlier
-    /// than the samples' own ticks.
-    pub fn add(&self, delay: f64, levers: &mut [Lever]) {
-        let all: Vec<usize> = (0..levers.len()).collect();
-        self.accumulate(delay, &all, levers);
+    /// Adds every cell's equations on each of its candidate bodies, the
+    /// motion read `delay` ticks earlier than the samples' own ticks.
+    pub fn add(&self, delay: f64, cells: &mut [Vec<Candidate>]) {
+        let n = cells.len();
+        let each = cells.iter_mut().enumerate().flat_map(|(u, c)| c.iter_mut().map(move |c| (u, c)));
+        self.accumulate(delay, n, each);
     }
 
-    fn accumulate(&self, delay: f64, cells: &[usize], levers: &mut [Lever]) {
+    fn accumulate<'c>(&self, delay: f64, cells: usize, targets: impl Iterator<Item = (usize, &'c mut Candidate)>) {
+        let mut targets: Vec<(usize, &mut Candidate)> = targets.filter(|(_, c)| c.gravity.is_some()).collect();
         let n = self.model.dofs().len();
         let (_, omega, alpha) = self.trace.motion(self.tick_s);
         let mut q = vec![0.0; n];
-        for (d, &m) in self.matching.urdf_dof.iter().enumerate() {
+        for (d, &m) in self.urdf_dof.iter().enumerate() {
             q[m] = self.here[d];
         }
         let (mut qd, mut qdd) = (vec![0.0; n], vec![0.0; n]);
-        let m = self.matching.urdf_dof[self.dof];
+        let m = self.urdf_dof[self.dof];
         let up = Vector3::new(0.0, 0.0, G0);
         let base = BodyState::at_rest(Isometry3::identity());
         let mut states = Vec::new();
@@ -98,24 +102,23 @@ impl Record<'_> {
             qd[m] = lerp(&omega, at, 0.0);
             qdd[m] = lerp(&alpha, at, 0.0);
             kinematics::forward(self.model, &base, DofMotion { q: &q, qd: &qd, qdd: &qdd }, &mut states);
-            for &u in cells {
-                let (body, Some(fit)) = self.fits[u] else { continue };
-                let Some(s) = self.sample(k, u) else { continue };
-                let state = &states[body];
+            for (u, c) in targets.iter_mut() {
+                let (Some(fit), Some(s)) = (c.gravity, self.sample(k, *u, cells)) else { continue };
+                let state = &states[c.body];
                 let in_link = fit.frame * (s - fit.offset).component_div(&fit.gain);
                 let rotation: Matrix3<f64> = *state.pose.rotation.to_rotation_matrix().matrix();
-                levers[u].add(&rotation, &state.omega, &state.alpha, &state.accel, &(rotation * in_link), &up);
+                c.lever.add(&rotation, &state.omega, &state.alpha, &state.accel, &(rotation * in_link), &up);
             }
         }
-        for &u in cells {
-            levers[u].finish_excitation();
+        for (_, c) in targets.iter_mut() {
+            c.lever.finish_excitation();
         }
     }
 
     /// Cell `u`'s reading at tick `k`, m/s^2, unless missing or on a rail.
-    fn sample(&self, k: usize, u: usize) -> Option<Vector3<f64>> {
+    fn sample(&self, k: usize, u: usize, cells: usize) -> Option<Vector3<f64>> {
         let rail = (f64::from(ACCEL_MAX) - 0.5) * self.lsb_mps2;
-        let s = Vector3::from(self.trace.accel[k * self.fits.len() + u]).cast::<f64>();
+        let s = Vector3::from(self.trace.accel[k * cells + u]).cast::<f64>();
         s.iter().all(|x| x.is_finite() && x.abs() < rail).then_some(s)
     }
 }

@@ -15,13 +15,18 @@ const LINK_EXTENT_M: f64 = 0.2;
 /// Excitations smaller than this show too little, rad.
 const SMALLEST_AMPLITUDE_RAD: f64 = 0.05;
 
-/// One DoF's excitation: `q = start + amplitude (1 - cos wt) / 2`.
+/// One DoF's excitation: `q = start + amplitude (1 - cos wt)^2 / 4`, which
+/// starts and ends every period at rest and without a jump in acceleration
+/// (a jump the servo smooths in its own way, which no model of the record
+/// would follow).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Excitation {
     /// Interface DoF.
     pub dof: usize,
     /// Signed amplitude, rad (towards the side with more room).
     pub amplitude: f64,
+    /// It turns cells, so their levers show (and the skin's delay with them).
+    pub levers: bool,
 }
 
 /// The excitations, and the DoFs left out with the reason.
@@ -56,29 +61,23 @@ pub fn still_postures(model: &Model, urdf_dof: &[usize], start: &[f64], cfg: &Ca
     postures
 }
 
-/// One excitation per revolute DoF that carries a cell, as large as the
+/// One excitation per DoF that carries a cell (a tenth of the amplitude,
+/// in m, for a slide), as large as the
 /// limits, the velocity limit and the accelerometer range allow.
-pub fn excitations(
-    model: &Model,
-    matching: &Matching,
-    start: &[f64],
-    cfg: &CalibrateConfig,
-) -> Excitations {
+pub fn excitations(model: &Model, matching: &Matching, start: &[f64], cfg: &CalibrateConfig) -> Excitations {
     let states = super::at_rest(model, &matching.urdf_dof, start);
-    let carried: Vec<usize> = matching.candidates.iter().filter_map(|c| c.first().copied()).collect();
+    let carried: Vec<usize> = matching.candidates.iter().flatten().copied().collect();
     let w = std::f64::consts::TAU * cfg.excitation_hz;
     let mut out = Excitations::default();
     for (d, &m) in matching.urdf_dof.iter().enumerate() {
         let dof = &model.dofs()[m];
         let moved = model.moved_by(m);
-        if !carried.iter().any(|&b| moved[b]) {
-            out.skipped.push((d, "it carries no cell".into()));
-            continue;
-        }
-        if dof.kind == DofKind::Prismatic {
-            out.skipped.push((d, "a sliding DoF turns nothing, so it shows no lever".into()));
-            continue;
-        }
+        // A DoF that carries no cell is moved too: a cell that moves with
+        // it anyway sits on another body than the exploration found.
+        let carries = carried.iter().any(|&b| moved[b]);
+        // A slide moves every point of its body alike: it shows no lever,
+        // but it tells bodies that slide apart (a gripper's fingers) apart.
+        let scale = if dof.kind == DofKind::Prismatic { 0.1 } else { 1.0 };
         let joint = &model.joints()[dof.joint];
         let axis_pose = states[joint.child_body].pose;
         let axis = axis_pose.rotation * joint.axis.into_inner();
@@ -88,20 +87,29 @@ pub fn excitations(
             .map(|b| (Point3::from(states[b].pose.translation.vector) - origin).cross(&axis).norm())
             .fold(0.0, f64::max)
             + LINK_EXTENT_M;
-        let room_up = dof.upper - cfg.limit_margin_rad - start[d];
-        let room_down = start[d] - (dof.lower + cfg.limit_margin_rad);
+        let reach = if dof.kind == DofKind::Prismatic { 1.0 } else { reach };
+        let room_up = dof.upper - cfg.limit_margin_rad * scale - start[d];
+        let room_down = start[d] - (dof.lower + cfg.limit_margin_rad * scale);
         let (room, sign) = if room_up >= room_down { (room_up, 1.0) } else { (room_down, -1.0) };
-        // Peak acceleration A w^2 / 2, peak velocity A w / 2.
-        let amplitude = cfg
-            .excitation_amplitude_rad
-            .min(2.0 * cfg.excitation_accel_mps2 / (w * w * reach))
-            .min(2.0 * 0.8 * dof.max_velocity / w)
+        // Peak acceleration A w^2, peak velocity 0.65 A w.
+        let amplitude = (cfg.excitation_amplitude_rad * scale)
+            .min(cfg.excitation_accel_mps2 / (w * w * reach))
+            .min(0.8 * dof.max_velocity / (0.65 * w))
             .min(room);
-        if !(amplitude >= SMALLEST_AMPLITUDE_RAD) {
-            out.skipped.push((d, format!("no room to turn it by {SMALLEST_AMPLITUDE_RAD} rad inside its limits and velocity limit")));
+        if amplitude.is_nan() || amplitude < SMALLEST_AMPLITUDE_RAD * scale {
+            let smallest = SMALLEST_AMPLITUDE_RAD * scale;
+            let unit = if dof.kind == DofKind::Prismatic { "m" } else { "rad" };
+            out.skipped
+                .push((d, format!("no room to move it by {smallest} {unit} inside its limits and velocity limit")));
             continue;
         }
-        out.planned.push(Excitation { dof: d, amplitude: sign * amplitude });
+        out.planned.push(Excitation {
+            dof: d,
+            amplitude: sign * amplitude,
+            levers: carries && dof.kind == DofKind::Revolute,
+        });
     }
+    // Turning DoFs that carry cells first: they find the skin's delay for the others.
+    out.planned.sort_by_key(|e| !e.levers);
     out
 }

@@ -14,7 +14,7 @@ use nalgebra::{Isometry3, Point3, Vector3};
 use serde_json::{json, Value};
 use skin_host::calibrate::check::{check, CalibrationTruth};
 use skin_host::calibrate::export::{skin_toml, urdf_with_skin};
-use skin_host::calibrate::{calibrate, Calibration, CalibrateConfig};
+use skin_host::calibrate::{calibrate, CalibrateConfig, Calibration};
 use skin_host::explore::{explore, ExploreConfig, Progress, StructureConfig};
 use skin_host::report::check_folder;
 use skin_host::report::figures::{skin_views, SkinViews};
@@ -59,7 +59,9 @@ pub enum Error {
     #[error("--axis-clearance must be a finite length >= 0 m, not {0}")]
     AxisClearance(f64),
     /// The base lies: the calibration takes the description's root upright.
-    #[error("skin calibrate takes the robot's root upright (z up, as the description has it): use --base standing or rigid")]
+    #[error(
+        "skin calibrate takes the robot's root upright (z up, as the description has it): use --base standing or rigid"
+    )]
     Lying,
 }
 
@@ -150,6 +152,9 @@ fn report(name: &str, c: &Calibration, truth: &CalibrationTruth, exploration_s: 
                 "orientation_sigma_deg": finite_or_null(p.orientation_sigma_rad.to_degrees()),
                 "gain": p.gain.as_slice(),
                 "offset_mps2": p.offset_mps2.as_slice(),
+                "motion_residual_mps2": finite_or_null(p.motion_residual_mps2),
+                "inconsistent": p.inconsistent,
+                "ambiguous_with": p.ambiguous_with,
             })
         })
         .collect();
@@ -162,6 +167,7 @@ fn report(name: &str, c: &Calibration, truth: &CalibrationTruth, exploration_s: 
         "skipped": c.skipped.iter().map(|(d, why)| json!({"dof": d, "reason": why})).collect::<Vec<_>>(),
         "robot_time_s": { "exploration": exploration_s, "calibration": c.robot_time_s, "total": exploration_s + c.robot_time_s },
         "wall_time_s": wall_time_s,
+        "warnings": c.warnings,
         "truth": truth,
     })
 }
@@ -178,19 +184,27 @@ fn summary(name: &str, c: &Calibration, t: &CalibrationTruth, exploration_s: f64
     for (dof, why) in &c.skipped {
         s += &format!("  not excited: {dof}: {why}\n");
     }
-    if let (Some(lo), Some(hi)) = (c.delays_ms.iter().copied().reduce(f64::min), c.delays_ms.iter().copied().reduce(f64::max)) {
+    if let (Some(lo), Some(hi)) =
+        (c.delays_ms.iter().copied().reduce(f64::min), c.delays_ms.iter().copied().reduce(f64::max))
+    {
         s += &format!("  skin samples behind the joint feedback by {lo:.1} to {hi:.1} ms (found per excitation)\n");
     }
     s += &format!(
-        "  positions: {full} in 3D, {} in part (along a lone joint axis unobservable), {none} unobservable (on the fixed base or without motion)\n",
+        "  positions: {full} in 3D, {} in part (along a lone joint axis unobservable), {none} unobservable (on the fixed base, on a link that only turns about a vertical axis, or on a doubted body)\n",
         c.cells.len() - full - none
     );
     let frames = c.cells.iter().filter(|p| p.orientation_observable).count();
-    s += &format!("  frames: {frames} known, {} not (a link gravity always meets the same way)\n", c.cells.len() - frames);
+    s += &format!(
+        "  frames: {frames} known, {} not (a link gravity always meets the same way)\n",
+        c.cells.len() - frames
+    );
     s += &format!(
         "  robot time: exploration {exploration_s:.1} s + calibration {:.1} s; wall time {wall_time_s:.2} s\n",
         c.robot_time_s
     );
+    for w in &c.warnings {
+        s += &format!("warning: {w}\n");
+    }
     s += &format!(
         "truth: position error mean {:.2} mm, p95 {:.2} mm, max {:.2} mm over {} cells; frame error mean {:.2} deg, p95 {:.2} deg, max {:.2} deg over {} cells; {} on a wrong link",
         t.position_m.mean * 1e3,

@@ -9,6 +9,8 @@ use std::io::Write;
 use std::process::ExitCode;
 use std::time::Instant;
 
+use super::seconds;
+use super::world::SimArgs;
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{json, Value};
@@ -16,8 +18,6 @@ use skin_host::explore::check::{check, TruthReport};
 use skin_host::explore::smm::Evaluation;
 use skin_host::explore::{explore, Basis, Exploration, ExploreConfig, ExploreError, SmmConfig, StructureConfig};
 use skin_host::robot::SimRobot;
-use super::seconds;
-use super::world::SimArgs;
 
 /// The exploration the paper timed on HRP-2, for comparison.
 const PAPER_STRUCTURE_S: f64 = 70.0;

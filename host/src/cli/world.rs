@@ -69,8 +69,9 @@ impl SimArgs {
     /// The robot description as text: the file, or the built-in one.
     pub fn urdf_text(&self) -> Result<String, Error> {
         match &self.urdf {
-            Some(path) => std::fs::read_to_string(path)
-                .map_err(|source| Error::Read { path: path.display().to_string(), source }),
+            Some(path) => {
+                std::fs::read_to_string(path).map_err(|source| Error::Read { path: path.display().to_string(), source })
+            }
             None => Ok(hrp2::urdf()),
         }
     }

@@ -268,7 +268,8 @@ pub fn skin_views(path: &Path, v: &SkinViews<'_>) -> Result<(), DrawError> {
     let root = SVGBackend::new(path, (1260, 480)).into_drawing_area();
     root.fill(&WHITE)?;
     let root = root.titled(v.title, ("sans-serif", 16))?;
-    let points = v.bones.iter().flat_map(|(a, b)| [*a, *b]).chain(v.cells.iter().map(|c| c.0)).chain(v.truth.iter().copied());
+    let points =
+        v.bones.iter().flat_map(|(a, b)| [*a, *b]).chain(v.cells.iter().map(|c| c.0)).chain(v.truth.iter().copied());
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for p in points.filter(|p| p.iter().all(|x| x.is_finite())) {
         for k in 0..3 {
@@ -283,7 +284,8 @@ pub fn skin_views(path: &Path, v: &SkinViews<'_>) -> Result<(), DrawError> {
     // One scale for all views, so lengths compare.
     let half = (0..3).map(|k| hi[k] - lo[k]).fold(0.1, f64::max) / 2.0 * 1.08;
     let mid: Vec<f64> = (0..3).map(|k| (hi[k] + lo[k]) / 2.0).collect();
-    let views = [("front (y right to left, z up)", 1, 2, true), ("side (x, z up)", 0, 2, false), ("top (x, y)", 0, 1, false)];
+    let views =
+        [("front (y right to left, z up)", 1, 2, true), ("side (x, z up)", 0, 2, false), ("top (x, y)", 0, 1, false)];
     for (area, (name, h, w, flip)) in root.split_evenly((1, 3)).iter().zip(views) {
         let project = |p: &[f64; 3]| (if flip { -p[h] } else { p[h] }, p[w]);
         let hx = if flip { -mid[h] } else { mid[h] };
@@ -293,8 +295,15 @@ pub fn skin_views(path: &Path, v: &SkinViews<'_>) -> Result<(), DrawError> {
             .x_label_area_size(24)
             .y_label_area_size(40)
             .build_cartesian_2d(hx - half..hx + half, mid[w] - half..mid[w] + half)?;
-        chart.configure_mesh().light_line_style(WHITE).x_label_formatter(&|x| format!("{x:.2}")).y_label_formatter(&|y| format!("{y:.2}")).draw()?;
-        chart.draw_series(v.bones.iter().map(|(a, b)| PathElement::new(vec![project(a), project(b)], BLACK.stroke_width(2))))?;
+        chart
+            .configure_mesh()
+            .light_line_style(WHITE)
+            .x_label_formatter(&|x| format!("{x:.2}"))
+            .y_label_formatter(&|y| format!("{y:.2}"))
+            .draw()?;
+        chart.draw_series(
+            v.bones.iter().map(|(a, b)| PathElement::new(vec![project(a), project(b)], BLACK.stroke_width(2))),
+        )?;
         let estimate = TREE_COLOURS[0];
         let truth = TREE_COLOURS[3];
         for (i, (p, z)) in v.cells.iter().enumerate() {
