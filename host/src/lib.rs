@@ -15,6 +15,7 @@
 //! - [`remote`]: a robot and its skin over UDP: the robot link and the interface as one rig.
 //! - [`pipeline`]: the main job's steps: wait for the skin to organize, write the cell settings.
 //! - [`report`]: the report folder: figures as SVG, `report.json`, `index.html`.
+//! - [`ros`]: ROS 2 message types, their CDR encoding and type hashes, and the skin's topics.
 // Denied, not forbidden: the batched receive of `interface::socket` calls
 // `recvmmsg`/`sendmmsg` and is the one module allowed to.
 #![deny(unsafe_code)]
@@ -30,3 +31,4 @@ pub mod registry;
 pub mod remote;
 pub mod report;
 pub mod robot;
+pub mod ros;
