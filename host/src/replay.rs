@@ -8,11 +8,11 @@
 
 use std::collections::VecDeque;
 
-use skin_protocol::robot_link::{FromRobot, ToRobot};
 use skin_protocol::{Address, Sample};
 
+use crate::config::InterfaceConfig;
 use crate::interface::{Event, EventKind, Ingest};
-use crate::recording::{ExploreStart, Record, RecordError, Recording};
+use crate::recording::{ExploreStart, Record, RecordError, Recording, EXPLORE_START};
 use crate::robot::{DofKind, Robot, RobotError, SampleSource};
 
 /// A recording from the start of its exploration, as a robot and skin.
@@ -37,6 +37,18 @@ impl Replay {
             .iter()
             .find_map(|r| if let Record::ExploreStart(s) = r { Some(s.clone()) } else { None })
             .ok_or_else(|| RecordError::NoExploration { path: recording.path.clone() })?;
+        let ports = InterfaceConfig { ports: start.ports.clone(), ..InterfaceConfig::default() };
+        let why = match ports.validate() {
+            Err(e) => Some(e.to_string()),
+            Ok(()) if !(start.period_s.is_finite() && start.period_s > 0.0) => {
+                Some(format!("a control period of {} s", start.period_s))
+            }
+            Ok(()) => None,
+        };
+        if let Some(why) = why {
+            let (path, topic) = (recording.path.clone(), EXPLORE_START.to_owned());
+            return Err(RecordError::BadMessage { path, topic, sequence: 0, why });
+        }
         let mut replay = Replay {
             ingest: Ingest::new(&start.ports),
             commanded: vec![0.0; start.dof_names.len()],
@@ -49,7 +61,7 @@ impl Replay {
         while let Some(record) = records.pop_front() {
             match record {
                 Record::ExploreStart(_) => break,
-                Record::State(FromRobot::State { positions, .. }) => replay.positions = positions.to_vec(),
+                Record::State(positions) => replay.positions = positions,
                 Record::Datagram { from, now_us, bytes } => {
                     replay.ingest.datagram(from, &bytes, now_us, &mut replay.events);
                     replay.events.clear();
@@ -109,20 +121,18 @@ impl SampleSource for Replay {
     fn next_tick(&mut self, out: &mut Vec<(Address, Sample)>) -> Result<(), RobotError> {
         self.ticks += 1;
         match self.records.pop_front() {
-            Some(Record::Command(ToRobot::Command { velocities, .. })) if velocities[..] == self.commanded[..] => {}
-            Some(Record::Command(ToRobot::Command { velocities, .. })) => {
+            Some(Record::Command(velocities)) if velocities == self.commanded => {}
+            Some(Record::Command(velocities)) => {
                 return Err(self.diverged(format!(
-                    "the host commands {:?}, the recorded run commanded {:?}",
-                    self.commanded, velocities
+                    "the host commands {:?}, the recorded run commanded {velocities:?}",
+                    self.commanded
                 )))
             }
             Some(other) => return Err(self.diverged(format!("a command was recorded here, not {other:?}"))),
             None => return Err(self.diverged("the recording ends".to_owned())),
         }
         match self.records.pop_front() {
-            Some(Record::State(FromRobot::State { positions, .. })) if positions.len() == self.positions.len() => {
-                self.positions.copy_from_slice(&positions);
-            }
+            Some(Record::State(positions)) if positions.len() == self.positions.len() => self.positions = positions,
             other => return Err(self.diverged(format!("the command's answer was recorded as {other:?}"))),
         }
         while let Some(Record::Datagram { .. }) = self.records.front() {
@@ -150,25 +160,26 @@ mod tests {
     }
 
     fn tick(velocity: f64, position: f64) -> [Record; 2] {
-        [
-            Record::Command(ToRobot::Command { seq: 1, velocities: [velocity].into_iter().collect() }),
-            Record::State(FromRobot::State { seq: 1, time_us: 4000, positions: [position].into_iter().collect() }),
-        ]
+        [Record::Command(vec![velocity]), Record::State(vec![position])]
     }
 
     fn replay() -> Replay {
-        let start = ExploreStart {
-            dof_names: vec!["j0".into()],
-            dof_kinds: vec![DofKind::Revolute],
-            period_s: 0.004,
-            accel_range_g: 2,
-            ports: Vec::new(),
-        };
         let mut records = tick(0.0, 0.5).to_vec();
-        records.push(Record::ExploreStart(start));
+        records.push(Record::ExploreStart(ExploreStart::one_dof()));
         records.extend(tick(0.1, 0.6));
         records.extend(tick(0.2, 0.7));
         Replay::explore(recording(records)).unwrap()
+    }
+
+    #[test]
+    fn a_recorded_start_that_cannot_be_is_refused() {
+        for bad in [
+            ExploreStart { ports: Vec::new(), ..ExploreStart::one_dof() },
+            ExploreStart { period_s: f64::NAN, ..ExploreStart::one_dof() },
+        ] {
+            let e = Replay::explore(recording(vec![Record::ExploreStart(bad)])).unwrap_err();
+            assert!(matches!(e, RecordError::BadMessage { .. }), "{e}");
+        }
     }
 
     #[test]

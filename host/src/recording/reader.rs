@@ -23,10 +23,10 @@ pub enum Record {
         /// Its bytes.
         bytes: Vec<u8>,
     },
-    /// A robot-link command.
-    Command(ToRobot),
-    /// A robot-link answer.
-    State(FromRobot),
+    /// A robot-link command: the velocities.
+    Command(Vec<f64>),
+    /// A robot-link state: the positions.
+    State(Vec<f64>),
     /// The exploration started.
     ExploreStart(ExploreStart),
 }
@@ -57,8 +57,14 @@ fn decode(topic: &str, cdr: &[u8]) -> Result<Option<Record>, String> {
             let from = source.parse().map_err(|_| format!("source {source:?} is not an address"))?;
             Record::Datagram { from, now_us: stamp_ns / 1000, bytes: bytes.to_vec() }
         }
-        COMMAND => Record::Command(robot_link::decode(datagram(cdr)?.2).map_err(|e| e.to_string())?),
-        STATE => Record::State(robot_link::decode(datagram(cdr)?.2).map_err(|e| e.to_string())?),
+        COMMAND => match robot_link::decode(datagram(cdr)?.2).map_err(|e| e.to_string())? {
+            ToRobot::Command { velocities, .. } => Record::Command(velocities.to_vec()),
+            other => return Err(format!("{other:?} is not a command")),
+        },
+        STATE => match robot_link::decode(datagram(cdr)?.2).map_err(|e| e.to_string())? {
+            FromRobot::State { positions, .. } => Record::State(positions.to_vec()),
+            other => return Err(format!("{other:?} is not a state")),
+        },
         EXPLORE_START => {
             let mut r = CdrReader::new(cdr).map_err(|e| e.to_string())?;
             let json = r.string().map_err(|e| e.to_string())?;
@@ -104,17 +110,6 @@ mod tests {
     use super::*;
     use crate::recording::McapWriter;
     use crate::ros::msgs::{Datagram, Stamp, StringMsg};
-    use skin_protocol::robot_link::DofKind;
-
-    fn start() -> ExploreStart {
-        ExploreStart {
-            dof_names: vec!["j0".into()],
-            dof_kinds: vec![DofKind::Revolute],
-            period_s: 0.004,
-            accel_range_g: 2,
-            ports: Vec::new(),
-        }
-    }
 
     /// A file with a datagram, the exploration's start, and one `extra`
     /// message on the interface channel.
@@ -125,7 +120,7 @@ mod tests {
         let mut w = McapWriter::create(&path).unwrap();
         let datagram = Datagram { stamp: Stamp::from_nanos(5_000), source: "127.0.0.1:9".into(), data: vec![1, 2, 3] };
         w.write(INTERFACE, 1, &datagram).unwrap();
-        w.write(EXPLORE_START, 2, &StringMsg(serde_json::to_string(&start()).unwrap())).unwrap();
+        w.write(EXPLORE_START, 2, &StringMsg(serde_json::to_string(&ExploreStart::one_dof()).unwrap())).unwrap();
         w.write("/other", 3, &StringMsg("skipped".into())).unwrap();
         if !extra.is_empty() {
             w.write(INTERFACE, 4, &Raw(extra.to_vec())).unwrap();
@@ -154,7 +149,7 @@ mod tests {
             r.records,
             vec![
                 Record::Datagram { from: "127.0.0.1:9".parse().unwrap(), now_us: 5, bytes: vec![1, 2, 3] },
-                Record::ExploreStart(start())
+                Record::ExploreStart(ExploreStart::one_dof())
             ]
         );
     }

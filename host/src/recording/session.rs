@@ -47,6 +47,20 @@ impl ExploreStart {
     }
 }
 
+#[cfg(test)]
+impl ExploreStart {
+    /// A one-DoF robot on the default interface ports, for tests.
+    pub(crate) fn one_dof() -> ExploreStart {
+        ExploreStart {
+            dof_names: vec!["j0".into()],
+            dof_kinds: vec![DofKind::Revolute],
+            period_s: 0.004,
+            accel_range_g: 2,
+            ports: crate::config::InterfaceConfig::default().ports,
+        }
+    }
+}
+
 /// A recording in progress.
 #[derive(Debug)]
 pub struct Session {
@@ -153,6 +167,11 @@ impl Session {
         let tf = self.topics.tf_static(Stamp::from_nanos(t));
         self.put(skin::TF_STATIC, t, &tf);
         self.put(skin::ROBOT_DESCRIPTION, t, &description);
+    }
+
+    /// Messages written so far.
+    pub fn written(&self) -> u32 {
+        self.writer.written()
     }
 
     /// Closes the file; the first write that failed, if any, is the error.

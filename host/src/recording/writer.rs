@@ -70,6 +70,11 @@ impl McapWriter {
         self.writer.add_channel(schema, topic, "cdr", &metadata)
     }
 
+    /// Messages written so far.
+    pub fn written(&self) -> u32 {
+        self.sequence
+    }
+
     /// Writes the summary and closes the file.
     pub fn finish(mut self) -> Result<PathBuf, RecordError> {
         self.writer.finish().map_err(|e| RecordError::mcap(&self.path, e))?;
