@@ -118,7 +118,7 @@ mod tests {
         let n = FILES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let path = std::env::temp_dir().join(format!("skin-reader-{}-{n}.mcap", std::process::id()));
         let mut w = McapWriter::create(&path).unwrap();
-        let datagram = Datagram { stamp: Stamp::from_nanos(5_000), source: "127.0.0.1:9".into(), data: vec![1, 2, 3] };
+        let datagram = Datagram { stamp: Stamp::from_nanos(5_000), source: "127.0.0.1:9", data: &[1, 2, 3] };
         w.write(INTERFACE, 1, &datagram).unwrap();
         w.write(EXPLORE_START, 2, &StringMsg(serde_json::to_string(&ExploreStart::one_dof()).unwrap())).unwrap();
         w.write("/other", 3, &StringMsg("skipped".into())).unwrap();
@@ -137,8 +137,8 @@ mod tests {
     impl crate::ros::msgs::Message for Raw {
         const TYPE: &'static crate::ros::schema::MsgType = &crate::ros::schema::DATAGRAM;
         fn write(&self, _: &mut crate::ros::cdr::Cdr) {}
-        fn to_cdr(&self) -> Vec<u8> {
-            self.0.clone()
+        fn encode_into(&self, out: &mut Vec<u8>) {
+            out.clone_from(&self.0);
         }
     }
 

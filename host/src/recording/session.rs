@@ -69,6 +69,8 @@ pub struct Session {
     imu: bool,
     last_cloud_s: Option<f64>,
     failed: Option<RecordError>,
+    /// Interface sources and their text.
+    sources: Vec<(SocketAddr, String)>,
 }
 
 fn now_ns() -> u64 {
@@ -85,6 +87,7 @@ impl Session {
             imu,
             last_cloud_s: None,
             failed: None,
+            sources: Vec::new(),
         })
     }
 
@@ -110,8 +113,8 @@ impl Session {
             };
             match bytes {
                 Ok(n) => {
-                    let data = buf[..n].to_vec();
-                    self.put(topic, t, &Datagram { stamp: Stamp::from_nanos(t), source: robot.to_string(), data });
+                    let source = robot.to_string();
+                    self.put(topic, t, &Datagram { stamp: Stamp::from_nanos(t), source: &source, data: &buf[..n] });
                 }
                 Err(e) => tracing::warn!("a robot-link message that does not encode is not recorded: {e}"),
             }
@@ -123,9 +126,21 @@ impl Session {
 
     /// One interface datagram as received, at `now_us` of the interface's clock.
     pub fn datagram(&mut self, from: SocketAddr, now_us: u64, bytes: &[u8]) {
-        let message =
-            Datagram { stamp: Stamp::from_nanos(now_us * 1000), source: from.to_string(), data: bytes.to_vec() };
-        self.put(INTERFACE, now_ns(), &message);
+        // The interface's sources are a handful of ports: their text is kept.
+        let i = match self.sources.iter().position(|(a, _)| *a == from) {
+            Some(i) => i,
+            None => {
+                self.sources.push((from, from.to_string()));
+                self.sources.len() - 1
+            }
+        };
+        let source = std::mem::take(&mut self.sources[i].1);
+        self.put(
+            INTERFACE,
+            now_ns(),
+            &Datagram { stamp: Stamp::from_nanos(now_us * 1000), source: &source, data: bytes },
+        );
+        self.sources[i].1 = source;
     }
 
     /// What the skin said in one tick at robot time `robot_s`: contacts at

@@ -21,6 +21,8 @@ pub struct McapWriter {
     channels: Vec<(&'static str, u16)>,
     sequence: u32,
     path: PathBuf,
+    /// The last message's CDR: its allocation serves the next.
+    scratch: Vec<u8>,
 }
 
 impl std::fmt::Debug for McapWriter {
@@ -38,7 +40,7 @@ impl McapWriter {
             .library(concat!("skin-host ", env!("CARGO_PKG_VERSION")))
             .compression(Some(mcap::Compression::Lz4));
         let writer = options.create(BufWriter::new(file)).map_err(|e| RecordError::mcap(path, e))?;
-        Ok(McapWriter { writer, channels: Vec::new(), sequence: 0, path: path.to_owned() })
+        Ok(McapWriter { writer, channels: Vec::new(), sequence: 0, path: path.to_owned(), scratch: Vec::new() })
     }
 
     /// Writes `message` on `topic` at `time_ns` (nanoseconds since the Unix epoch).
@@ -58,7 +60,8 @@ impl McapWriter {
             log_time: time_ns,
             publish_time: time_ns,
         };
-        self.writer.write_to_known_channel(&header, &message.to_cdr()).map_err(|e| RecordError::mcap(&self.path, e))
+        message.encode_into(&mut self.scratch);
+        self.writer.write_to_known_channel(&header, &self.scratch).map_err(|e| RecordError::mcap(&self.path, e))
     }
 
     fn channel<M: Message>(&mut self, topic: &'static str) -> Result<u16, mcap::McapError> {

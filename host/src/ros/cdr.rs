@@ -25,6 +25,13 @@ impl Cdr {
         Cdr { buf: ENCAPSULATION_LE.to_vec() }
     }
 
+    /// An empty message in `buf`'s allocation.
+    pub fn reusing(mut buf: Vec<u8>) -> Cdr {
+        buf.clear();
+        buf.extend_from_slice(&ENCAPSULATION_LE);
+        Cdr { buf }
+    }
+
     /// The message bytes, header included.
     pub fn into_bytes(self) -> Vec<u8> {
         self.buf

@@ -10,11 +10,18 @@ pub trait Message {
     const TYPE: &'static MsgType;
     /// Writes its fields.
     fn write(&self, c: &mut Cdr);
-    /// The whole message: encapsulation header and fields.
-    fn to_cdr(&self) -> Vec<u8> {
-        let mut c = Cdr::new();
+    /// The whole message: encapsulation header and fields, into `out`
+    /// (cleared first; its allocation is reused).
+    fn encode_into(&self, out: &mut Vec<u8>) {
+        let mut c = Cdr::reusing(std::mem::take(out));
         self.write(&mut c);
-        c.into_bytes()
+        *out = c.into_bytes();
+    }
+    /// The whole message in a new buffer.
+    fn to_cdr(&self) -> Vec<u8> {
+        let mut out = Vec::new();
+        self.encode_into(&mut out);
+        out
     }
 }
 
@@ -274,20 +281,20 @@ impl Message for MarkerArray {
 
 /// `skin_msgs/Datagram`: the bytes of one datagram as they crossed the wire.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Datagram {
+pub struct Datagram<'a> {
     /// When the host took it (or sent it).
     pub stamp: Stamp,
     /// The peer's address.
-    pub source: String,
+    pub source: &'a str,
     /// The bytes.
-    pub data: Vec<u8>,
+    pub data: &'a [u8],
 }
 
-impl Message for Datagram {
+impl Message for Datagram<'_> {
     const TYPE: &'static MsgType = &schema::DATAGRAM;
     fn write(&self, c: &mut Cdr) {
         self.stamp.write(c);
-        c.string(&self.source);
-        c.bytes(&self.data);
+        c.string(self.source);
+        c.bytes(self.data);
     }
 }
