@@ -257,4 +257,14 @@ fn a_missing_robot_or_a_bad_flag_is_explained() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--organize-timeout"));
     let out = skin().args(["sim-endpoint", "--host", "192.0.2.1:7700"]).output().unwrap();
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("127.0.0.1"));
+    // A recording that is not there, or not MCAP, is named in one line.
+    let junk = scratch("junk").with_extension("mcap");
+    std::fs::write(&junk, b"not an MCAP file at all").unwrap();
+    for file in [Path::new("/nonexistent/recording.mcap"), junk.as_path()] {
+        let out = skin().args(["replay", "--explore"]).arg(file).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.starts_with("error: ") && err.contains(&*file.to_string_lossy()), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    std::fs::remove_file(&junk).unwrap();
 }

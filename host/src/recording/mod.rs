@@ -35,7 +35,7 @@ pub const EXPLORE_START: &str = "/skin/explore_start";
 pub enum RecordError {
     /// The file could not be created, written or read.
     #[error("{}: {source} (check the path and the free space)", path.display())]
-    Create {
+    File {
         /// The file.
         path: PathBuf,
         /// What the OS said.

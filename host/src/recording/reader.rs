@@ -77,7 +77,7 @@ fn decode(topic: &str, cdr: &[u8]) -> Result<Option<Record>, String> {
 impl Recording {
     /// Reads the raw channels of the MCAP file at `path`.
     pub fn open(path: &Path) -> Result<Recording, RecordError> {
-        let bytes = std::fs::read(path).map_err(|source| RecordError::Create { path: path.to_owned(), source })?;
+        let bytes = std::fs::read(path).map_err(|source| RecordError::File { path: path.to_owned(), source })?;
         Recording::parse(path, &bytes)
     }
 

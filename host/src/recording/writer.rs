@@ -34,7 +34,7 @@ impl std::fmt::Debug for McapWriter {
 impl McapWriter {
     /// Creates (or truncates) the file.
     pub fn create(path: &Path) -> Result<McapWriter, RecordError> {
-        let file = File::create(path).map_err(|source| RecordError::Create { path: path.to_owned(), source })?;
+        let file = File::create(path).map_err(|source| RecordError::File { path: path.to_owned(), source })?;
         let options = mcap::WriteOptions::new()
             .profile("ros2")
             .library(concat!("skin-host ", env!("CARGO_PKG_VERSION")))
@@ -82,7 +82,7 @@ impl McapWriter {
     pub fn finish(mut self) -> Result<PathBuf, RecordError> {
         self.writer.finish().map_err(|e| RecordError::mcap(&self.path, e))?;
         let path = self.path;
-        self.writer.into_inner().flush().map_err(|source| RecordError::Create { path: path.clone(), source })?;
+        self.writer.into_inner().flush().map_err(|source| RecordError::File { path: path.clone(), source })?;
         Ok(path)
     }
 }
