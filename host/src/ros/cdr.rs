@@ -43,6 +43,12 @@ impl Cdr {
         self.buf.resize(self.buf.len() + (n - body % n) % n, 0);
     }
 
+    /// A primitive of `N` bytes, aligned to `N`.
+    fn put<const N: usize>(&mut self, bytes: [u8; N]) {
+        self.align(N);
+        self.buf.extend_from_slice(&bytes);
+    }
+
     /// A `bool`.
     pub fn bool(&mut self, v: bool) {
         self.buf.push(u8::from(v));
@@ -55,32 +61,27 @@ impl Cdr {
 
     /// A `uint32`.
     pub fn u32(&mut self, v: u32) {
-        self.align(4);
-        self.buf.extend_from_slice(&v.to_le_bytes());
+        self.put(v.to_le_bytes());
     }
 
     /// An `int32`.
     pub fn i32(&mut self, v: i32) {
-        self.align(4);
-        self.buf.extend_from_slice(&v.to_le_bytes());
+        self.put(v.to_le_bytes());
     }
 
     /// A `float32`.
     pub fn f32(&mut self, v: f32) {
-        self.align(4);
-        self.buf.extend_from_slice(&v.to_le_bytes());
+        self.put(v.to_le_bytes());
     }
 
     /// A `float64`.
     pub fn f64(&mut self, v: f64) {
-        self.align(8);
-        self.buf.extend_from_slice(&v.to_le_bytes());
+        self.put(v.to_le_bytes());
     }
 
     /// A `uint64`.
     pub fn u64(&mut self, v: u64) {
-        self.align(8);
-        self.buf.extend_from_slice(&v.to_le_bytes());
+        self.put(v.to_le_bytes());
     }
 
     /// A `string`: its length counts the terminating NUL.
