@@ -79,11 +79,6 @@ impl Cdr {
         self.put(v.to_le_bytes());
     }
 
-    /// A `uint64`.
-    pub fn u64(&mut self, v: u64) {
-        self.put(v.to_le_bytes());
-    }
-
     /// A `string`: its length counts the terminating NUL.
     pub fn string(&mut self, s: &str) {
         self.len(s.len() + 1);

@@ -20,8 +20,6 @@ pub enum Base {
     I32,
     /// `uint32`.
     U32,
-    /// `uint64`.
-    U64,
     /// `float32`.
     F32,
     /// `float64`.
@@ -242,12 +240,6 @@ impl MsgType {
         self.name.replacen("/msg/", "/", 1)
     }
 
-    /// The name in DDS and rmw_zenoh key expressions: `pkg::msg::dds_::Type_`.
-    pub fn dds_name(&self) -> String {
-        let (pkg, ty) = self.name.split_once("/msg/").unwrap_or(("", self.name));
-        format!("{pkg}::msg::dds_::{ty}_")
-    }
-
     /// Every message type this one uses, directly or not, each once, in
     /// the order first met depth first.
     pub fn dependencies(&self) -> Vec<&'static MsgType> {
@@ -346,7 +338,6 @@ fn primitive(base: Base) -> (&'static str, u32) {
         Base::U8 => ("uint8", 3),
         Base::I32 => ("int32", 6),
         Base::U32 => ("uint32", 7),
-        Base::U64 => ("uint64", 9),
         Base::F32 => ("float32", 10),
         Base::F64 => ("float64", 11),
         Base::Str => ("string", 17),
@@ -365,7 +356,6 @@ mod tests {
         for dep in ["std_msgs/Header", "builtin_interfaces/Time", "geometry_msgs/Quaternion"] {
             assert_eq!(text.matches(&format!("MSG: {dep}\n")).count(), 1, "{dep} in {text}");
         }
-        assert_eq!(IMU.dds_name(), "sensor_msgs::msg::dds_::Imu_");
     }
 
     #[test]
