@@ -8,7 +8,11 @@
 //!      second of the receiving thread's CPU time (the one-core capacity);
 //!    - clock-driven at 315,000 frames/s (1,260 cells at 250 Hz), each port
 //!      sending every 1 ms, and again with one datagram per frame: frames
-//!      lost, the receiving thread's CPU load, and the socket receive buffer.
+//!      lost, the receiving thread's CPU load, and the socket receive buffer;
+//!    - recording on (`skin run --record`: every datagram and the ROS 2
+//!      topics into an MCAP file) at 1,260 cells and at the 74 cells of
+//!      HRP-2 (5 ports), against the same without recording: loss, CPU
+//!      and messages written per second.
 //!
 //! `cargo bench -p skin-host --bench interface` (about 2 minutes);
 //! `SKIN_BENCH_SECONDS` sets the length of each loopback run (default 10).
@@ -24,6 +28,8 @@ use criterion::{BenchmarkId, Criterion, Throughput};
 use skin_host::config::{InterfaceConfig, PortConfig};
 use skin_host::interface::loadgen::{LoadGen, LoadSpec, Pace, SimSkin};
 use skin_host::interface::{EventKind, Ingest, Interface, InterfaceCounters};
+use skin_host::recording::Session;
+use skin_protocol::message::AccelRange;
 
 /// The skin of the requirement: 1,260 cells at 250 Hz on 16 ports.
 fn heavy_skin(flush_us: u64) -> LoadSpec {
@@ -106,10 +112,18 @@ struct Received {
     cpu_s: Option<f64>,
     busy_s: f64,
     recv_buffer_bytes: usize,
+    /// Messages recorded, and the file's size in bytes, when recording.
+    recorded: Option<(u32, u64)>,
 }
 
-/// Runs the load generator against an interface polled on its own thread.
-fn loopback(spec: LoadSpec, pace: Pace, seconds: f64) -> (skin_host::interface::loadgen::LoadReport, Received) {
+/// Runs the load generator against an interface polled on its own thread,
+/// recording into `record` if given.
+fn loopback(
+    spec: LoadSpec,
+    pace: Pace,
+    seconds: f64,
+    record: Option<std::path::PathBuf>,
+) -> (skin_host::interface::loadgen::LoadReport, Received) {
     let config = InterfaceConfig {
         listen: SocketAddr::from(([127, 0, 0, 1], 0)),
         ports: (0..spec.ports).map(|number| PortConfig { number, address: None }).collect(),
@@ -122,11 +136,22 @@ fn loopback(spec: LoadSpec, pace: Pace, seconds: f64) -> (skin_host::interface::
         let stop = stop.clone();
         thread::spawn(move || {
             let cpu0 = thread_cpu_s();
+            let mut session = record.as_ref().map(|p| Session::create(p, AccelRange::G2, false).expect("create"));
             let mut events = Vec::new();
             let (mut first, mut last, mut samples) = (None, Instant::now(), 0u64);
+            let start = Instant::now();
             loop {
                 events.clear();
-                let n = interface.poll(Duration::from_millis(50), &mut events).expect("poll");
+                let timeout = Duration::from_millis(50);
+                let n = match &mut session {
+                    Some(s) => interface
+                        .poll_tapped(timeout, &mut events, &mut |from, now_us, bytes| s.datagram(from, now_us, bytes)),
+                    None => interface.poll(timeout, &mut events),
+                }
+                .expect("poll");
+                if let Some(s) = &mut session {
+                    s.events(&events, start.elapsed().as_secs_f64());
+                }
                 if n > 0 {
                     first.get_or_insert_with(Instant::now);
                     last = Instant::now();
@@ -135,7 +160,13 @@ fn loopback(spec: LoadSpec, pace: Pace, seconds: f64) -> (skin_host::interface::
                     break;
                 }
             }
+            let recorded = session.map(|s| {
+                let written = s.written();
+                let path = s.finish().expect("finish the recording");
+                (written, std::fs::metadata(&path).map_or(0, |m| m.len()))
+            });
             Received {
+                recorded,
                 counters: *interface.counters(),
                 samples,
                 cpu_s: thread_cpu_s().zip(cpu0).map(|(b, a)| b - a),
@@ -186,7 +217,7 @@ fn loopback_report(seconds: f64) {
     );
     let flat = heavy_skin(1_000_000);
     let drops0 = rcvbuf_errors();
-    let (sent, got) = loopback(flat, Pace::FlatOut, seconds);
+    let (sent, got) = loopback(flat, Pace::FlatOut, seconds, None);
     let f = got.counters.frames;
     println!(
         "  flat out, {:.1} frames/datagram: sent {} frames, decoded {} ({} samples dispatched), lost {}\n    \
@@ -205,11 +236,18 @@ fn loopback_report(seconds: f64) {
     );
     println!("    kernel UDP receive-buffer overflows (system-wide): {}", delta(drops0, rcvbuf_errors()));
 
-    for (flush_us, what) in [(1000, "each port sends every 1 ms"), (0, "one datagram per frame")] {
-        let spec = heavy_skin(flush_us);
+    let file = std::env::temp_dir().join(format!("skin-bench-{}.mcap", std::process::id()));
+    let hrp2 = LoadSpec { cells: 74, ports: 5, ..heavy_skin(1000) };
+    for (spec, what, record) in [
+        (heavy_skin(1000), "each port sends every 1 ms", None),
+        (heavy_skin(0), "one datagram per frame", None),
+        (heavy_skin(1000), "each port sends every 1 ms, RECORDING", Some(file.clone())),
+        (hrp2.clone(), "74 cells on 5 ports, each sends every 1 ms", None),
+        (hrp2, "74 cells on 5 ports, each sends every 1 ms, RECORDING", Some(file.clone())),
+    ] {
         let rate = spec.sample_rate_hz();
         let drops0 = rcvbuf_errors();
-        let (sent, got) = loopback(spec, Pace::RealTime, seconds);
+        let (sent, got) = loopback(spec, Pace::RealTime, seconds, record);
         let c = got.counters;
         let lost = sent.frames - c.frames.accepted.min(sent.frames);
         println!(
@@ -232,7 +270,16 @@ fn loopback_report(seconds: f64) {
             InterfaceConfig::default().recv_buffer_bytes,
         );
         println!("    kernel UDP receive-buffer overflows (system-wide): {}", delta(drops0, rcvbuf_errors()));
+        if let Some((messages, bytes)) = got.recorded {
+            println!(
+                "    recorded {messages} messages = {:.0} per second, {:.1} MB = {:.1} MB/s",
+                f64::from(messages) / sent.wall_time_s,
+                bytes as f64 / 1e6,
+                bytes as f64 / 1e6 / sent.wall_time_s
+            );
+        }
     }
+    let _ = std::fs::remove_file(&file);
 }
 
 fn delta(before: Option<u64>, after: Option<u64>) -> String {

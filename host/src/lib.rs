@@ -15,6 +15,9 @@
 //! - [`remote`]: a robot and its skin over UDP: the robot link and the interface as one rig.
 //! - [`pipeline`]: the main job's steps: wait for the skin to organize, write the cell settings.
 //! - [`report`]: the report folder: figures as SVG, `report.json`, `index.html`.
+//! - [`ros`]: ROS 2 message types, their CDR encoding and type hashes, and the skin's topics.
+//! - [`recording`]: a run recorded into an MCAP file (raw datagrams and ROS 2 topics), and read back.
+//! - [`replay`]: a recording played back as a robot and skin, to explore again.
 // Denied, not forbidden: the batched receive of `interface::socket` calls
 // `recvmmsg`/`sendmmsg` and is the one module allowed to.
 #![deny(unsafe_code)]
@@ -27,7 +30,10 @@ pub mod explore;
 pub mod grasping;
 pub mod interface;
 pub mod pipeline;
+pub mod recording;
 pub mod registry;
 pub mod remote;
+pub mod replay;
 pub mod report;
 pub mod robot;
+pub mod ros;

@@ -19,6 +19,7 @@ use skin_protocol::robot_link::{self, FromRobot, ToRobot, MAX_DOFS, MAX_NAME};
 use skin_protocol::{Address, Sample};
 
 use crate::interface::{Event, EventKind, Interface};
+use crate::recording::{RecordError, Session};
 use crate::robot::{DofKind, Robot, RobotError, SampleSource};
 
 /// Tries of one request before the robot counts as gone.
@@ -265,12 +266,29 @@ pub struct Remote {
     events: Vec<Event>,
     /// Real-time robots: when the next tick is due on the host's clock.
     next_due: Option<Instant>,
+    /// The recording being written, if any.
+    recording: Option<Session>,
 }
 
 impl Remote {
     /// Joins an open robot link and a bound interface.
     pub fn new(link: RobotLink, interface: Interface) -> Remote {
-        Remote { link, interface, events: Vec::new(), next_due: None }
+        Remote { link, interface, events: Vec::new(), next_due: None, recording: None }
+    }
+
+    /// Records every tick from now on into `session`.
+    pub fn record(&mut self, session: Session) {
+        self.recording = Some(session);
+    }
+
+    /// The recording being written, to add what the host learned.
+    pub fn recording_mut(&mut self) -> Option<&mut Session> {
+        self.recording.as_mut()
+    }
+
+    /// Stops recording and closes the file; `None` when nothing was recorded.
+    pub fn finish_recording(&mut self) -> Option<Result<std::path::PathBuf, RecordError>> {
+        self.recording.take().map(Session::finish)
     }
 
     /// The robot link.
@@ -308,16 +326,35 @@ impl Remote {
             }
             self.next_due = Some(due);
         }
+        if let Some(session) = &mut self.recording {
+            let link = &self.link;
+            let command = ToRobot::Command { seq: link.seq, velocities: link.command.iter().copied().collect() };
+            let state = FromRobot::State {
+                seq: link.seq,
+                time_us: link.time_us,
+                positions: link.positions.iter().copied().collect(),
+            };
+            session.robot(link.robot, &command, &state, &link.info.dof_names);
+        }
         self.events.clear();
         loop {
-            let taken = self
-                .interface
-                .poll(Duration::ZERO, &mut self.events)
-                .map_err(|e| RobotError::Disconnected(format!("skin interface: {e}")))?;
+            let taken = match &mut self.recording {
+                Some(session) => {
+                    self.interface.poll_tapped(Duration::ZERO, &mut self.events, &mut |from, now_us, bytes| {
+                        session.datagram(from, now_us, bytes)
+                    })
+                }
+                None => self.interface.poll(Duration::ZERO, &mut self.events),
+            }
+            .map_err(|e| RobotError::Disconnected(format!("skin interface: {e}")))?;
             if taken == 0 {
-                return Ok(());
+                break;
             }
         }
+        if let Some(session) = &mut self.recording {
+            session.events(&self.events, self.link.time_s());
+        }
+        Ok(())
     }
 }
 

@@ -1,7 +1,10 @@
 //! The main job end to end, as a person runs it: `skin demo --quick`
 //! writes a complete report folder, and `skin run` drives the simulated
 //! robot and skin served by `skin sim-endpoint` in another process, over
-//! loopback UDP only.
+//! loopback UDP only. The demo's recording is read by readers we did not
+//! write, and `skin replay` of it explores the same body.
+
+mod common;
 
 use std::collections::HashSet;
 use std::io::{BufRead, BufReader};
@@ -107,7 +110,75 @@ fn the_quick_demo_writes_a_complete_and_true_report() {
         (robot_s + taught_s + runs[0]["time_s"].as_f64().unwrap()) / report["robot"]["period_s"].as_f64().unwrap();
     let frames = latency["frames"].as_f64().unwrap();
     assert!(frames > 74.0 * periods, "{frames} sensor frames for {periods} periods of 74 cells");
+    let recording = dir.join("recording.mcap");
+    check_replay(&recording, &report);
+    check_topics(&recording, &["/skin/events"]);
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Messages per topic, as the mcap crate reads them.
+fn topics_of(file: &Path) -> serde_json::Map<String, Value> {
+    let bytes = std::fs::read(file).unwrap();
+    let mut counts = serde_json::Map::new();
+    for message in mcap::MessageStream::new(&bytes).unwrap() {
+        let topic = message.unwrap().channel.topic.clone();
+        let n = counts.get(&topic).and_then(Value::as_u64).unwrap_or(0);
+        counts.insert(topic, (n + 1).into());
+    }
+    counts
+}
+
+/// `skin replay --explore` of a recording learns what the run that
+/// recorded it learned live.
+fn check_replay(file: &Path, report: &Value) {
+    let replayed = json_of(skin().args(["replay", "--explore", "--json"]).arg(file));
+    assert!(replayed == report["exploration"], "the replay explores the same body as the live run");
+}
+
+/// The raw channels and the ROS 2 topics are in the recording, and
+/// `extra` too; returns the messages per topic.
+fn check_topics(file: &Path, extra: &[&str]) -> serde_json::Map<String, Value> {
+    let ours = topics_of(file);
+    let always = [
+        "/skin/interface",
+        "/skin/robot_link/command",
+        "/skin/robot_link/state",
+        "/skin/explore_start",
+        "/joint_states",
+        "/skin/cells",
+        "/tf_static",
+        "/robot_description",
+    ];
+    for topic in always.iter().chain(extra) {
+        assert!(ours.get(*topic).and_then(Value::as_u64).is_some_and(|n| n > 0), "{topic} missing: {ours:?}");
+    }
+    ours
+}
+
+/// rosbags and mcap-ros2-support decode every message of the recording,
+/// into the values the run had.
+fn check_readers(file: &Path, ours: &serde_json::Map<String, Value>) {
+    let Some(python) = common::python() else { return };
+    let theirs = common::run_json(&python, "check_mcap.py", &[file]);
+    assert_eq!(theirs["rosbags"].as_object(), Some(ours), "rosbags decoded every message");
+    assert_eq!(theirs["mcap_ros2"].as_object(), Some(ours), "mcap-ros2-support decoded every message");
+    let types = &theirs["types"];
+    assert_eq!(types["/skin/cells"], "sensor_msgs/msg/PointCloud2");
+    assert_eq!(types["/tf_static"], "tf2_msgs/msg/TFMessage");
+    assert_eq!(types["/skin/imu"], "sensor_msgs/msg/Imu");
+    let v = &theirs["values"];
+    assert_eq!((v["cloud_points"].as_u64(), v["cloud_bytes_ok"].as_bool()), (Some(74), Some(true)), "{v}");
+    assert_eq!((v["joints"].as_u64(), v["positions"].as_u64()), (Some(14), Some(14)), "{v}");
+    assert_eq!(v["cell_frames"], 74, "{v}");
+    assert!(v["first_frame"][0].as_str().unwrap().starts_with("skin_part_"), "{v}");
+    assert!(v["first_frame"][1].as_str().unwrap().starts_with("skin_cell_"), "{v}");
+    assert_eq!(v["urdf_start"], "<?xml version=\"1.0\"?>", "{v}");
+    let g = v["imu_g"].as_f64().unwrap();
+    assert!((0.9..1.1).contains(&g), "a resting cell feels 1 g, not {g} g");
+    let fields: Vec<&str> = v["cloud_fields"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
+    for field in ["x", "y", "z", "id", "proximity", "force", "temperature", "ax", "ay", "az"] {
+        assert!(fields.contains(&field), "{field} not in {fields:?}");
+    }
 }
 
 /// A loopback address with a port free right now.
@@ -144,7 +215,14 @@ fn skin_run_drives_the_simulated_robot_served_by_another_process() {
             .output()
     };
     let dirs = [dir.join("first"), dir.join("again")];
-    let results = [run(&dirs[0], &[]), run(&dirs[1], &["--config".as_ref(), config.as_os_str()])];
+    let recording = dir.join("again.mcap");
+    let results = [
+        run(&dirs[0], &[]),
+        run(
+            &dirs[1],
+            &["--config".as_ref(), config.as_os_str(), "--imu".as_ref(), "--record".as_ref(), recording.as_os_str()],
+        ),
+    ];
     endpoint.kill().unwrap();
     endpoint.wait().unwrap();
     for (result, dir) in results.into_iter().zip(&dirs) {
@@ -155,6 +233,11 @@ fn skin_run_drives_the_simulated_robot_served_by_another_process() {
         check_job(&report, 74);
         assert!(report["truth"].is_null() && report["grasps"].is_null(), "no simulator truth over the wire");
         assert_eq!(report["robot"]["lockstep"], true);
+        if dir == &dirs[1] {
+            check_replay(&recording, &report);
+            let topics = check_topics(&recording, &["/skin/imu"]);
+            check_readers(&recording, &topics);
+        }
     }
     std::fs::remove_dir_all(&dir).unwrap();
     std::fs::remove_file(&config).unwrap();
@@ -174,4 +257,14 @@ fn a_missing_robot_or_a_bad_flag_is_explained() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--organize-timeout"));
     let out = skin().args(["sim-endpoint", "--host", "192.0.2.1:7700"]).output().unwrap();
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("127.0.0.1"));
+    // A recording that is not there, or not MCAP, is named in one line.
+    let junk = scratch("junk").with_extension("mcap");
+    std::fs::write(&junk, b"not an MCAP file at all").unwrap();
+    for file in [Path::new("/nonexistent/recording.mcap"), junk.as_path()] {
+        let out = skin().args(["replay", "--explore"]).arg(file).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.starts_with("error: ") && err.contains(&*file.to_string_lossy()), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    std::fs::remove_file(&junk).unwrap();
 }

@@ -91,7 +91,7 @@ fn main() -> ExitCode {
             eprintln!(
                 "usage: cargo xtask <command>\n\n  \
                  ci                   install what is missing, then run every CI check\n  \
-                 install              only install what is missing (rustup target and components, qemu-system-arm)\n  \
+                 install              only install what is missing (rustup target and components, qemu-system-arm, Python readers)\n  \
                  firmware             build the cell firmware for both boards and check its size\n  \
                  qemu-net --cells N   run a hexagonal patch of N QEMU cells (more flags: --json, --keep)"
             );
@@ -228,6 +228,31 @@ fn install() -> Result<(), String> {
         }
         run("apt-get", &["update", "-q"])?;
         run("apt-get", &["install", "-y", "-q", "qemu-system-arm"])?;
+    }
+    python_readers()
+}
+
+/// The Python readers the ROS 2 tests check our files with (readers we
+/// did not write), pinned, in a venv under the target directory.
+const PYTHON_READERS: [&str; 2] = ["rosbags==0.11.9", "mcap-ros2-support==0.6.0"];
+
+/// Creates the venv `target/pyenv` with [`PYTHON_READERS`]; without
+/// python3 it says that those tests will be skipped.
+fn python_readers() -> Result<(), String> {
+    if !succeeds("python3", &["--version"]) {
+        eprintln!("xtask: python3 is missing: the tests reading our ROS 2 files with rosbags will be skipped");
+        return Ok(());
+    }
+    let venv = target_dir().join("pyenv");
+    let python = venv.join("bin").join("python");
+    let python = python.to_str().ok_or("the target directory's path is not UTF-8")?;
+    if !Path::new(python).exists() {
+        run("python3", &["-m", "venv", venv.to_str().ok_or("the target directory's path is not UTF-8")?])?;
+    }
+    if !succeeds(python, &["-c", "import rosbags, mcap_ros2"]) {
+        let mut args = vec!["-m", "pip", "install", "-q"];
+        args.extend(PYTHON_READERS);
+        run(python, &args)?;
     }
     Ok(())
 }

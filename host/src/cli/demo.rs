@@ -60,13 +60,25 @@ pub struct Args {
     /// Print report.json on stdout instead of the human summary.
     #[arg(long)]
     json: bool,
+    /// Also record every cell's acceleration as `sensor_msgs/Imu` on `/skin/imu` (in `recording.mcap`).
+    #[arg(long, conflicts_with = "no_record")]
+    imu: bool,
+    /// Do not write `recording.mcap` (about 400 MB for the whole demo).
+    #[arg(long)]
+    no_record: bool,
 }
+
+/// The demo's recording, in its report folder.
+pub const RECORDING: &str = "recording.mcap";
 
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let wall = Instant::now();
     let seed = args.seed;
     check_folder(&args.out)?;
     let (mut endpoint, mut remote, steps) = serve_experiment(seed)?;
+    if !args.no_record {
+        job::record(&mut remote, &args.out.join(RECORDING), &steps, args.imu)?;
+    }
     let found = job::run(&mut remote, &steps)?;
     let exploration = found.exploration.clone();
     let grasp_wall = Instant::now();
@@ -75,6 +87,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         teach_and_grasp(&mut remote, &mut endpoint, exploration.smm.clone(), &Params::default(), &chosen)?;
     let grasp_wall_s = grasp_wall.elapsed().as_secs_f64();
     let robot_addr = endpoint.robot;
+    let recorded = job::finish_recording(&mut remote)?;
     let truth = endpoint.stop()?;
     let checked = truth_section(&remote, &truth, &exploration, seed)?;
     let cells = truth.ids.len();
@@ -98,7 +111,10 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     report.timing.total_wall_s = wall.elapsed().as_secs_f64();
     let written = report.write(&args.out)?;
     report.timing.total_wall_s = wall.elapsed().as_secs_f64();
-    let text = if args.json { serde_json::to_string_pretty(&report)? } else { job::summary(&report, &written) };
+    let mut text = if args.json { serde_json::to_string_pretty(&report)? } else { job::summary(&report, &written) };
+    if let Some(line) = recorded.filter(|_| !args.json) {
+        text = format!("{text}\n{line}");
+    }
     match writeln!(std::io::stdout().lock(), "{text}") {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
         other => other?,
@@ -122,6 +138,7 @@ pub(super) fn serve_experiment(seed: u64) -> Result<(Running, Remote, Steps), Bo
         },
         settings: CellSettings::default().settings(),
         explore: ExploreConfig::default(),
+        ports: InterfaceConfig::default().ports,
     };
     let remote = Remote::new(RobotLink::connect(endpoint.robot, LINK_TIMEOUT)?, interface);
     Ok((endpoint, remote, steps))

@@ -2,12 +2,14 @@
 //! write the cell settings, explore the body, each step with a progress
 //! bar; and the report's parts that come from it.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
+use skin_host::config::PortConfig;
 use skin_host::explore::{explore, Exploration, ExploreConfig};
 use skin_host::pipeline::{organize, write_settings, OrganizeConfig, Organized, PipelineError};
+use skin_host::recording::{ExploreStart, RecordError, Session};
 use skin_host::remote::Remote;
 use skin_host::report::{ExplorationSection, LinkSection, Report, RobotSection, Timing};
 use skin_protocol::message::Setting;
@@ -23,6 +25,19 @@ pub struct Steps {
     pub settings: Vec<Setting>,
     /// The exploration.
     pub explore: ExploreConfig,
+    /// The interface ports configured (a recording keeps them for `skin replay`).
+    pub ports: Vec<PortConfig>,
+}
+
+/// Starts recording `remote` into the MCAP file `path`; `imu` adds `/skin/imu`.
+pub fn record(remote: &mut Remote, path: &Path, steps: &Steps, imu: bool) -> Result<(), RecordError> {
+    remote.record(Session::create(path, steps.explore.range, imu)?);
+    Ok(())
+}
+
+/// Closes the recording, if any, and says where it is.
+pub fn finish_recording(remote: &mut Remote) -> Result<Option<String>, RecordError> {
+    Ok(remote.finish_recording().transpose()?.map(|p| format!("recording: {}", p.display())))
 }
 
 /// What the job found.
@@ -57,6 +72,16 @@ pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
     timing.organize_robot_s = organized.time_s;
 
     let wall = Instant::now();
+    let info = remote.link().info().clone();
+    if let Some(session) = remote.recording_mut() {
+        session.explore_start(&ExploreStart {
+            dof_names: info.dof_names,
+            dof_kinds: info.dof_kinds,
+            period_s: info.period_s,
+            accel_range_g: steps.explore.range.full_scale_g() as u8,
+            ports: steps.ports.clone(),
+        });
+    }
     let exploring = bar("{msg:24} [{bar:30}] {pos}/{len} DoF measurements");
     exploring.set_message("self-exploration");
     let exploration = explore(remote, &steps.explore, &mut |p| {
@@ -64,6 +89,9 @@ pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
         exploring.set_position(p.done as u64);
     })?;
     exploring.finish_and_clear();
+    if let Some(session) = remote.recording_mut() {
+        session.explored(&exploration);
+    }
     timing.explore_wall_s = wall.elapsed().as_secs_f64();
     timing.structure_robot_s = exploration.structure_time_s;
     timing.smm_robot_s = exploration.smm_time_s;

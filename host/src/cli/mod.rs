@@ -8,6 +8,7 @@ mod grasp;
 mod job;
 mod loadgen;
 mod monitor;
+mod replay;
 mod run;
 mod seconds;
 mod sim_endpoint;
@@ -41,6 +42,8 @@ enum Command {
     Config(config::Args),
     /// The main job against a real skin and robot (or an external simulator): organize, explore, report.
     Run(run::Args),
+    /// Feed a recording (`skin run --record`, `skin demo`) to the host instead of the network.
+    Replay(replay::Args),
     /// Serve the built-in simulated robot and skin on loopback UDP, for `skin run` in another terminal.
     SimEndpoint(sim_endpoint::Args),
     /// Simulate a skin that sends interface datagrams to a host (for measuring and watching without hardware).
@@ -63,6 +66,7 @@ pub fn main() -> ExitCode {
         Command::Config(args) => config::run(args),
         Command::Loadgen(args) => loadgen::run(args),
         Command::Run(args) => run::run(args),
+        Command::Replay(args) => replay::run(args),
         Command::SimEndpoint(args) => sim_endpoint::run(args),
     };
     result.unwrap_or_else(|e| {

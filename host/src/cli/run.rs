@@ -52,6 +52,12 @@ pub struct Args {
     /// Print report.json on stdout instead of the human summary.
     #[arg(long)]
     json: bool,
+    /// Record the run into this MCAP file: interface datagrams, robot link, ROS 2 topics (`skin replay` reads it).
+    #[arg(long, value_name = "FILE.mcap")]
+    record: Option<PathBuf>,
+    /// Also record every cell's acceleration as `sensor_msgs/Imu` on `/skin/imu`.
+    #[arg(long, requires = "record")]
+    imu: bool,
 }
 
 /// Why `skin run` could not start.
@@ -110,12 +116,21 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         },
         settings: cells.settings(),
         explore: ExploreConfig { range, ..ExploreConfig::default() },
+        ports: config.interface.ports.clone(),
     };
-    let found = job::run(&mut remote, &steps)?;
+    if let Some(path) = &args.record {
+        job::record(&mut remote, path, &steps, args.imu)?;
+    }
+    let found = job::run(&mut remote, &steps);
+    let recorded = job::finish_recording(&mut remote)?;
+    let found = found?;
     let mut report = job::report(&remote, source, found);
     report.timing.total_wall_s = wall.elapsed().as_secs_f64();
     let written = report.write(&args.out)?;
-    let text = if args.json { serde_json::to_string_pretty(&report)? } else { job::summary(&report, &written) };
+    let mut text = if args.json { serde_json::to_string_pretty(&report)? } else { job::summary(&report, &written) };
+    if let Some(line) = recorded.filter(|_| !args.json) {
+        text = format!("{text}\n{line}");
+    }
     match writeln!(std::io::stdout().lock(), "{text}") {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
         other => other?,

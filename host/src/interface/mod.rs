@@ -142,10 +142,23 @@ impl Interface {
     /// appends their events to `events`, then answers the ID requests among
     /// them. Returns the number of datagrams taken (0 on timeout).
     pub fn poll(&mut self, timeout: Duration, events: &mut Vec<Event>) -> Result<usize, Error> {
+        self.poll_tapped(timeout, events, &mut |_, _, _| {})
+    }
+
+    /// As [`Interface::poll`], and shows `tap` every datagram as it came
+    /// off the socket (source, [`Interface::now_us`], bytes) before it is
+    /// checked: what a recording keeps.
+    pub fn poll_tapped(
+        &mut self,
+        timeout: Duration,
+        events: &mut Vec<Event>,
+        tap: &mut dyn FnMut(SocketAddr, u64, &[u8]),
+    ) -> Result<usize, Error> {
         let n = self.socket.recv(timeout)?;
         let now_us = self.now_us();
         for i in 0..n {
             let (from, bytes) = self.socket.datagram(i);
+            tap(from, now_us, bytes);
             self.ingest.datagram(from, bytes, now_us, events);
         }
         let replies = self.ingest.take_replies();

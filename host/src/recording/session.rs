@@ -1,0 +1,199 @@
+//! A run being recorded: the raw channels `skin replay` reads and the
+//! ROS 2 topics, written as the run goes. A failed write (a full disk)
+//! does not stop the robot: the session stops writing, says so once, and
+//! [`Session::finish`] returns the error.
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::time::{SystemTime, UNIX_EPOCH};
+
+use serde::{Deserialize, Serialize};
+use skin_protocol::message::AccelRange;
+use skin_protocol::robot_link::{self, DofKind, FromRobot, ToRobot};
+
+use super::writer::McapWriter;
+use super::{RecordError, COMMAND, EXPLORE_START, INTERFACE, STATE};
+use crate::config::PortConfig;
+use crate::explore::Exploration;
+use crate::interface::Event;
+use crate::ros::msgs::{Datagram, Message, Stamp, StringMsg};
+use crate::ros::skin::{self, SkinTopics};
+
+/// Robot time between two `/skin/cells` clouds (and `/skin/imu` rounds), s: 50 Hz.
+const CLOUD_PERIOD_S: f64 = 0.02;
+
+/// What the exploration started with: enough to run it again from the
+/// recorded datagrams.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ExploreStart {
+    /// DoF names, in command order.
+    pub dof_names: Vec<String>,
+    /// DoF kinds, in command order.
+    pub dof_kinds: Vec<DofKind>,
+    /// The robot's control period, s.
+    pub period_s: f64,
+    /// The accelerometer range the cells were set to, g.
+    pub accel_range_g: u8,
+    /// The interface ports configured.
+    pub ports: Vec<PortConfig>,
+}
+
+impl ExploreStart {
+    /// The accelerometer range, if it is one the cells have.
+    pub fn accel_range(&self) -> Option<AccelRange> {
+        [AccelRange::G2, AccelRange::G8, AccelRange::G16]
+            .into_iter()
+            .find(|r| r.full_scale_g() == f32::from(self.accel_range_g))
+    }
+}
+
+#[cfg(test)]
+impl ExploreStart {
+    /// A one-DoF robot on the default interface ports, for tests.
+    pub(crate) fn one_dof() -> ExploreStart {
+        ExploreStart {
+            dof_names: vec!["j0".into()],
+            dof_kinds: vec![DofKind::Revolute],
+            period_s: 0.004,
+            accel_range_g: 2,
+            ports: crate::config::InterfaceConfig::default().ports,
+        }
+    }
+}
+
+/// A recording in progress.
+#[derive(Debug)]
+pub struct Session {
+    writer: McapWriter,
+    topics: SkinTopics,
+    imu: bool,
+    last_cloud_s: Option<f64>,
+    failed: Option<RecordError>,
+    /// Interface sources and their text.
+    sources: Vec<(SocketAddr, String)>,
+}
+
+fn now_ns() -> u64 {
+    SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64)
+}
+
+impl Session {
+    /// Starts a recording at `path`; accelerations are read in `range`;
+    /// `imu` adds `/skin/imu`.
+    pub fn create(path: &Path, range: AccelRange, imu: bool) -> Result<Session, RecordError> {
+        Ok(Session {
+            writer: McapWriter::create(path)?,
+            topics: SkinTopics::new(range),
+            imu,
+            last_cloud_s: None,
+            failed: None,
+            sources: Vec::new(),
+        })
+    }
+
+    fn put<M: Message>(&mut self, topic: &'static str, time_ns: u64, message: &M) {
+        if self.failed.is_some() {
+            return;
+        }
+        if let Err(e) = self.writer.write(topic, time_ns, message) {
+            tracing::error!("recording stopped: {e}");
+            self.failed = Some(e);
+        }
+    }
+
+    /// One exchange on the robot link: the command sent, the state that
+    /// answered it, and the robot's positions on `/joint_states`.
+    pub fn robot(&mut self, robot: SocketAddr, command: &ToRobot, state: &FromRobot, dof_names: &[String]) {
+        let t = now_ns();
+        let mut buf = [0u8; robot_link::MAX_DATAGRAM];
+        for topic in [COMMAND, STATE] {
+            let bytes = match topic {
+                COMMAND => robot_link::encode(command, &mut buf),
+                _ => robot_link::encode(state, &mut buf),
+            };
+            match bytes {
+                Ok(n) => {
+                    let source = robot.to_string();
+                    self.put(topic, t, &Datagram { stamp: Stamp::from_nanos(t), source: &source, data: &buf[..n] });
+                }
+                Err(e) => tracing::warn!("a robot-link message that does not encode is not recorded: {e}"),
+            }
+        }
+        if let FromRobot::State { positions, .. } = state {
+            self.put(skin::JOINT_STATES, t, &skin::joint_state(Stamp::from_nanos(t), dof_names, positions));
+        }
+    }
+
+    /// One interface datagram as received, at `now_us` of the interface's clock.
+    pub fn datagram(&mut self, from: SocketAddr, now_us: u64, bytes: &[u8]) {
+        // The interface's sources are a handful of ports: their text is kept.
+        let i = match self.sources.iter().position(|(a, _)| *a == from) {
+            Some(i) => i,
+            None => {
+                self.sources.push((from, from.to_string()));
+                self.sources.len() - 1
+            }
+        };
+        let source = std::mem::take(&mut self.sources[i].1);
+        self.put(
+            INTERFACE,
+            now_ns(),
+            &Datagram { stamp: Stamp::from_nanos(now_us * 1000), source: &source, data: bytes },
+        );
+        self.sources[i].1 = source;
+    }
+
+    /// What the skin said in one tick at robot time `robot_s`: contacts at
+    /// once, the cloud (and IMUs) at 50 Hz of robot time.
+    pub fn events(&mut self, events: &[Event], robot_s: f64) {
+        let t = now_ns();
+        let stamp = Stamp::from_nanos(t);
+        self.topics.take(events, stamp);
+        if let Some(markers) = self.topics.take_contacts() {
+            self.put(skin::EVENTS, t, &markers);
+        }
+        if self.last_cloud_s.is_some_and(|last| robot_s - last < CLOUD_PERIOD_S) {
+            return;
+        }
+        self.last_cloud_s = Some(robot_s);
+        let cloud = self.topics.cloud(stamp);
+        self.put(skin::CELLS, t, &cloud);
+        if self.imu {
+            for imu in self.topics.imus(stamp) {
+                self.put(skin::IMU, t, &imu);
+            }
+        }
+    }
+
+    /// The exploration starts: what it needs to be run again.
+    pub fn explore_start(&mut self, start: &ExploreStart) {
+        match serde_json::to_string(start) {
+            Ok(json) => self.put(EXPLORE_START, now_ns(), &StringMsg(json)),
+            Err(e) => tracing::error!("the exploration's start is not recorded: {e}"),
+        }
+    }
+
+    /// The body is explored: the cells' frames and the learned tree.
+    pub fn explored(&mut self, exploration: &Exploration) {
+        let poses = skin::poses_on_parts(exploration);
+        let description = skin::robot_description(exploration, &poses);
+        self.topics.set_poses(poses);
+        let t = now_ns();
+        let tf = self.topics.tf_static(Stamp::from_nanos(t));
+        self.put(skin::TF_STATIC, t, &tf);
+        self.put(skin::ROBOT_DESCRIPTION, t, &description);
+    }
+
+    /// Messages written so far.
+    pub fn written(&self) -> u32 {
+        self.writer.written()
+    }
+
+    /// Closes the file; the first write that failed, if any, is the error.
+    pub fn finish(self) -> Result<PathBuf, RecordError> {
+        match self.failed {
+            Some(e) => Err(e),
+            None => self.writer.finish(),
+        }
+    }
+}

@@ -1,0 +1,36 @@
+//! The Python readers we did not write (rosbags, mcap-ros2-support), as
+//! `cargo xtask install` puts them in a venv under the target directory.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The venv's Python, or `None` (after saying so loudly) when this
+/// machine has no Python at all. A machine with Python but without the
+/// venv fails: the readers are part of the test setup.
+pub fn python() -> Option<PathBuf> {
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../target"));
+    let venv = target.join("pyenv/bin/python");
+    if venv.exists() {
+        return Some(venv);
+    }
+    if Command::new("python3").arg("--version").output().is_err() {
+        eprintln!("\n*** SKIPPED: no python3 on this machine, the ROS 2 file checks by rosbags and mcap-ros2-support did not run ***\n");
+        return None;
+    }
+    panic!(
+        "{} is missing: run `cargo xtask install` (it installs rosbags and mcap-ros2-support there)",
+        venv.display()
+    );
+}
+
+/// Runs `script` (in tests/python) with `args`; its stdout as JSON.
+pub fn run_json(python: &Path, script: &str, args: &[&Path]) -> serde_json::Value {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python").join(script);
+    let out = Command::new(python).arg(&script).args(args).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{} failed: {stderr}", script.display());
+    serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|e| panic!("{} printed no JSON ({e}): {stderr}", script.display()))
+}
