@@ -190,7 +190,7 @@ fn free_port() -> String {
 fn skin_run_drives_the_simulated_robot_served_by_another_process() {
     let (host, robot) = (free_port(), free_port());
     let mut endpoint = skin()
-        .args(["sim-endpoint", "--seed", "4", "--duration", "120", "--host", &host, "--robot", &robot])
+        .args(["sim-endpoint", "--seed", "4", "--duration", "300", "--host", &host, "--robot", &robot])
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
@@ -216,8 +216,11 @@ fn skin_run_drives_the_simulated_robot_served_by_another_process() {
     };
     let dirs = [dir.join("first"), dir.join("again")];
     let recording = dir.join("again.mcap");
+    // The first host also calibrates the skin on the robot's description.
+    let urdf = dir.with_extension("urdf");
+    std::fs::write(&urdf, skin_sim::robot::hrp2::urdf()).unwrap();
     let results = [
-        run(&dirs[0], &[]),
+        run(&dirs[0], &["--urdf".as_ref(), urdf.as_os_str()]),
         run(
             &dirs[1],
             &["--config".as_ref(), config.as_os_str(), "--imu".as_ref(), "--record".as_ref(), recording.as_os_str()],
@@ -233,6 +236,9 @@ fn skin_run_drives_the_simulated_robot_served_by_another_process() {
         check_job(&report, 74);
         assert!(report["truth"].is_null() && report["grasps"].is_null(), "no simulator truth over the wire");
         assert_eq!(report["robot"]["lockstep"], true);
+        if dir == &dirs[0] {
+            check_calibration(dir, &report);
+        }
         if dir == &dirs[1] {
             check_replay(&recording, &report);
             let topics = check_topics(&recording, &["/skin/imu"]);
@@ -241,6 +247,35 @@ fn skin_run_drives_the_simulated_robot_served_by_another_process() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
     std::fs::remove_file(&config).unwrap();
+    std::fs::remove_file(&urdf).unwrap();
+}
+
+/// The skin calibrated over the wire: the chest's 14 cells on the fixed
+/// base without a position, the arms' with one, and the files that say so
+/// readable by the simulator's own skin reader and the URDF reader.
+fn check_calibration(dir: &Path, report: &Value) {
+    let c = &report["calibration"];
+    assert_eq!(c["cells_unobservable"], 14, "{c}");
+    assert!(c["cells_3d"].as_u64().unwrap() >= 50, "{c}");
+    assert_eq!(c["warnings"].as_array().unwrap().len(), 0, "{c}");
+    let files: Vec<&str> = report["figures"].as_array().unwrap().iter().map(|f| f["file"].as_str().unwrap()).collect();
+    assert!(files.contains(&"calibration.svg"), "{files:?}");
+    let robot = skin_sim::robot::hrp2::robot();
+    let skin = skin_sim::skin::Skin::from_file(&robot, &dir.join("skin.toml")).expect("the calibrated skin reads back");
+    assert_eq!(skin.cells().len(), 74);
+    let with_skin = skin_sim::robot::Robot::from_urdf_file(&dir.join("robot_with_skin.urdf")).expect("a URDF");
+    assert!(skin.cells().iter().all(|cell| with_skin.link(&format!("skin_cell_{}", cell.id.0)).is_some()));
+    // ROS's own URDF parser finds a fixed frame per cell, where the skin file puts it.
+    let Some(python) = common::python() else { return };
+    let parsed = common::run_json(&python, "urdf_frames.py", &[&dir.join("robot_with_skin.urdf")]);
+    assert_eq!(parsed["links"].as_u64(), Some(robot.links().len() as u64 + 74), "{parsed}");
+    for cell in skin.cells() {
+        let frame = &parsed["cells"][cell.id.0.to_string()];
+        assert_eq!(frame["parent"], cell.link.as_str());
+        let xyz: Vec<f64> = frame["xyz"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        let t = cell.pose.translation.vector;
+        assert!((t - nalgebra::Vector3::new(xyz[0], xyz[1], xyz[2])).norm() < 1e-5, "cell {}: {frame}", cell.id.0);
+    }
 }
 
 #[test]

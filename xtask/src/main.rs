@@ -232,9 +232,10 @@ fn install() -> Result<(), String> {
     python_readers()
 }
 
-/// The Python readers the ROS 2 tests check our files with (readers we
-/// did not write), pinned, in a venv under the target directory.
-const PYTHON_READERS: [&str; 2] = ["rosbags==0.11.9", "mcap-ros2-support==0.6.0"];
+/// The Python readers the tests check our files with (readers we did not
+/// write: ROS 2 bags, and ROS's own URDF parser), pinned, in a venv under
+/// the target directory.
+const PYTHON_READERS: [&str; 3] = ["rosbags==0.11.9", "mcap-ros2-support==0.6.0", "urdf-parser-py==0.0.4"];
 
 /// Creates the venv `target/pyenv` with [`PYTHON_READERS`]; without
 /// python3 it says that those tests will be skipped.
@@ -249,7 +250,7 @@ fn python_readers() -> Result<(), String> {
     if !Path::new(python).exists() {
         run("python3", &["-m", "venv", venv.to_str().ok_or("the target directory's path is not UTF-8")?])?;
     }
-    if !succeeds(python, &["-c", "import rosbags, mcap_ros2"]) {
+    if !succeeds(python, &["-c", "import rosbags, mcap_ros2, urdf_parser_py"]) {
         let mut args = vec!["-m", "pip", "install", "-q"];
         args.extend(PYTHON_READERS);
         run(python, &args)?;

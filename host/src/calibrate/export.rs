@@ -5,7 +5,9 @@
 
 use std::fmt::Write;
 
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Point3, Vector3};
+use serde::Serialize;
+use skin_sim::robot::kinematics::{self, BodyState, DofMotion};
 use skin_sim::robot::Robot as Model;
 
 use super::{Calibration, CellPose};
@@ -102,4 +104,40 @@ fn toml_string(s: &str) -> String {
 
 fn escape(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;").replace('\'', "&apos;")
+}
+
+/// The calibrated skin on the robot in its start posture, world frame, m:
+/// what the report's three views draw.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Picture {
+    /// Bones from each body's parent origin to its own.
+    pub bones: Vec<([f64; 3], [f64; 3])>,
+    /// Each cell's estimated position and z axis.
+    pub cells: Vec<([f64; 3], [f64; 3])>,
+    /// Each cell's true position, in the order of `cells` (simulation only).
+    pub truth: Vec<[f64; 3]>,
+}
+
+/// The picture of `calibration` on `model` in the posture `q` (description DoF order).
+pub fn picture(model: &Model, calibration: &Calibration, q: &[f64]) -> Picture {
+    let zero = vec![0.0; model.dofs().len()];
+    let mut states = Vec::new();
+    let base = BodyState::at_rest(Isometry3::identity());
+    kinematics::forward(model, &base, DofMotion { q, qd: &zero, qdd: &zero }, &mut states);
+    let origin = |b: usize| states[b].pose.translation.vector.into();
+    let bones = model
+        .bodies()
+        .iter()
+        .enumerate()
+        .filter_map(|(b, body)| Some((origin(model.joints()[body.parent_joint?].parent_body), origin(b))))
+        .collect();
+    let cells = calibration
+        .cells
+        .iter()
+        .map(|p| {
+            let pose = states[p.body].pose;
+            ((pose * Point3::from(p.position)).coords.into(), (pose.rotation * (p.frame * Vector3::z())).into())
+        })
+        .collect();
+    Picture { bones, cells, truth: Vec::new() }
 }

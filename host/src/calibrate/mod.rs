@@ -216,6 +216,8 @@ pub struct Calibration {
     pub cells: Vec<CellPose>,
     /// The still postures (interface DoF order), the start first.
     pub postures: Vec<Vec<f64>>,
+    /// The start posture in the description's DoF order (for pictures of it).
+    pub description_start: Vec<f64>,
     /// DoFs excited for positions.
     pub excited: Vec<String>,
     /// DoFs not excited, and why.
@@ -296,8 +298,13 @@ pub fn calibrate<R: Robot + SampleSource>(
         .map(|((&id, c), noise)| pose_of(model, id, c, noise, cfg))
         .collect();
     let warnings = warnings(&cells);
+    let mut description_start = model.home().to_vec();
+    for (d, &m) in matching.urdf_dof.iter().enumerate() {
+        description_start[m] = start[d];
+    }
     Ok(Calibration {
         cells,
+        description_start,
         postures: stills.into_iter().map(|(q, _)| q).collect(),
         excited: excitations.planned.iter().map(|e| found.dof_names[e.dof].clone()).collect(),
         skipped: excitations.skipped.into_iter().map(|(d, why)| (found.dof_names[d].clone(), why)).collect(),

@@ -10,10 +10,10 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use nalgebra::{Isometry3, Point3, Vector3};
+use nalgebra::{Isometry3, Point3};
 use serde_json::{json, Value};
 use skin_host::calibrate::check::{check, CalibrationTruth};
-use skin_host::calibrate::export::{skin_toml, urdf_with_skin};
+use skin_host::calibrate::export::{picture, skin_toml, urdf_with_skin};
 use skin_host::calibrate::{calibrate, CalibrateConfig, Calibration};
 use skin_host::explore::{explore, ExploreConfig, Progress, StructureConfig};
 use skin_host::report::check_folder;
@@ -236,34 +236,23 @@ fn write_files(
     write("robot_with_skin.urdf", &urdf_with_skin(urdf, model, c)?)?;
     write("calibration.json", &format!("{report:#}"))?;
     // The picture, in the start posture, with the truth beside the estimate.
+    let mut picture = picture(model, c, &c.description_start);
+    let real = world.skin().cells();
     let zero = vec![0.0; model.dofs().len()];
     let mut states = Vec::new();
     let base = BodyState::at_rest(Isometry3::identity());
     kinematics::forward(model, &base, DofMotion { q: model.home(), qd: &zero, qdd: &zero }, &mut states);
-    let origin = |b: usize| states[b].pose.translation.vector.into();
-    let bones: Vec<([f64; 3], [f64; 3])> = model
-        .bodies()
-        .iter()
-        .enumerate()
-        .filter_map(|(b, body)| Some((origin(model.joints()[body.parent_joint?].parent_body), origin(b))))
-        .collect();
-    let cells: Vec<([f64; 3], [f64; 3])> = c
-        .cells
-        .iter()
-        .map(|p| {
-            let pose = states[p.body].pose;
-            ((pose * Point3::from(p.position)).coords.into(), (pose.rotation * (p.frame * Vector3::z())).into())
-        })
-        .collect();
-    let real = world.skin().cells();
     let truth: Vec<[f64; 3]> = c
         .cells
         .iter()
         .filter_map(|p| real.iter().find(|r| r.id == p.id))
         .map(|r| (states[r.body].pose * Point3::from(r.pose.translation.vector)).coords.into())
         .collect();
-    let truth = if truth.len() == cells.len() { truth } else { Vec::new() };
+    if truth.len() == picture.cells.len() {
+        picture.truth = truth;
+    }
     let title = "calibrated skin (blue: estimate and its z axis; red ring: truth)";
-    skin_views(&dir.join("calibration.svg"), &SkinViews { title, bones: &bones, cells: &cells, truth: &truth })?;
+    let views = SkinViews { title, bones: &picture.bones, cells: &picture.cells, truth: &picture.truth };
+    skin_views(&dir.join("calibration.svg"), &views)?;
     Ok(())
 }

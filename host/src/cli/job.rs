@@ -115,6 +115,7 @@ pub fn report(remote: &Remote, source: String, found: Found) -> Report {
         link: LinkSection { retries: link.retries, ignored: link.ignored },
         exploration: ExplorationSection::new(&found.exploration),
         latency: None,
+        calibration: None,
         grasps: None,
         truth: None,
         figures: Vec::new(),

@@ -14,13 +14,16 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
+use skin_host::calibrate::export::{picture, skin_toml, urdf_with_skin};
+use skin_host::calibrate::{calibrate, CalibrateConfig};
 use skin_host::config::{Config, Traffic};
 use skin_host::explore::ExploreConfig;
 use skin_host::interface::Interface;
 use skin_host::pipeline::OrganizeConfig;
 use skin_host::remote::{Remote, RobotLink};
-use skin_host::report::check_folder;
+use skin_host::report::{check_folder, CalibrationSection};
 use skin_protocol::message::AccelRange;
+use skin_sim::robot::Robot;
 
 use super::job::{self, Steps};
 use super::seconds;
@@ -52,6 +55,10 @@ pub struct Args {
     /// Print report.json on stdout instead of the human summary.
     #[arg(long)]
     json: bool,
+    /// The robot's description: after the exploration, calibrate every cell's pose on it and write
+    /// skin.toml and robot_with_skin.urdf (one frame per cell) into the report folder.
+    #[arg(long, value_name = "FILE")]
+    urdf: Option<PathBuf>,
     /// Record the run into this MCAP file: interface datagrams, robot link, ROS 2 topics (`skin replay` reads it).
     #[arg(long, value_name = "FILE.mcap")]
     record: Option<PathBuf>,
@@ -76,6 +83,15 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         return Err(Error::RobotTimeout.into());
     }
     check_folder(&args.out)?;
+    // A description that cannot be used is refused before the robot moves.
+    let description = match &args.urdf {
+        Some(path) => {
+            let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            let model = Robot::from_urdf_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+            Some((text, model))
+        }
+        None => None,
+    };
     let mut config = match &args.config {
         Some(path) => Config::load(path)?,
         None => Config::default(),
@@ -124,7 +140,30 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let found = job::run(&mut remote, &steps);
     let recorded = job::finish_recording(&mut remote)?;
     let found = found?;
+    let calibration = match &description {
+        Some((text, model)) => {
+            let bar = job::bar("{msg:24} [{bar:30}] {pos}/{len} postures and excitations");
+            bar.set_message("skin calibration");
+            let cfg = CalibrateConfig { range, ..CalibrateConfig::default() };
+            let c = calibrate(&mut remote, model, &found.exploration, &cfg, &mut |p| {
+                bar.set_length(p.total as u64);
+                bar.set_position(p.done as u64);
+            })?;
+            bar.finish_and_clear();
+            let mut files = Vec::new();
+            for (file, content) in
+                [("skin.toml", skin_toml(model, &c)), ("robot_with_skin.urdf", urdf_with_skin(text, model, &c)?)]
+            {
+                let path = args.out.join(file);
+                std::fs::write(&path, content).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+                files.push(file.to_owned());
+            }
+            Some(CalibrationSection::new(&c, picture(model, &c, &c.description_start), files))
+        }
+        None => None,
+    };
     let mut report = job::report(&remote, source, found);
+    report.calibration = calibration;
     report.timing.total_wall_s = wall.elapsed().as_secs_f64();
     let written = report.write(&args.out)?;
     let mut text = if args.json { serde_json::to_string_pretty(&report)? } else { job::summary(&report, &written) };

@@ -22,7 +22,32 @@ impl<'a> Renderer<'a> {
         self.draw_smm()?;
         self.draw_topology()?;
         self.draw_latency()?;
+        self.draw_calibration()?;
         self.draw_grasps()
+    }
+
+    fn draw_calibration(&mut self) -> Result<(), ReportError> {
+        let Some(c) = &self.report.calibration else { return Ok(()) };
+        let p = &c.picture;
+        self.figure(
+            "calibration.svg",
+            "The calibrated skin",
+            format!(
+                "Every cell where the calibration puts it on the robot's description, start posture, from the front, the side and above: {} cells in 3D, {} in part, {} unobservable; the stroke is each accelerometer's z axis.",
+                c.cells_3d, c.cells_partial, c.cells_unobservable
+            ),
+            |path| {
+                figures::skin_views(
+                    path,
+                    &figures::SkinViews {
+                        title: "calibrated skin (blue: estimate and its z axis; red ring: truth where known)",
+                        bones: &p.bones,
+                        cells: &p.cells,
+                        truth: &p.truth,
+                    },
+                )
+            },
+        )
     }
 
     fn figure(

@@ -2,6 +2,8 @@
 
 use serde::Serialize;
 
+use crate::calibrate::export::Picture;
+use crate::calibrate::Calibration;
 use crate::explore::Exploration;
 use crate::grasping::{GraspRun, Lesson};
 use crate::interface::InterfaceCounters;
@@ -130,6 +132,48 @@ pub struct GraspSection {
     pub runs: Vec<GraspRun>,
 }
 
+/// The skin calibrated on the robot's description.
+#[derive(Clone, Debug, Serialize)]
+pub struct CalibrationSection {
+    /// Cells with a position along every link axis.
+    pub cells_3d: usize,
+    /// Cells with part of their position (a lone joint axis hides the rest).
+    pub cells_partial: usize,
+    /// Cells with no position claimed.
+    pub cells_unobservable: usize,
+    /// Cells whose accelerometer frame is known.
+    pub frames_known: usize,
+    /// Robot time spent, s.
+    pub robot_time_s: f64,
+    /// The skin's delay behind the joint feedback, per excitation, ms.
+    pub delays_ms: Vec<f64>,
+    /// Cells whose body is in doubt.
+    pub warnings: Vec<String>,
+    /// Files written beside the report: the skin description and the URDF with skin frames.
+    pub files: Vec<String>,
+    /// What the three views draw.
+    pub picture: Picture,
+}
+
+impl CalibrationSection {
+    /// The parts of a calibration the report shows.
+    pub fn new(c: &Calibration, picture: Picture, files: Vec<String>) -> CalibrationSection {
+        let full = c.cells.iter().filter(|p| p.unobservable.is_empty()).count();
+        let none = c.cells.iter().filter(|p| p.unobservable.len() == 3).count();
+        CalibrationSection {
+            cells_3d: full,
+            cells_partial: c.cells.len() - full - none,
+            cells_unobservable: none,
+            frames_known: c.cells.iter().filter(|p| p.orientation_observable).count(),
+            robot_time_s: c.robot_time_s,
+            delays_ms: c.delays_ms.clone(),
+            warnings: c.warnings.clone(),
+            files,
+            picture,
+        }
+    }
+}
+
 /// The host's results checked against what only the simulator knows.
 #[derive(Clone, Debug, Serialize)]
 pub struct TruthSection {
@@ -179,6 +223,8 @@ pub struct Report {
     pub exploration: ExplorationSection,
     /// Network latency (simulated skins only).
     pub latency: Option<LatencySection>,
+    /// The skin calibrated on the robot's description (`skin run --urdf`).
+    pub calibration: Option<CalibrationSection>,
     /// Teaching and grasps (simulation only).
     pub grasps: Option<GraspSection>,
     /// Checks against the simulator's truth (simulation only).
