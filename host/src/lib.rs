@@ -14,6 +14,7 @@
 //! - [`grasping`]: the grasping experiment on an explored robot: teaching by proximity, grasps of Figure 16 objects.
 //! - [`remote`]: a robot and its skin over UDP: the robot link and the interface as one rig.
 //! - [`pipeline`]: the main job's steps: wait for the skin to organize, write the cell settings.
+//! - [`update`]: firmware updates: update keys, signed images.
 //! - [`report`]: the report folder: figures as SVG, `report.json`, `index.html`.
 // Denied, not forbidden: the batched receive of `interface::socket` calls
 // `recvmmsg`/`sendmmsg` and is the one module allowed to.
@@ -30,3 +31,4 @@ pub mod registry;
 pub mod remote;
 pub mod report;
 pub mod robot;
+pub mod update;

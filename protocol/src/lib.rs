@@ -17,6 +17,7 @@
 //!   sends, boot), on that stack or on any uplink.
 //! - [`event`]: Table 3 tactile levels with hysteresis, and send-on-delta.
 //! - [`processing`]: a cell's local filtering, offsets, events and send decision.
+//! - [`image`]: the signed firmware image (header, CRC-32, ed25519 signature).
 //! - [`interface`]: the UDP datagram between an interface port and the host.
 //! - [`robot_link`]: the UDP datagram between the host and a robot (section 3.2).
 #![cfg_attr(not(feature = "std"), no_std)]
@@ -28,6 +29,7 @@ pub mod app;
 pub mod cell;
 pub mod event;
 pub mod frame;
+pub mod image;
 pub mod interface;
 pub mod message;
 pub mod organize;

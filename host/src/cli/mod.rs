@@ -5,10 +5,12 @@ mod demo;
 mod explore;
 mod grasp;
 mod job;
+mod keygen;
 mod loadgen;
 mod monitor;
 mod run;
 mod seconds;
+mod sign;
 mod sim_endpoint;
 
 use std::process::ExitCode;
@@ -41,6 +43,10 @@ enum Command {
     SimEndpoint(sim_endpoint::Args),
     /// Simulate a skin that sends interface datagrams to a host (for measuring and watching without hardware).
     Loadgen(loadgen::Args),
+    /// Make a new firmware update key pair (secret key and FILE.pub).
+    Keygen(keygen::Args),
+    /// Sign a cell program into a firmware image, or check an image (--check).
+    Sign(sign::Args),
 }
 
 /// Runs the subcommand; errors are printed as one line, never a backtrace.
@@ -59,6 +65,8 @@ pub fn main() -> ExitCode {
         Command::Loadgen(args) => loadgen::run(args),
         Command::Run(args) => run::run(args),
         Command::SimEndpoint(args) => sim_endpoint::run(args),
+        Command::Keygen(args) => keygen::run(args),
+        Command::Sign(args) => sign::run(args),
     };
     result.unwrap_or_else(|e| {
         eprintln!("error: {e}");
