@@ -1,42 +1,49 @@
 //! A signed firmware image, as the host builds it and a cell checks it.
 //!
 //! ```text
-//! bytes  0..4    magic "SKFW"
-//! byte   4       format (1)
-//! byte   5       target board (see [`Board`])
-//! bytes  6..8    zero
-//! bytes  8..12   firmware version, little endian
-//! bytes 12..16   body length in bytes, little endian
-//! bytes 16..20   CRC-32/ISO-HDLC of the body, little endian
-//! bytes 20..32   zero
-//! bytes 32..96   ed25519 signature of bytes 0..32 followed by the body
-//! bytes 96..     the body: the program a bootloader starts
+//! bytes   0..4    magic "SKFW"
+//! byte    4       format (1)
+//! byte    5       target board (see [`Board`])
+//! bytes   6..8    zero
+//! bytes   8..12   firmware version, little endian
+//! bytes  12..16   body length in bytes, little endian
+//! bytes  16..48   SHA-256 of the body
+//! bytes  48..64   zero
+//! bytes  64..128  ed25519 signature (RFC 8032) of bytes 0..64
+//! bytes 128..     the body: the program a bootloader starts
 //! ```
 //!
-//! The signature covers the header fields and the body, so neither the
-//! version nor the board can be changed without the key. The CRC is not a
-//! defence but a cheap first check: a transfer or slot error is found
-//! without the signature's cost, and a bootloader can check a slot at every
-//! boot in microseconds. The signature comes before the body so a cell can
-//! start verifying ([`Verifier`]) as soon as it has the header, and hash the
-//! body as it reads it back, chunk by chunk, never holding it in RAM.
+//! The signature covers the header fields, the body through its SHA-256, so
+//! neither version, board nor a byte of the body can change without the
+//! key. Signing the hash rather than the body (as MCUboot does) lets a cell
+//! check the signature as soon as the header arrives, refusing a forged
+//! image before a single chunk is written, and then hash the body as it
+//! reads its slot back ([`Verifier`]), chunk by chunk, never holding it in
+//! RAM.
 
-use ed25519_compact::{PublicKey, Signature};
+use sha2::{Digest, Sha256};
 
 /// The first four bytes of every image.
 pub const MAGIC: [u8; 4] = *b"SKFW";
 /// The header format this crate reads and writes.
 pub const FORMAT: u8 = 1;
-/// Header bytes covered by the signature (with the body).
-pub const SIGNED_LEN: usize = 32;
+/// Header bytes covered by the signature.
+pub const SIGNED_LEN: usize = 64;
 /// Length of an ed25519 signature.
 pub const SIGNATURE_LEN: usize = 64;
 /// Length of the whole header, signature included; the body follows.
 pub const HEADER_LEN: usize = SIGNED_LEN + SIGNATURE_LEN;
 /// Length of an ed25519 public key.
 pub const PUBLIC_KEY_LEN: usize = 32;
-
-static CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+/// Length of the body's SHA-256.
+pub const DIGEST_LEN: usize = 32;
+const DIGEST_AT: usize = 16;
+/// The order L of the ed25519 base point, little endian: a signature's S
+/// must be below it (RFC 8032 section 5.1.7), or it could be forged anew.
+const ORDER: [u8; 32] = [
+    0xed, 0xd3, 0xf5, 0x5c, 0x1a, 0x63, 0x12, 0x58, 0xd6, 0x9c, 0xf7, 0xa2, 0xde, 0xf9, 0xde, 0x14, 0, 0, 0, 0, 0, 0,
+    0, 0, 0, 0, 0, 0, 0, 0, 0, 0x10,
+];
 
 /// The board an image is built for; a cell refuses an image for another.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -108,8 +115,8 @@ pub enum ImageError {
         /// Bytes of body there are.
         found: u32,
     },
-    /// The body's CRC-32 differs from the header's: corrupted or truncated.
-    BadCrc,
+    /// The body's SHA-256 differs from the signed one: corrupted or changed.
+    BadDigest,
     /// The signature does not match the header and body under the key:
     /// not signed by the holder of the key, or changed since.
     BadSignature,
@@ -132,7 +139,7 @@ impl core::fmt::Display for ImageError {
             ImageError::LengthMismatch { expected, found } => {
                 write!(f, "image body is {found} bytes, its header says {expected}")
             }
-            ImageError::BadCrc => f.write_str("image body CRC mismatch (corrupted or truncated)"),
+            ImageError::BadDigest => f.write_str("image body does not match its signed SHA-256 (corrupted or changed)"),
             ImageError::BadSignature => f.write_str("image signature does not verify under the update key"),
             ImageError::BadKey => f.write_str("update key is not a valid ed25519 public key"),
         }
@@ -152,21 +159,23 @@ pub struct ImageHeader {
     pub version: u32,
     /// Length of the body in bytes.
     pub body_len: u32,
-    /// CRC-32/ISO-HDLC of the body.
-    pub body_crc: u32,
-    /// ed25519 signature of the signed fields and the body.
+    /// SHA-256 of the body.
+    pub body_sha256: [u8; DIGEST_LEN],
+    /// ed25519 signature of the signed fields.
     pub signature: [u8; SIGNATURE_LEN],
 }
 
 impl ImageHeader {
-    /// A header for `body`, signature still zero (see [`ImageHeader::signed_fields`]).
+    /// A header for `body`, signature still zero: the signer signs
+    /// [`ImageHeader::signed_fields`] and puts the signature in.
     pub fn unsigned(board: Board, version: u32, body: &[u8]) -> Result<ImageHeader, ImageError> {
         let body_len = u32::try_from(body.len()).map_err(|_| ImageError::TooLong { len: u32::MAX, max: u32::MAX })?;
-        Ok(ImageHeader { board, version, body_len, body_crc: CRC32.checksum(body), signature: [0; SIGNATURE_LEN] })
+        let body_sha256 = Sha256::digest(body).into();
+        Ok(ImageHeader { board, version, body_len, body_sha256, signature: [0; SIGNATURE_LEN] })
     }
 
     /// Checks the first [`HEADER_LEN`] bytes: magic, format, board, zeros.
-    /// The signature is only checked with the body ([`Verifier`]).
+    /// The signature is checked by [`Verifier::new`].
     pub fn parse(bytes: &[u8]) -> Result<ImageHeader, ImageError> {
         let h: &[u8; HEADER_LEN] =
             bytes.get(..HEADER_LEN).and_then(|h| h.try_into().ok()).ok_or(ImageError::TooShort(bytes.len()))?;
@@ -177,16 +186,18 @@ impl ImageHeader {
             return Err(ImageError::UnknownFormat(h[4]));
         }
         let board = Board::from_u8(h[5]).ok_or(ImageError::UnknownBoard(h[5]))?;
-        if h[6..8].iter().chain(&h[20..SIGNED_LEN]).any(|b| *b != 0) {
+        if h[6..8].iter().chain(&h[DIGEST_AT + DIGEST_LEN..SIGNED_LEN]).any(|b| *b != 0) {
             return Err(ImageError::ReservedNotZero);
         }
         let word = |at: usize| u32::from_le_bytes([h[at], h[at + 1], h[at + 2], h[at + 3]]);
+        let mut body_sha256 = [0; DIGEST_LEN];
+        body_sha256.copy_from_slice(&h[DIGEST_AT..DIGEST_AT + DIGEST_LEN]);
         let mut signature = [0; SIGNATURE_LEN];
         signature.copy_from_slice(&h[SIGNED_LEN..]);
-        Ok(ImageHeader { board, version: word(8), body_len: word(12), body_crc: word(16), signature })
+        Ok(ImageHeader { board, version: word(8), body_len: word(12), body_sha256, signature })
     }
 
-    /// The header bytes the signature covers, ahead of the body.
+    /// The header bytes the signature covers.
     pub fn signed_fields(&self) -> [u8; SIGNED_LEN] {
         let mut h = [0; SIGNED_LEN];
         h[..4].copy_from_slice(&MAGIC);
@@ -194,7 +205,7 @@ impl ImageHeader {
         h[5] = self.board as u8;
         h[8..12].copy_from_slice(&self.version.to_le_bytes());
         h[12..16].copy_from_slice(&self.body_len.to_le_bytes());
-        h[16..20].copy_from_slice(&self.body_crc.to_le_bytes());
+        h[DIGEST_AT..DIGEST_AT + DIGEST_LEN].copy_from_slice(&self.body_sha256);
         h
     }
 
@@ -212,24 +223,35 @@ impl ImageHeader {
     }
 }
 
-/// Verifies an image's body as it is read, chunk by chunk: length, CRC,
-/// and the signature under the update key, with one header in RAM.
+/// Checks an ed25519 signature of `message` under `key` (RFC 8032, with
+/// S below the group order).
+pub fn signature_valid(
+    key: &[u8; PUBLIC_KEY_LEN],
+    message: &[u8],
+    signature: &[u8; SIGNATURE_LEN],
+) -> Result<(), ImageError> {
+    let key = salty::PublicKey::try_from(key).map_err(|_| ImageError::BadKey)?;
+    // S is little endian: compare from the most significant byte down.
+    let s = &signature[32..];
+    let below_order = s.iter().rev().zip(ORDER.iter().rev()).find(|(a, b)| a != b).is_some_and(|(a, b)| a < b);
+    if !below_order {
+        return Err(ImageError::BadSignature);
+    }
+    key.verify(message, &salty::Signature::from(signature)).map_err(|_| ImageError::BadSignature)
+}
+
+/// Checks an image's header at once (board, room, signature) and its body
+/// as it is read, chunk by chunk, against the signed SHA-256.
+#[derive(Clone, Debug)]
 pub struct Verifier {
     header: ImageHeader,
-    crc: crc::Digest<'static, u32>,
-    signature: ed25519_compact::VerifyingState,
+    digest: Sha256,
     seen: u32,
 }
 
-impl core::fmt::Debug for Verifier {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.debug_struct("Verifier").field("header", &self.header).field("seen", &self.seen).finish()
-    }
-}
-
 impl Verifier {
-    /// Starts checking an image with this `header` for a cell of `board`
-    /// whose slot holds bodies of up to `max_body` bytes, under `key`.
+    /// Checks `header` for a cell of `board` whose slot holds bodies of up
+    /// to `max_body` bytes, and its signature under `key`.
     pub fn new(
         header: &ImageHeader,
         board: Board,
@@ -242,12 +264,13 @@ impl Verifier {
         if header.body_len > max_body {
             return Err(ImageError::TooLong { len: header.body_len, max: max_body });
         }
-        let key = PublicKey::new(*key);
-        key.validate().map_err(|_| ImageError::BadKey)?;
-        let mut signature =
-            key.verify_incremental(&Signature::new(header.signature)).map_err(|_| ImageError::BadSignature)?;
-        signature.absorb(header.signed_fields());
-        Ok(Verifier { header: *header, crc: CRC32.digest(), signature, seen: 0 })
+        signature_valid(key, &header.signed_fields(), &header.signature)?;
+        Ok(Verifier { header: *header, digest: Sha256::new(), seen: 0 })
+    }
+
+    /// The header being checked.
+    pub fn header(&self) -> &ImageHeader {
+        &self.header
     }
 
     /// Takes the next bytes of the body.
@@ -257,20 +280,18 @@ impl Verifier {
             return Err(ImageError::LengthMismatch { expected: self.header.body_len, found: seen });
         }
         self.seen = seen;
-        self.crc.update(chunk);
-        self.signature.absorb(chunk);
+        self.digest.update(chunk);
         Ok(())
     }
 
-    /// Ends the check: the whole body seen, its CRC right, the signature valid.
+    /// Ends the check: the whole body seen, its SHA-256 the signed one.
     pub fn finish(self) -> Result<ImageHeader, ImageError> {
         if self.seen != self.header.body_len {
             return Err(ImageError::LengthMismatch { expected: self.header.body_len, found: self.seen });
         }
-        if self.crc.finalize() != self.header.body_crc {
-            return Err(ImageError::BadCrc);
+        if <[u8; DIGEST_LEN]>::from(self.digest.finalize()) != self.header.body_sha256 {
+            return Err(ImageError::BadDigest);
         }
-        self.signature.verify().map_err(|_| ImageError::BadSignature)?;
         Ok(self.header)
     }
 }

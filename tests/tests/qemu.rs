@@ -45,6 +45,19 @@ fn the_cycle_cost_program_measures_a_whole_cycle() {
     assert!(out.contains("forwarded 3200 frames, dropped 0"), "{out}");
 }
 
+/// The cell's CPU checks a signed image (RFC 8032's TEST 1 key): the
+/// genuine one passes; a changed bit, a missing byte and a wrong board are
+/// refused.
+#[test]
+#[ignore]
+fn the_cell_cpu_verifies_a_signed_image_and_refuses_altered_ones() {
+    let elf = default_elf_dir().join("examples").join("image-verify");
+    let run = run_alone(&elf, &["-icount", "shift=0"], Duration::from_secs(60)).unwrap_or_else(|e| panic!("{e}"));
+    let out = String::from_utf8_lossy(&run.stdout);
+    assert_eq!(run.status.and_then(|s| s.code()), Some(0), "{out}");
+    assert!(out.contains("verdicts Ok(2) Err(BadDigest)"), "{out}");
+}
+
 #[test]
 #[ignore]
 fn seven_qemu_cells_organize_deliver_and_survive_a_death() {

@@ -41,12 +41,12 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     if args.check {
         let header = signing::check_file(&args.input, args.board, &keys::load_public(&args.key)?)?;
         println!(
-            "{}: valid image, version {} for {}, body {} bytes, CRC-32 {:08x}",
+            "{}: valid image, version {} for {}, body {} bytes, SHA-256 {}",
             args.input.display(),
             header.version,
             header.board.name(),
             header.body_len,
-            header.body_crc
+            header.body_sha256.iter().map(|b| format!("{b:02x}")).collect::<String>()
         );
         return Ok(ExitCode::SUCCESS);
     }

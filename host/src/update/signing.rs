@@ -13,10 +13,7 @@ pub fn sign(body: &[u8], board: Board, version: u32, key: &KeyPair) -> Result<Ve
     let mut header = ImageHeader::unsigned(board, version, body)?;
     // Plain RFC 8032 signing: deterministic, so the same program, version and
     // key always give the same image (reproducible builds).
-    let mut message = Vec::with_capacity(image::SIGNED_LEN + body.len());
-    message.extend_from_slice(&header.signed_fields());
-    message.extend_from_slice(body);
-    header.signature = *key.sk.sign(&message, None);
+    header.signature = *key.sk.sign(header.signed_fields(), None);
     let mut out = Vec::with_capacity(HEADER_LEN + body.len());
     out.extend_from_slice(&header.to_bytes());
     out.extend_from_slice(body);

@@ -1,4 +1,3 @@
-use ed25519_compact::{KeyPair, Seed};
 use proptest::prelude::*;
 
 use super::*;
@@ -41,28 +40,42 @@ const RFC8032: [(&str, &str, &str, &str); 4] = [
     ),
 ];
 
-/// The check a cell runs (a streamed `VerifyingState`, as in [`Verifier`])
-/// on a bare message, so the RFC's messages can be fed to it.
+/// The check a cell runs on a header, here on the RFC's messages.
 fn cell_verifies(key: &[u8; 32], message: &[u8], signature: &[u8; 64]) -> bool {
-    let key = PublicKey::new(*key);
-    key.validate().is_ok()
-        && key.verify_incremental(&Signature::new(*signature)).is_ok_and(|mut state| {
-            // In uneven chunks, as a slot is read back.
-            for chunk in message.chunks(7) {
-                state.absorb(chunk);
-            }
-            state.verify().is_ok()
-        })
+    signature_valid(key, message, signature).is_ok()
+}
+
+/// A key pair from a 32-byte secret seed.
+fn key_pair(seed: [u8; 32]) -> salty::Keypair {
+    salty::Keypair::from(&seed)
+}
+
+fn public(pair: &salty::Keypair) -> [u8; 32] {
+    pair.public.to_bytes()
+}
+
+/// `s + L` for a little-endian scalar below 2^253: the same point, a
+/// different signature; RFC 8032 requires it refused.
+fn plus_order(signature: &[u8; 64]) -> [u8; 64] {
+    let mut out = *signature;
+    let mut carry = 0u16;
+    for i in 0..32 {
+        let sum = u16::from(signature[32 + i]) + u16::from(ORDER[i]) + carry;
+        out[32 + i] = sum as u8;
+        carry = sum >> 8;
+    }
+    out
 }
 
 #[test]
 fn rfc8032_vectors_verify_and_every_changed_bit_is_refused() {
     for (secret, public, message, signature) in RFC8032 {
-        let pair = KeyPair::from_seed(Seed::new(hex(secret)));
+        let pair = key_pair(hex(secret));
         let (public, message, signature): ([u8; 32], _, [u8; 64]) = (hex(public), hex_vec(message), hex(signature));
-        assert_eq!(*pair.pk, public, "public key derived from the RFC's secret");
-        assert_eq!(*pair.sk.sign(&message, None), signature, "signature computed as the RFC's");
+        assert_eq!(pair.public.to_bytes(), public, "public key derived from the RFC's secret");
+        assert_eq!(pair.sign(&message).to_bytes(), signature, "signature computed as the RFC's");
         assert!(cell_verifies(&public, &message, &signature));
+        assert!(!cell_verifies(&public, &message, &plus_order(&signature)), "S + L is refused");
         for bit in 0..signature.len() * 8 {
             let mut bad = signature;
             bad[bit / 8] ^= 1 << (bit % 8);
@@ -79,16 +92,14 @@ fn rfc8032_vectors_verify_and_every_changed_bit_is_refused() {
     }
 }
 
-fn test_key() -> KeyPair {
-    KeyPair::from_seed(Seed::new([7; 32]))
+fn test_key() -> salty::Keypair {
+    key_pair([7; 32])
 }
 
 /// An image signed as the host signs it.
-fn signed(board: Board, version: u32, body: &[u8], pair: &KeyPair) -> Vec<u8> {
+fn signed(board: Board, version: u32, body: &[u8], pair: &salty::Keypair) -> Vec<u8> {
     let mut header = ImageHeader::unsigned(board, version, body).unwrap();
-    let mut message = header.signed_fields().to_vec();
-    message.extend_from_slice(body);
-    header.signature = *pair.sk.sign(&message, None);
+    header.signature = pair.sign(&header.signed_fields()).to_bytes();
     let mut image = header.to_bytes().to_vec();
     image.extend_from_slice(body);
     image
@@ -101,7 +112,7 @@ fn a_signed_image_verifies_and_its_header_round_trips() {
     let pair = test_key();
     let body: Vec<u8> = (0..1000u32).map(|i| (i * 7) as u8).collect();
     let image = signed(Board::Mps2An386, 42, &body, &pair);
-    let header = verify(&image, Board::Mps2An386, MAX, &pair.pk).unwrap();
+    let header = verify(&image, Board::Mps2An386, MAX, &public(&pair)).unwrap();
     assert_eq!((header.version, header.body_len), (42, 1000));
     assert_eq!(ImageHeader::parse(&header.to_bytes()), Ok(header));
 }
@@ -113,38 +124,39 @@ fn refusals_are_typed() {
     let image = signed(Board::Mps2An386, 3, &body, &pair);
     let board = Board::Mps2An386;
     assert_eq!(
-        verify(&image, Board::Stm32f405, MAX, &pair.pk),
+        verify(&image, Board::Stm32f405, MAX, &public(&pair)),
         Err(ImageError::WrongBoard { expected: Board::Stm32f405, found: board })
     );
-    assert_eq!(verify(&image, board, 299, &pair.pk), Err(ImageError::TooLong { len: 300, max: 299 }));
+    assert_eq!(verify(&image, board, 299, &public(&pair)), Err(ImageError::TooLong { len: 300, max: 299 }));
     assert_eq!(
-        verify(&image[..image.len() - 1], board, MAX, &pair.pk),
+        verify(&image[..image.len() - 1], board, MAX, &public(&pair)),
         Err(ImageError::LengthMismatch { expected: 300, found: 299 })
     );
-    assert_eq!(verify(&image[..50], board, MAX, &pair.pk), Err(ImageError::TooShort(50)));
-    let other = KeyPair::from_seed(Seed::new([8; 32]));
-    assert_eq!(verify(&image, board, MAX, &other.pk), Err(ImageError::BadSignature));
+    assert_eq!(verify(&image[..50], board, MAX, &public(&pair)), Err(ImageError::TooShort(50)));
+    let other = key_pair([8; 32]);
+    assert_eq!(verify(&image, board, MAX, &public(&other)), Err(ImageError::BadSignature));
     let mut corrupt = image.clone();
     corrupt[HEADER_LEN + 10] ^= 0x40;
-    assert_eq!(verify(&corrupt, board, MAX, &pair.pk), Err(ImageError::BadCrc));
-    // A body changed with its CRC fixed up still fails: the CRC is no defence.
+    assert_eq!(verify(&corrupt, board, MAX, &public(&pair)), Err(ImageError::BadDigest));
+    // A body changed with its digest fixed up fails on the signature.
     let mut forged = corrupt.clone();
-    forged[16..20].copy_from_slice(&CRC32.checksum(&corrupt[HEADER_LEN..]).to_le_bytes());
-    assert_eq!(verify(&forged, board, MAX, &pair.pk), Err(ImageError::BadSignature));
+    let digest: [u8; 32] = Sha256::digest(&corrupt[HEADER_LEN..]).into();
+    forged[16..48].copy_from_slice(&digest);
+    assert_eq!(verify(&forged, board, MAX, &public(&pair)), Err(ImageError::BadSignature));
     // So does a version raised without the key.
     let mut newer = image.clone();
     newer[8] = 4;
-    assert_eq!(verify(&newer, board, MAX, &pair.pk), Err(ImageError::BadSignature));
+    assert_eq!(verify(&newer, board, MAX, &public(&pair)), Err(ImageError::BadSignature));
     let mut reserved = image.clone();
-    reserved[25] = 1;
-    assert_eq!(verify(&reserved, board, MAX, &pair.pk), Err(ImageError::ReservedNotZero));
+    reserved[50] = 1;
+    assert_eq!(verify(&reserved, board, MAX, &public(&pair)), Err(ImageError::ReservedNotZero));
     let mut unknown = image.clone();
     unknown[5] = 9;
-    assert_eq!(verify(&unknown, board, MAX, &pair.pk), Err(ImageError::UnknownBoard(9)));
+    assert_eq!(verify(&unknown, board, MAX, &public(&pair)), Err(ImageError::UnknownBoard(9)));
     let mut format = image.clone();
     format[4] = 2;
-    assert_eq!(verify(&format, board, MAX, &pair.pk), Err(ImageError::UnknownFormat(2)));
-    assert_eq!(verify(&image[1..], board, MAX, &pair.pk), Err(ImageError::BadMagic));
+    assert_eq!(verify(&format, board, MAX, &public(&pair)), Err(ImageError::UnknownFormat(2)));
+    assert_eq!(verify(&image[1..], board, MAX, &public(&pair)), Err(ImageError::BadMagic));
 }
 
 #[test]
@@ -152,7 +164,7 @@ fn a_verifier_refuses_more_body_than_the_header_says() {
     let pair = test_key();
     let image = signed(Board::Stm32f405, 1, &[5; 10], &pair);
     let header = ImageHeader::parse(&image).unwrap();
-    let mut v = Verifier::new(&header, Board::Stm32f405, MAX, &pair.pk).unwrap();
+    let mut v = Verifier::new(&header, Board::Stm32f405, MAX, &public(&pair)).unwrap();
     v.absorb(&[5; 6]).unwrap();
     assert_eq!(v.absorb(&[5; 5]), Err(ImageError::LengthMismatch { expected: 10, found: 11 }));
     v.absorb(&[5; 4]).unwrap();
@@ -182,7 +194,7 @@ proptest! {
             prop_assert_eq!(&h.to_bytes()[..], &bytes[..HEADER_LEN]);
         }
         let key = test_key();
-        prop_assert!(verify(&bytes, Board::Mps2An386, MAX, &key.pk).is_err());
+        prop_assert!(verify(&bytes, Board::Mps2An386, MAX, &public(&key)).is_err());
     }
 
     #[test]
@@ -196,7 +208,7 @@ proptest! {
         image[12..16].copy_from_slice(&len.to_le_bytes());
         let at = flip.0 % image.len();
         image[at] ^= flip.1;
-        let result = verify(&image, Board::Mps2An386, MAX, &key.pk);
+        let result = verify(&image, Board::Mps2An386, MAX, &public(&key));
         // Only the untouched image of the stated length can pass.
         prop_assert_eq!(result.is_ok(), flip.1 == 0 && len as usize == body.len());
     }
@@ -206,7 +218,7 @@ proptest! {
         let key = test_key();
         let image = signed(Board::Mps2An386, 1, &body, &key);
         let header = ImageHeader::parse(&image).unwrap();
-        let mut v = Verifier::new(&header, Board::Mps2An386, MAX, &key.pk).unwrap();
+        let mut v = Verifier::new(&header, Board::Mps2An386, MAX, &public(&key)).unwrap();
         for chunk in image[HEADER_LEN..].chunks(step) {
             v.absorb(chunk).unwrap();
         }
