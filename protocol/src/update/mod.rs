@@ -1,4 +1,5 @@
-//! Firmware update over the skin network, the cell's side: an image
+//! Firmware update over the skin network. The host's side is the
+//! [`Distributor`] (with `std`); the cell's side is the [`Updater`]: an image
 //! offered by the host arrives in chunks, broadcast down every tree, into
 //! the cell's spare [`Slot`]; the cell checks the header's signature as soon
 //! as the header is in (a forged image is refused before its body is
@@ -14,10 +15,14 @@
 //! [`QUIET_US`].
 
 mod bitmap;
+#[cfg(feature = "std")]
+pub mod distributor;
 mod updater;
 
 pub use bitmap::Bitmap;
-pub use updater::{BootAction, BootState, Updater, QUIET_US};
+#[cfg(feature = "std")]
+pub use distributor::{Distributor, Outcome};
+pub use updater::{BootAction, BootState, Updater, QUIET_US, TRIAL_REPORT_US};
 
 use crate::app::StoreFailed;
 

@@ -153,10 +153,13 @@ fn the_running_version_is_not_taken_again_and_a_trial_confirms() {
     let mut trial = Updater::new(Board::Mps2An386, key_pair(1).public.to_bytes(), 2, BootState::Trial);
     let (_, action) = trial.command(&UpdateCommand { version: 2, action: UpdateAction::Rollback }, 0);
     assert_eq!(action, Some(BootAction::Rollback));
-    let back = Updater::new(Board::Mps2An386, key_pair(1).public.to_bytes(), 1, BootState::RolledBack);
+    let mut back = Updater::new(Board::Mps2An386, key_pair(1).public.to_bytes(), 1, BootState::RolledBack { from: 2 });
+    let rolled_back = UpdateReport { version: 1, state: UpdateState::RolledBack, first_missing: 0, missing: 0 };
+    assert_eq!(back.report(), rolled_back);
     assert_eq!(
-        back.report(),
-        UpdateReport { version: 1, state: UpdateState::RolledBack, first_missing: 0, missing: 0 }
+        back.offer(offer_of(2, &chunks), &mut slot, 0),
+        Some(rolled_back),
+        "the failed version is not taken again"
     );
 }
 

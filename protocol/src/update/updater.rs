@@ -10,6 +10,8 @@ use crate::message::{
 /// Quiet time after the last chunk before a receiving cell reports what it
 /// misses, and the least time between two of its reports.
 pub const QUIET_US: u64 = 50_000;
+/// How often a cell on trial reports until the host confirms it.
+pub const TRIAL_REPORT_US: u64 = 200_000;
 /// Chunks a cell can take: a 64 KiB image and its header.
 const WORDS: usize = (64 * 1024 + HEADER_LEN).div_ceil(CHUNK_LEN).div_ceil(32);
 /// Chunks of the header.
@@ -25,8 +27,12 @@ pub enum BootState {
     Confirmed,
     /// A new image on trial: unless confirmed, the next boot goes back.
     Trial,
-    /// The old image again, after a trial that was not confirmed.
-    RolledBack,
+    /// The old image again, after a trial of version `from` that was not
+    /// confirmed: that version is not taken again.
+    RolledBack {
+        /// The version that failed its trial.
+        from: u32,
+    },
 }
 
 /// What the board (and its bootloader) must do for the updater.
@@ -104,7 +110,7 @@ impl Updater {
                 let state = match self.boot {
                     BootState::Confirmed => UpdateState::Running,
                     BootState::Trial => UpdateState::Trial,
-                    BootState::RolledBack => UpdateState::RolledBack,
+                    BootState::RolledBack { .. } => UpdateState::RolledBack,
                 };
                 (self.running, state, 0, 0)
             }
@@ -120,7 +126,8 @@ impl Updater {
     /// An offer: a new version clears the slot for it; every offer is answered.
     pub fn offer(&mut self, offer: UpdateOffer, slot: &mut impl Slot, now_us: u64) -> Option<UpdateReport> {
         let current = self.offer.is_some_and(|(o, _)| o == offer);
-        if offer.version != self.running && !current {
+        let failed = self.boot == BootState::RolledBack { from: offer.version };
+        if offer.version != self.running && !current && !failed {
             let progress = if usize::from(offer.chunks) * CHUNK_LEN > slot.capacity() as usize
                 || usize::from(offer.chunks) < usize::from(HEADER_CHUNKS)
             {
@@ -196,12 +203,17 @@ impl Updater {
     }
 
     /// Lets time pass: a receiving cell that heard no chunk for
-    /// [`QUIET_US`] reports the first run it misses.
+    /// [`QUIET_US`] reports the first run it misses; a cell on trial
+    /// reports every [`TRIAL_REPORT_US`] until it is confirmed.
     pub fn poll(&mut self, now_us: u64) -> Option<UpdateReport> {
-        let Some((_, Progress::Receiving)) = self.offer else { return None };
-        let quiet = now_us.saturating_sub(self.last_chunk_us) >= QUIET_US;
-        let due = self.last_report_us.is_none_or(|t| now_us.saturating_sub(t) >= QUIET_US);
-        if quiet && due {
+        let since = |t: Option<u64>, period: u64| t.is_none_or(|t| now_us.saturating_sub(t) >= period);
+        let due = match self.offer {
+            Some((_, Progress::Receiving)) => {
+                now_us.saturating_sub(self.last_chunk_us) >= QUIET_US && since(self.last_report_us, QUIET_US)
+            }
+            _ => self.boot == BootState::Trial && since(self.last_report_us, TRIAL_REPORT_US),
+        };
+        if due {
             self.reported(now_us)
         } else {
             None
