@@ -1,7 +1,7 @@
 //! The host's side of an update, as a pure state machine: it offers the
 //! image, broadcasts every chunk once, resends to each cell the runs that
-//! cell reports missing (selective repeat), tells ready cells to boot the
-//! image on trial and confirms each one heard running it, and keeps every
+//! cell reports missing (selective repeat), tells the ready cells to boot
+//! the image on trial once none is still receiving and confirms each one heard running it, and keeps every
 //! cell's outcome for the result table. Time in, frames out: the caller
 //! sends what [`Distributor::next`] gives as fast as its links take it.
 
@@ -192,9 +192,10 @@ impl Distributor {
             self.last_offer_us = Some(now_us);
             return Some((Address::BROADCAST, Message::UpdateOffer(self.offer())));
         }
-        let ready =
-            self.cells.values().any(|r| r.is_some_and(|r| r.version == self.version && r.state == UpdateState::Ready));
-        if ready && Self::due(self.last_boot_us, now_us) {
+        // Boot once no cell is still receiving: a cell that restarts
+        // cuts its subtree off the image for a while.
+        let any = |s| self.cells.values().any(|r| r.is_some_and(|r| r.version == self.version && r.state == s));
+        if any(UpdateState::Ready) && !any(UpdateState::Receiving) && Self::due(self.last_boot_us, now_us) {
             self.last_boot_us = Some(now_us);
             return Some((Address::BROADCAST, command(UpdateAction::Boot)));
         }
