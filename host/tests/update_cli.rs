@@ -173,3 +173,56 @@ fn openssl_reads_our_keys_verifies_our_signature_and_signs_the_same_bytes() {
     ok(&["sign", "--check", s(&out), "--key", s(&their_pub)]);
     fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Starts `skin sim-endpoint` (real time, cells that trust `public`) with
+/// the host side at `host`; returns the child once it announced itself.
+fn endpoint(public: &Path, host: &str, seconds: &str) -> std::process::Child {
+    use std::io::BufRead;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(["sim-endpoint", "--pace", "realtime", "--robot", "127.0.0.1:0", "--host", host, "--duration", seconds])
+        .args(["--update-key", s(public)])
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .expect("the skin binary runs");
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    assert!(line.starts_with("serving"), "{line}");
+    child
+}
+
+/// `skin flash` against the simulated HRP-2 skin served on UDP in real
+/// time: every cell updated; a forged image refused by every cell, exit 1.
+/// Ignored: about 15 s of wall time, and it needs the release build's speed
+/// (`cargo test --release -p skin-host --test update_cli -- --ignored`).
+#[test]
+#[ignore]
+fn skin_flash_updates_the_simulated_skin_and_a_forged_image_is_refused_everywhere() {
+    let dir = scratch("flash");
+    let (key, other) = (dir.join("update.key"), dir.join("other.key"));
+    let program = dir.join("cell.bin");
+    fs::write(&program, (0..37_364u32).map(|i| (i * 7 % 253) as u8).collect::<Vec<_>>()).unwrap();
+    ok(&["keygen", "--out", s(&key)]);
+    ok(&["keygen", "--out", s(&other)]);
+    let (good, forged) = (dir.join("good.skfw"), dir.join("forged.skfw"));
+    ok(&["sign", s(&program), "--key", s(&key), "--version", "2", "--out", s(&good)]);
+    ok(&["sign", s(&program), "--key", s(&other), "--version", "2", "--out", s(&forged)]);
+    let public = dir.join("update.key.pub");
+    for (image, exit, summary) in
+        [(&good, 0, "74 cells: 74 updated"), (&forged, 1, "74 cells: 74 refused: bad signature")]
+    {
+        let host = free_addr();
+        let mut served = endpoint(&public, &host, "40");
+        let out = skin(&["flash", "--image", s(image), "--interface", &host, "--cells", "74", "--timeout", "30"]);
+        let _ = served.kill();
+        let _ = served.wait();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(out.status.code(), Some(exit), "{text}{}", String::from_utf8_lossy(&out.stderr));
+        assert!(text.lines().last().is_some_and(|l| l.starts_with(summary)), "{text}");
+    }
+    fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A loopback address nobody listens on yet.
+fn free_addr() -> String {
+    std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string()
+}

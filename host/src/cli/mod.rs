@@ -3,6 +3,7 @@
 mod config;
 mod demo;
 mod explore;
+mod flash;
 mod grasp;
 mod job;
 mod keygen;
@@ -47,6 +48,8 @@ enum Command {
     Keygen(keygen::Args),
     /// Sign a cell program into a firmware image, or check an image (--check).
     Sign(sign::Args),
+    /// Update every cell of the skin to a signed image through the interface ports.
+    Flash(flash::Args),
 }
 
 /// Runs the subcommand; errors are printed as one line, never a backtrace.
@@ -67,6 +70,7 @@ pub fn main() -> ExitCode {
         Command::SimEndpoint(args) => sim_endpoint::run(args),
         Command::Keygen(args) => keygen::run(args),
         Command::Sign(args) => sign::run(args),
+        Command::Flash(args) => flash::run(args),
     };
     result.unwrap_or_else(|e| {
         eprintln!("error: {e}");

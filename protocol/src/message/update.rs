@@ -78,7 +78,8 @@ pub struct UpdateReport {
     pub state: UpdateState,
     /// While receiving: the first chunk missing (selective repeat asks for it).
     pub first_missing: u16,
-    /// While receiving: how many chunks from `first_missing` on are missing in a row.
+    /// While receiving: the span from `first_missing` to the last chunk
+    /// missing within a repair window of it; the host resends the span.
     pub missing: u16,
 }
 

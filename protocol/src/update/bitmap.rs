@@ -43,16 +43,20 @@ impl<const WORDS: usize> Bitmap<WORDS> {
         true
     }
 
-    /// The first run of missing indices at or after `from`: `(start, count)`.
-    pub fn first_missing(&self, from: u16) -> Option<(u16, u16)> {
+    /// The first missing index at or after `from`, and the span from it
+    /// to the last missing index within `window` indices of it:
+    /// `(start, span)`. Resending the span fills every gap in it, however
+    /// scattered, for the price of the ones already there.
+    pub fn first_missing(&self, from: u16, window: u16) -> Option<(u16, u16)> {
         let start = (from..self.len).find(|i| !self.has(*i))?;
-        let end = (start..self.len).find(|i| self.has(*i)).unwrap_or(self.len);
-        Some((start, end - start))
+        let end = start.saturating_add(window).min(self.len);
+        let last = (start..end).rev().find(|i| !self.has(*i)).unwrap_or(start);
+        Some((start, last - start + 1))
     }
 
     /// True when every index below `len` is in.
     pub fn is_full(&self) -> bool {
-        self.first_missing(0).is_none()
+        self.first_missing(0, 1).is_none()
     }
 
     /// How many indices are in.

@@ -7,6 +7,7 @@
 
 use std::collections::{BTreeMap, VecDeque};
 
+use super::REPAIR_WINDOW;
 use crate::address::Address;
 use crate::image::{ImageError, ImageHeader};
 use crate::message::{
@@ -16,8 +17,6 @@ use crate::message::{
 /// How often the offer, and the boot command to ready cells, are repeated:
 /// a cell that was off, or lost a command, catches up within this.
 pub const REPEAT_US: u64 = 500_000;
-/// Most chunks resent for one report; the cell reports the rest later.
-const REPAIR_RUN: u16 = 64;
 
 /// What became of the update on one cell.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -124,7 +123,7 @@ impl Distributor {
         match report.state {
             UpdateState::Receiving if report.version == self.version => {
                 // Only what the broadcast pass has already sent is missed.
-                let end = report.first_missing.saturating_add(report.missing.min(REPAIR_RUN));
+                let end = report.first_missing.saturating_add(report.missing.min(REPAIR_WINDOW));
                 for i in report.first_missing..end.min(self.next_chunk as u16) {
                     if !self.repairs.contains(&(from, i)) {
                         self.repairs.push_back((from, i));

@@ -22,7 +22,7 @@ mod updater;
 pub use bitmap::Bitmap;
 #[cfg(feature = "std")]
 pub use distributor::{Distributor, Outcome};
-pub use updater::{BootAction, BootState, Updater, QUIET_US, TRIAL_REPORT_US};
+pub use updater::{BootAction, BootState, Updater, QUIET_US, REPAIR_WINDOW, TRIAL_REPORT_US};
 
 use crate::app::StoreFailed;
 

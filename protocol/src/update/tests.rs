@@ -54,7 +54,7 @@ fn an_image_in_order_becomes_ready_then_boots_on_trial() {
     let first = u.offer(offer_of(2, &chunks), &mut slot, 0).unwrap();
     assert_eq!(
         first,
-        UpdateReport { version: 2, state: UpdateState::Receiving, first_missing: 0, missing: chunks.len() as u16 }
+        UpdateReport { version: 2, state: UpdateState::Receiving, first_missing: 0, missing: REPAIR_WINDOW }
     );
     let mut reports = Vec::new();
     for (t, c) in chunks.iter().enumerate() {
@@ -78,7 +78,8 @@ fn a_cell_asks_for_the_runs_it_missed_and_only_after_a_quiet_time() {
     }
     assert_eq!(u.poll(1_000 + QUIET_US - 1), None, "not quiet long enough");
     let nack = u.poll(1_000 + QUIET_US).unwrap();
-    assert_eq!((nack.state, nack.first_missing, nack.missing), (UpdateState::Receiving, 20, 5));
+    // The span from the first gap to the last within the window: 20..=40.
+    assert_eq!((nack.state, nack.first_missing, nack.missing), (UpdateState::Receiving, 20, 21));
     assert_eq!(u.poll(1_000 + QUIET_US + 1), None, "one report per quiet time");
     for c in &chunks[20..25] {
         u.chunk(c, &mut slot, 200_000);

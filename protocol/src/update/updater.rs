@@ -9,7 +9,9 @@ use crate::message::{
 
 /// Quiet time after the last chunk before a receiving cell reports what it
 /// misses, and the least time between two of its reports.
-pub const QUIET_US: u64 = 50_000;
+pub const QUIET_US: u64 = 20_000;
+/// Chunks a report's missing span covers at most: what the host resends for it.
+pub const REPAIR_WINDOW: u16 = 64;
 /// How often a cell on trial reports until the host confirms it.
 pub const TRIAL_REPORT_US: u64 = 200_000;
 /// Chunks a cell can take: a 64 KiB image and its header.
@@ -100,7 +102,7 @@ impl Updater {
         let (version, state, first_missing, missing) = match self.offer {
             Some((offer, progress)) if offer.version != self.running => match progress {
                 Progress::Receiving => {
-                    let (first, count) = self.have.first_missing(0).unwrap_or((offer.chunks, 0));
+                    let (first, count) = self.have.first_missing(0, REPAIR_WINDOW).unwrap_or((offer.chunks, 0));
                     (offer.version, UpdateState::Receiving, first, count)
                 }
                 Progress::Ready => (offer.version, UpdateState::Ready, 0, 0),
