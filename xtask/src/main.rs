@@ -94,7 +94,7 @@ fn main() -> ExitCode {
             eprintln!(
                 "usage: cargo xtask <command>\n\n  \
                  ci                   install what is missing, then run every CI check\n  \
-                 install              only install what is missing (rustup target and components, qemu-system-arm)\n  \
+                 install              only install what is missing (rustup target and components, qemu-system-arm, openssl)\n  \
                  firmware             build the cell firmware for both boards and check its size\n  \
                  qemu-net --cells N   run a hexagonal patch of N QEMU cells (more flags: --json, --keep)\n  \
                  image --key KEY --version V [--board qemu|stm32f4] [--out FILE]\n                       \
@@ -226,13 +226,22 @@ fn install() -> Result<(), String> {
             run("rustup", &["component", "add", component])?;
         }
     }
-    if !succeeds("qemu-system-arm", &["--version"]) {
+    // QEMU runs the firmware tests; OpenSSL checks our update keys and
+    // signatures as a reader we did not write (`update_cli`).
+    let missing: Vec<&str> = [("qemu-system-arm", "qemu-system-arm"), ("openssl", "openssl")]
+        .into_iter()
+        .filter(|(program, _)| !succeeds(program, &["version"]) && !succeeds(program, &["--version"]))
+        .map(|(_, package)| package)
+        .collect();
+    if !missing.is_empty() {
         let root = output("id", &["-u"]).is_some_and(|u| u.trim() == "0");
         if !root {
-            return Err("qemu-system-arm is missing: run `sudo apt-get install -y qemu-system-arm`".into());
+            return Err(format!("missing: run `sudo apt-get install -y {}`", missing.join(" ")));
         }
         run("apt-get", &["update", "-q"])?;
-        run("apt-get", &["install", "-y", "-q", "qemu-system-arm"])?;
+        let mut args = vec!["install", "-y", "-q"];
+        args.extend(&missing);
+        run("apt-get", &args)?;
     }
     Ok(())
 }

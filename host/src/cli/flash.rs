@@ -118,7 +118,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     while started.elapsed() < timeout && !distributor.finished() {
         let now_us = started.elapsed().as_micros() as u64;
         // The rate per millisecond, for the time since the last send.
-        let budget = (last_send.elapsed().as_micros() as usize * args.rate / 1000).max(1).min(72);
+        let budget = (last_send.elapsed().as_micros() as usize * args.rate / 1000).clamp(1, 72);
         last_send = Instant::now();
         let mut batch: Vec<(Address, skin_protocol::message::Message)> = Vec::new();
         while batch.len() < budget {
@@ -138,7 +138,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         }
         let outcomes: Vec<(Address, Outcome)> = distributor.outcomes().collect();
         for (k, bar) in &port_bars {
-            let done = outcomes.iter().filter(|(a, o)| cells.get(a) == Some(k) && (o.is_final())).count();
+            let done = outcomes.iter().filter(|(a, o)| cells.get(a) == Some(k) && o.is_final()).count();
             bar.set_position(done as u64);
             bar.set_message(format!(
                 "({} of {} chunks broadcast)",
