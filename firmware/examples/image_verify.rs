@@ -10,9 +10,8 @@
 #![no_std]
 #![no_main]
 
-use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::entry;
-use skin_firmware::boards::qemu::exit;
+use skin_firmware::boards::qemu::{exit, Ticks, INSTRUCTIONS_PER_TICK};
 use skin_protocol::image::{Board, ImageError, ImageHeader, Verifier, HEADER_LEN};
 
 static IMAGE: &[u8] = include_bytes!("data/rfc8032-test1.skfw");
@@ -21,7 +20,6 @@ const KEY: [u8; 32] = [
     0xd7, 0x5a, 0x98, 0x01, 0x82, 0xb1, 0x0a, 0xb7, 0xd5, 0x4b, 0xfe, 0xd3, 0xc9, 0x64, 0x07, 0x3a, 0x0e, 0xe1, 0x72,
     0xf3, 0xda, 0xa6, 0x23, 0x25, 0xaf, 0x02, 0x1a, 0x68, 0xf7, 0x07, 0x51, 0x1a,
 ];
-const INSTRUCTIONS_PER_TICK: u32 = 40;
 
 /// Verifies the image's body as `pieces` give it, for a cell of `board`.
 fn check<'a>(board: Board, pieces: impl IntoIterator<Item = &'a [u8]>) -> Result<ImageHeader, ImageError> {
@@ -36,18 +34,10 @@ fn check<'a>(board: Board, pieces: impl IntoIterator<Item = &'a [u8]>) -> Result
 #[entry]
 fn main() -> ! {
     let Some(mut core) = cortex_m::Peripherals::take() else { exit(2) };
-    core.SYST.set_clock_source(SystClkSource::Core);
-    core.SYST.set_reload(0x00FF_FFFF);
-    core.SYST.clear_current();
-    core.SYST.enable_counter();
+    let ticks = Ticks::start(&mut core.SYST);
     let body = &IMAGE[HEADER_LEN..];
-
-    // SAFETY: read-only access to the SysTick counter.
-    let start = unsafe { (*SYST::PTR).cvr.read() };
-    let genuine = check(Board::Mps2An386, body.chunks(256));
-    // SAFETY: as above.
-    let end = unsafe { (*SYST::PTR).cvr.read() };
-    let instructions = (start.wrapping_sub(end) & 0x00FF_FFFF) * INSTRUCTIONS_PER_TICK;
+    let (genuine, took) = ticks.count(|| check(Board::Mps2An386, body.chunks(256)));
+    let instructions = took * INSTRUCTIONS_PER_TICK;
 
     let flipped = [body[100] ^ 0x08];
     let changed = check(Board::Mps2An386, [&body[..100], &flipped[..], &body[101..]]);

@@ -296,6 +296,18 @@ impl Verifier {
     }
 }
 
+/// The image of `body` for `board` at `version`, signed with the ed25519
+/// secret key `seed` (RFC 8032: deterministic, so the same program, version
+/// and key always give the same image).
+#[cfg(feature = "std")]
+pub fn sign(body: &[u8], board: Board, version: u32, seed: &[u8; 32]) -> Result<std::vec::Vec<u8>, ImageError> {
+    let mut header = ImageHeader::unsigned(board, version, body)?;
+    header.signature = salty::Keypair::from(seed).sign(&header.signed_fields()).to_bytes();
+    let mut image = header.to_bytes().to_vec();
+    image.extend_from_slice(body);
+    Ok(image)
+}
+
 /// Checks a whole image in memory (the host's and the tests' way; a cell
 /// streams its slot through a [`Verifier`]).
 pub fn verify(

@@ -6,7 +6,7 @@
 
 use proptest::prelude::*;
 use skin_protocol::address::Address;
-use skin_protocol::image::{Board, ImageError, ImageHeader};
+use skin_protocol::image::{self, Board, ImageError};
 use skin_protocol::message::{Message, Refusal, UpdateReport};
 use skin_protocol::update::{BootAction, BootState, Distributor, MemorySlot, Outcome, Updater};
 
@@ -22,11 +22,7 @@ fn key(seed: u8) -> salty::Keypair {
 
 fn image(board: Board, version: u32, len: usize, seed: u8) -> Vec<u8> {
     let body: Vec<u8> = (0..len).map(|i| (i * 13 + 1) as u8).collect();
-    let mut header = ImageHeader::unsigned(board, version, &body).unwrap();
-    header.signature = key(seed).sign(&header.signed_fields()).to_bytes();
-    let mut bytes = header.to_bytes().to_vec();
-    bytes.extend_from_slice(&body);
-    bytes
+    image::sign(&body, board, version, &[seed; 32]).unwrap()
 }
 
 struct SimCell {

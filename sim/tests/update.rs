@@ -6,7 +6,7 @@
 //! `cargo test --release -p skin-sim --test update -- --nocapture` prints
 //! the figures of the README.
 
-use skin_protocol::image::{Board, ImageHeader};
+use skin_protocol::image::{self, Board};
 use skin_protocol::message::{Refusal, TrafficMode};
 use skin_protocol::update::Outcome;
 use skin_sim::network::host::Host;
@@ -20,11 +20,7 @@ fn key(seed: u8) -> salty::Keypair {
 /// A signed image of `len` body bytes, the size of the cell firmware.
 fn image(board: Board, version: u32, len: usize, seed: u8) -> Vec<u8> {
     let body: Vec<u8> = (0..len).map(|i| (i * 131 + 17) as u8).collect();
-    let mut header = ImageHeader::unsigned(board, version, &body).unwrap();
-    header.signature = key(seed).sign(&header.signed_fields()).to_bytes();
-    let mut bytes = header.to_bytes().to_vec();
-    bytes.extend_from_slice(&body);
-    bytes
+    image::sign(&body, board, version, &[seed; 32]).unwrap()
 }
 
 fn hrp2_update(image: &[u8], per_ms: usize) -> UpdateRun {

@@ -3,21 +3,14 @@
 use std::path::Path;
 
 use ed25519_compact::KeyPair;
-use skin_protocol::image::{self, Board, ImageHeader, HEADER_LEN, MAGIC};
+use skin_protocol::image::{self, Board, ImageHeader, MAGIC};
 
 use super::{read, Error};
 
 /// The image of `body` for `board` at `version`, signed with `key`
-/// (a body over 4 GiB is refused).
+/// (see [`image::sign`]).
 pub fn sign(body: &[u8], board: Board, version: u32, key: &KeyPair) -> Result<Vec<u8>, image::ImageError> {
-    let mut header = ImageHeader::unsigned(board, version, body)?;
-    // Plain RFC 8032 signing: deterministic, so the same program, version and
-    // key always give the same image (reproducible builds).
-    header.signature = *key.sk.sign(header.signed_fields(), None);
-    let mut out = Vec::with_capacity(HEADER_LEN + body.len());
-    out.extend_from_slice(&header.to_bytes());
-    out.extend_from_slice(body);
-    Ok(out)
+    image::sign(body, board, version, &key.sk.seed())
 }
 
 /// Reads a program file and signs it; an empty file, or one that already is

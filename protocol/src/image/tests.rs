@@ -50,8 +50,8 @@ fn key_pair(seed: [u8; 32]) -> salty::Keypair {
     salty::Keypair::from(&seed)
 }
 
-fn public(pair: &salty::Keypair) -> [u8; 32] {
-    pair.public.to_bytes()
+fn public(seed: &[u8; 32]) -> [u8; 32] {
+    key_pair(*seed).public.to_bytes()
 }
 
 /// `s + L` for a little-endian scalar below 2^253: the same point, a
@@ -92,17 +92,14 @@ fn rfc8032_vectors_verify_and_every_changed_bit_is_refused() {
     }
 }
 
-fn test_key() -> salty::Keypair {
-    key_pair([7; 32])
+/// The secret seed of the tests' update key.
+fn test_key() -> [u8; 32] {
+    [7; 32]
 }
 
-/// An image signed as the host signs it.
-fn signed(board: Board, version: u32, body: &[u8], pair: &salty::Keypair) -> Vec<u8> {
-    let mut header = ImageHeader::unsigned(board, version, body).unwrap();
-    header.signature = pair.sign(&header.signed_fields()).to_bytes();
-    let mut image = header.to_bytes().to_vec();
-    image.extend_from_slice(body);
-    image
+/// An image signed with the secret `seed`.
+fn signed(board: Board, version: u32, body: &[u8], seed: &[u8; 32]) -> Vec<u8> {
+    sign(body, board, version, seed).unwrap()
 }
 
 const MAX: u32 = 4096;
@@ -133,7 +130,7 @@ fn refusals_are_typed() {
         Err(ImageError::LengthMismatch { expected: 300, found: 299 })
     );
     assert_eq!(verify(&image[..50], board, MAX, &public(&pair)), Err(ImageError::TooShort(50)));
-    let other = key_pair([8; 32]);
+    let other = [8; 32];
     assert_eq!(verify(&image, board, MAX, &public(&other)), Err(ImageError::BadSignature));
     let mut corrupt = image.clone();
     corrupt[HEADER_LEN + 10] ^= 0x40;

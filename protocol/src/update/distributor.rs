@@ -75,15 +75,7 @@ impl Distributor {
         if image.len() > max {
             return Err(ImageError::TooLong { len: header.body_len, max: max as u32 });
         }
-        let chunks = image
-            .chunks(CHUNK_LEN)
-            .enumerate()
-            .map(|(i, c)| {
-                let mut data = [0; CHUNK_LEN];
-                data[..c.len()].copy_from_slice(c);
-                ImageChunk { index: i as u16, data }
-            })
-            .collect();
+        let chunks = super::chunks(image).collect();
         Ok(Distributor {
             version: header.version,
             chunks,

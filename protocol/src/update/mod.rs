@@ -25,6 +25,17 @@ pub use distributor::{Distributor, Outcome};
 pub use updater::{BootAction, BootState, Updater, QUIET_US, REPAIR_WINDOW, TRIAL_REPORT_US};
 
 use crate::app::StoreFailed;
+use crate::message::{ImageChunk, CHUNK_LEN};
+
+/// An image cut into chunks as they travel (the last one zero padded);
+/// indices wrap past `u16::MAX` chunks, which the sender must refuse first.
+pub fn chunks(image: &[u8]) -> impl Iterator<Item = ImageChunk> + '_ {
+    image.chunks(CHUNK_LEN).enumerate().map(|(i, c)| {
+        let mut data = [0; CHUNK_LEN];
+        data[..c.len()].copy_from_slice(c);
+        ImageChunk { index: i as u16, data }
+    })
+}
 
 /// The spare slot an incoming image is written to (the one not running).
 /// A power cut at any point leaves the running slot as it was.

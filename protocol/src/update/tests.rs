@@ -1,7 +1,7 @@
 use proptest::prelude::*;
 
 use super::*;
-use crate::image::{Board, ImageHeader, HEADER_LEN};
+use crate::image::{Board, HEADER_LEN};
 use crate::message::{
     ImageChunk, Refusal, UpdateAction, UpdateCommand, UpdateOffer, UpdateReport, UpdateState, CHUNK_LEN,
 };
@@ -16,23 +16,13 @@ fn key_pair(seed: u8) -> salty::Keypair {
 /// A signed image of `len` body bytes, and its chunks.
 fn image(board: Board, version: u32, len: usize, seed: u8) -> (Vec<u8>, Vec<ImageChunk>) {
     let body: Vec<u8> = (0..len).map(|i| (i * 31 + 7) as u8).collect();
-    let mut header = ImageHeader::unsigned(board, version, &body).unwrap();
-    header.signature = key_pair(seed).sign(&header.signed_fields()).to_bytes();
-    let mut bytes = header.to_bytes().to_vec();
-    bytes.extend_from_slice(&body);
-    (bytes.clone(), chunks(&bytes))
+    let bytes = crate::image::sign(&body, board, version, &[seed; 32]).unwrap();
+    let chunks = chunks(&bytes);
+    (bytes, chunks)
 }
 
 fn chunks(bytes: &[u8]) -> Vec<ImageChunk> {
-    bytes
-        .chunks(CHUNK_LEN)
-        .enumerate()
-        .map(|(i, c)| {
-            let mut data = [0; CHUNK_LEN];
-            data[..c.len()].copy_from_slice(c);
-            ImageChunk { index: i as u16, data }
-        })
-        .collect()
+    super::chunks(bytes).collect()
 }
 
 fn offer_of(version: u32, chunks: &[ImageChunk]) -> UpdateOffer {
