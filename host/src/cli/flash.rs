@@ -46,7 +46,7 @@ pub struct Args {
     json: bool,
 }
 
-/// One row of the result table.
+/// A cell's outcome as the result table says it.
 fn outcome_name(o: Outcome) -> String {
     match o {
         Outcome::Updated => "updated".into(),
