@@ -62,7 +62,7 @@ pub fn flat_binary(b: &[u8]) -> Result<(u32, Vec<u8>), String> {
     let phoff = u32_at(b, 0x1C)? as usize;
     let phentsize = usize::from(u16_at(b, 0x2A)?);
     let phnum = usize::from(u16_at(b, 0x2C)?);
-    if phentsize < 32 {
+    if phnum > 0 && phentsize < 32 {
         return Err(format!("program header entries of {phentsize} bytes"));
     }
     let mut loads = Vec::new();
