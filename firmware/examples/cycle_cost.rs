@@ -12,47 +12,33 @@
 
 use core::mem::MaybeUninit;
 
-use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::entry;
-use skin_firmware::boards::qemu::exit;
+use skin_firmware::boards::qemu::{exit, Ticks, INSTRUCTIONS_PER_TICK};
 use skin_firmware::cycle;
 use skin_protocol::router::UP_QUEUE;
 
 const ROUNDS: u32 = 200;
-/// Instructions per SysTick tick under `-icount shift=0` at 25 MHz.
-const INSTRUCTIONS_PER_TICK: u64 = 40;
 
 /// Instructions `f` takes, averaged over `ROUNDS` calls.
-fn measure(mut f: impl FnMut(u32)) -> u64 {
-    let mut ticks = 0u64;
-    for round in 0..ROUNDS {
-        // SAFETY: read-only access to the SysTick counter.
-        let start = unsafe { (*SYST::PTR).cvr.read() };
-        f(round);
-        // SAFETY: as above.
-        let end = unsafe { (*SYST::PTR).cvr.read() };
-        ticks += u64::from(start.wrapping_sub(end) & 0x00FF_FFFF);
-    }
-    ticks * INSTRUCTIONS_PER_TICK / u64::from(ROUNDS)
+fn measure(ticks: &Ticks, mut f: impl FnMut(u32)) -> u64 {
+    let total: u64 = (0..ROUNDS).map(|round| ticks.count(|| f(round)).1).sum();
+    total * INSTRUCTIONS_PER_TICK / u64::from(ROUNDS)
 }
 
 #[entry]
 fn main() -> ! {
     let Some(mut core) = cortex_m::Peripherals::take() else { exit(2) };
-    core.SYST.set_clock_source(SystClkSource::Core);
-    core.SYST.set_reload(0x00FF_FFFF);
-    core.SYST.clear_current();
-    core.SYST.enable_counter();
+    let ticks = Ticks::start(&mut core.SYST);
 
     let mut flash = cycle::CycleFlash::new();
     let mut slot = MaybeUninit::uninit();
     let Some(node) = cycle::boot(&mut slot, &mut flash) else { exit(2) };
-    let empty = measure(|_| {});
+    let empty = measure(&ticks, |_| {});
     // Scale check: `delay(n)` is a two-instruction loop of n + 1 turns.
-    let delay = measure(|_| cortex_m::asm::delay(10_000)).saturating_sub(empty);
-    let processing = measure(|round| cycle::process(node, round)).saturating_sub(empty);
+    let delay = measure(&ticks, |_| cortex_m::asm::delay(10_000)).saturating_sub(empty);
+    let processing = measure(&ticks, |round| cycle::process(node, round)).saturating_sub(empty);
     let queue = cycle::queue();
-    let routing = measure(|_| cycle::route(node, &queue)).saturating_sub(empty);
+    let routing = measure(&ticks, |_| cycle::route(node, &queue)).saturating_sub(empty);
     let counters = *node.cell().router().counters();
     let total = processing + routing;
     // One 4 ms period of a 64 MHz Cortex-M4: 256,000 cycles.

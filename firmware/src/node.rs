@@ -9,7 +9,7 @@ use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use embedded_storage::nor_flash::NorFlash;
-use skin_protocol::app::{CellApp, Losses};
+use skin_protocol::app::{CellApp, Delivered, Losses};
 use skin_protocol::cell::{Arrived, Cell};
 use skin_protocol::frame::Frame;
 use skin_protocol::message::{Port, Setting};
@@ -84,8 +84,12 @@ impl<F: NorFlash> Node<F> {
     /// the cell accepted, for the board to apply to its hardware.
     pub fn receive(&mut self, port: Port, byte: u8, now_us: u64) -> Option<Setting> {
         let frame = self.rx[port.index()].push(byte)?;
-        let write = self.app.receive_frame(Arrived { port, frame, meta: None }, now_us, &mut ())?;
-        self.app.configure(&write, &mut (), |_, _| {})
+        // Update messages wait for the bootloader (issue 18): a cell without
+        // a slot ignores them, as a cell of an older firmware would.
+        match self.app.receive_frame(Arrived { port, frame, meta: None }, now_us, &mut ())? {
+            Delivered::Config(write) => self.app.configure(&write, &mut (), |_, _| {}),
+            Delivered::Update(_) => None,
+        }
     }
 
     /// The next time [`Node::poll`] has work.

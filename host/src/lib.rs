@@ -14,6 +14,7 @@
 //! - [`grasping`]: the grasping experiment on an explored robot: teaching by proximity, grasps of Figure 16 objects.
 //! - [`remote`]: a robot and its skin over UDP: the robot link and the interface as one rig.
 //! - [`pipeline`]: the main job's steps: wait for the skin to organize, write the cell settings.
+//! - [`update`]: firmware updates: update keys, signed images.
 //! - [`report`]: the report folder: figures as SVG, `report.json`, `index.html`.
 //! - [`ros`]: ROS 2 message types, their CDR encoding and type hashes, and the skin's topics.
 //! - [`recording`]: a run recorded into an MCAP file (raw datagrams and ROS 2 topics), and read back.
@@ -37,3 +38,4 @@ pub mod replay;
 pub mod report;
 pub mod robot;
 pub mod ros;
+pub mod update;

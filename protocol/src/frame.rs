@@ -54,11 +54,19 @@ pub enum Kind {
     ConfigWrite = 0x20,
     /// Configuration acknowledgement.
     ConfigAck = 0x21,
+    /// Firmware update offer (down).
+    UpdateOffer = 0x30,
+    /// Firmware image chunk (down, broadcast or to the cell that missed it).
+    ImageChunk = 0x31,
+    /// A cell's firmware update report (up).
+    UpdateReport = 0x32,
+    /// Firmware update command (down).
+    UpdateCommand = 0x33,
 }
 
 impl Kind {
     /// Every kind, in wire order.
-    pub const ALL: [Kind; 10] = [
+    pub const ALL: [Kind; 14] = [
         Kind::Probe,
         Kind::ProbeAck,
         Kind::Beacon,
@@ -69,6 +77,10 @@ impl Kind {
         Kind::Event,
         Kind::ConfigWrite,
         Kind::ConfigAck,
+        Kind::UpdateOffer,
+        Kind::ImageChunk,
+        Kind::UpdateReport,
+        Kind::UpdateCommand,
     ];
 
     /// Kinds that only ever cross one link and are never forwarded.

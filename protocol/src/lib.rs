@@ -17,6 +17,8 @@
 //!   sends, boot), on that stack or on any uplink.
 //! - [`event`]: Table 3 tactile levels with hysteresis, and send-on-delta.
 //! - [`processing`]: a cell's local filtering, offsets, events and send decision.
+//! - [`image`]: the signed firmware image (header, CRC-32, ed25519 signature).
+//! - [`update`]: a cell's side of a firmware update over the network.
 //! - [`interface`]: the UDP datagram between an interface port and the host.
 //! - [`robot_link`]: the UDP datagram between the host and a robot (section 3.2).
 #![cfg_attr(not(feature = "std"), no_std)]
@@ -28,6 +30,7 @@ pub mod app;
 pub mod cell;
 pub mod event;
 pub mod frame;
+pub mod image;
 pub mod interface;
 pub mod message;
 pub mod organize;
@@ -35,6 +38,7 @@ pub mod processing;
 pub mod robot_link;
 pub mod router;
 pub mod sample;
+pub mod update;
 
 pub use address::Address;
 pub use frame::{Frame, FrameError, Header, Kind, FRAME_LEN};

@@ -10,6 +10,10 @@
 use postcard::experimental::max_size::MaxSize;
 use serde::{Deserialize, Serialize};
 
+mod update;
+
+pub use update::{ImageChunk, Refusal, UpdateAction, UpdateCommand, UpdateOffer, UpdateReport, UpdateState, CHUNK_LEN};
+
 use crate::address::Address;
 use crate::frame::Kind;
 use crate::sample::Sample;
@@ -401,6 +405,14 @@ pub enum Message {
     ConfigWrite(ConfigWrite),
     /// Configuration acknowledgement.
     ConfigAck(ConfigAck),
+    /// Firmware update offer.
+    UpdateOffer(UpdateOffer),
+    /// Firmware image chunk.
+    ImageChunk(ImageChunk),
+    /// A cell's firmware update report.
+    UpdateReport(UpdateReport),
+    /// Firmware update command.
+    UpdateCommand(UpdateCommand),
 }
 
 impl Message {
@@ -417,6 +429,10 @@ impl Message {
             Message::Event(_) => Kind::Event,
             Message::ConfigWrite(_) => Kind::ConfigWrite,
             Message::ConfigAck(_) => Kind::ConfigAck,
+            Message::UpdateOffer(_) => Kind::UpdateOffer,
+            Message::ImageChunk(_) => Kind::ImageChunk,
+            Message::UpdateReport(_) => Kind::UpdateReport,
+            Message::UpdateCommand(_) => Kind::UpdateCommand,
         }
     }
 
@@ -432,6 +448,10 @@ impl Message {
             Message::Event(m) => postcard::to_slice(m, buf)?,
             Message::ConfigWrite(m) => postcard::to_slice(m, buf)?,
             Message::ConfigAck(m) => postcard::to_slice(m, buf)?,
+            Message::UpdateOffer(m) => postcard::to_slice(m, buf)?,
+            Message::ImageChunk(m) => postcard::to_slice(m, buf)?,
+            Message::UpdateReport(m) => postcard::to_slice(m, buf)?,
+            Message::UpdateCommand(m) => postcard::to_slice(m, buf)?,
         };
         Ok(used.len())
     }
@@ -454,6 +474,10 @@ impl Message {
             Kind::Event => Message::Event(take(bytes)?),
             Kind::ConfigWrite => Message::ConfigWrite(take(bytes)?),
             Kind::ConfigAck => Message::ConfigAck(take(bytes)?),
+            Kind::UpdateOffer => Message::UpdateOffer(take(bytes)?),
+            Kind::ImageChunk => Message::ImageChunk(take(bytes)?),
+            Kind::UpdateReport => Message::UpdateReport(take(bytes)?),
+            Kind::UpdateCommand => Message::UpdateCommand(take(bytes)?),
         })
     }
 }
@@ -470,6 +494,10 @@ pub(crate) const MAX_PAYLOAD: usize = {
         TactileEvent::POSTCARD_MAX_SIZE,
         ConfigWrite::POSTCARD_MAX_SIZE,
         ConfigAck::POSTCARD_MAX_SIZE,
+        UpdateOffer::POSTCARD_MAX_SIZE,
+        ImageChunk::POSTCARD_MAX_SIZE,
+        UpdateReport::POSTCARD_MAX_SIZE,
+        UpdateCommand::POSTCARD_MAX_SIZE,
     ];
     let mut max = 0;
     let mut i = 0;

@@ -91,6 +91,46 @@ fn message() -> impl Strategy<Value = Message> {
         })),
         (any::<u8>(), setting()).prop_map(|(tag, setting)| Message::ConfigWrite(ConfigWrite { tag, setting })),
         (any::<u8>(), any::<bool>()).prop_map(|(tag, accepted)| Message::ConfigAck(ConfigAck { tag, accepted })),
+        (any::<u32>(), any::<u16>())
+            .prop_map(|(version, chunks)| Message::UpdateOffer(UpdateOffer { version, chunks })),
+        (any::<u16>(), any::<[u8; CHUNK_LEN]>())
+            .prop_map(|(index, data)| Message::ImageChunk(ImageChunk { index, data })),
+        (any::<u32>(), update_state(), any::<u16>(), any::<u16>()).prop_map(
+            |(version, state, first_missing, missing)| {
+                Message::UpdateReport(UpdateReport { version, state, first_missing, missing })
+            }
+        ),
+        (
+            any::<u32>(),
+            proptest::sample::select(vec![
+                UpdateAction::Boot,
+                UpdateAction::Confirm,
+                UpdateAction::Rollback,
+                UpdateAction::Status
+            ])
+        )
+            .prop_map(|(version, action)| Message::UpdateCommand(UpdateCommand { version, action })),
+    ]
+}
+
+fn update_state() -> impl Strategy<Value = UpdateState> {
+    let refusal = proptest::sample::select(vec![
+        Refusal::BadHeader,
+        Refusal::BadSignature,
+        Refusal::WrongBoard,
+        Refusal::TooLong,
+        Refusal::BadBody,
+        Refusal::SlotFailed,
+    ]);
+    prop_oneof![
+        proptest::sample::select(vec![
+            UpdateState::Receiving,
+            UpdateState::Ready,
+            UpdateState::Trial,
+            UpdateState::Running,
+            UpdateState::RolledBack
+        ]),
+        refusal.prop_map(UpdateState::Refused),
     ]
 }
 

@@ -7,7 +7,7 @@
 use skin_firmware::node::Node;
 use skin_firmware::store::{RamFlash, Store};
 use skin_host::interface::loadgen::AppCell;
-use skin_protocol::app::MemoryStore;
+use skin_protocol::app::{Delivered, MemoryStore};
 use skin_protocol::cell::Received;
 use skin_protocol::message::{ConfigWrite, IdAssign, Port, Setting, TrafficMode};
 use skin_protocol::organize::{Config, FromCell, Sink};
@@ -120,7 +120,7 @@ impl Wired for Simulated {
         let stamp = &mut Stamper::new(now_us * 1000, 0);
         let app = self.0.app_mut().unwrap();
         let rx = Received { port: Port::P0, bytes: frame.as_bytes(), meta: None };
-        if let Some(write) = app.receive(rx, now_us, stamp) {
+        if let Some(Delivered::Config(write)) = app.receive(rx, now_us, stamp) {
             app.configure(&write, stamp, |_, _| {});
         }
     }
@@ -214,7 +214,7 @@ fn run_load_generator() -> Vec<Frame> {
 #[test]
 fn firmware_simulator_and_load_generator_cells_send_the_same_bytes() {
     let firmware = run_wired(firmware_node(0));
-    let mut sim = SimCell::new(factory());
+    let mut sim = SimCell::new(factory(), None);
     sim.power_on(Config::default(), 0);
     let simulated = run_wired(Simulated(sim, 0));
     let load = run_load_generator();

@@ -1,5 +1,6 @@
 //! Flash and RAM use of a 32-bit little-endian ELF file, from its section
-//! headers: what `size` reports, without needing binutils on the machine.
+//! headers (what `size` reports), and its flash contents as one flat binary
+//! (what `objcopy -O binary` writes), without needing binutils.
 
 /// Bytes an image takes.
 #[derive(Debug, PartialEq, Eq)]
@@ -51,6 +52,38 @@ pub fn size(b: &[u8]) -> Result<Size, String> {
     Ok(size)
 }
 
+const PT_LOAD: u32 = 1;
+
+/// The bytes loaded into flash, from the lowest load address to the end of
+/// the highest, gaps zero-filled: the program a bootloader copies or starts.
+/// Returns the load address and the bytes.
+pub fn flat_binary(b: &[u8]) -> Result<(u32, Vec<u8>), String> {
+    size(b)?;
+    let phoff = u32_at(b, 0x1C)? as usize;
+    let phentsize = usize::from(u16_at(b, 0x2A)?);
+    let phnum = usize::from(u16_at(b, 0x2C)?);
+    if phnum > 0 && phentsize < 32 {
+        return Err(format!("program header entries of {phentsize} bytes"));
+    }
+    let mut loads = Vec::new();
+    for i in 0..phnum {
+        let h = phoff + i * phentsize;
+        let (kind, offset, paddr, filesz) = (u32_at(b, h)?, u32_at(b, h + 4)?, u32_at(b, h + 12)?, u32_at(b, h + 16)?);
+        if kind == PT_LOAD && filesz > 0 {
+            let bytes = b.get(offset as usize..offset as usize + filesz as usize).ok_or("truncated ELF segment")?;
+            loads.push((paddr, bytes));
+        }
+    }
+    let start = loads.iter().map(|(at, _)| *at).min().ok_or("no loadable segment")?;
+    let end = loads.iter().map(|(at, bytes)| u64::from(*at) + bytes.len() as u64).max().unwrap_or(0);
+    let mut flat = vec![0u8; usize::try_from(end - u64::from(start)).map_err(|_| "segments too far apart")?];
+    for (at, bytes) in loads {
+        let from = (at - start) as usize;
+        flat[from..from + bytes.len()].copy_from_slice(bytes);
+    }
+    Ok((start, flat))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -71,6 +104,36 @@ mod tests {
             b.extend_from_slice(&h);
         }
         b
+    }
+
+    /// `image()` with two loadable segments: 4 bytes at 0x100 and 2 at
+    /// 0x108 (a gap of 4), and one empty (bss-like) segment.
+    fn loadable() -> Vec<u8> {
+        let mut b = image();
+        let phoff = b.len() as u32;
+        b[0x1C..0x20].copy_from_slice(&phoff.to_le_bytes());
+        b[0x2A..0x2C].copy_from_slice(&32u16.to_le_bytes());
+        b[0x2C..0x2E].copy_from_slice(&3u16.to_le_bytes());
+        let data = phoff + 3 * 32;
+        for (offset, paddr, filesz) in [(data, 0x100u32, 4u32), (data + 4, 0x108, 2), (0, 0x2000_0000, 0)] {
+            let mut h = [0u8; 32];
+            h[..4].copy_from_slice(&PT_LOAD.to_le_bytes());
+            h[4..8].copy_from_slice(&offset.to_le_bytes());
+            h[12..16].copy_from_slice(&paddr.to_le_bytes());
+            h[16..20].copy_from_slice(&filesz.to_le_bytes());
+            b.extend_from_slice(&h);
+        }
+        b.extend_from_slice(&[1, 2, 3, 4, 5, 6]);
+        b
+    }
+
+    #[test]
+    fn the_flat_binary_places_segments_at_their_load_addresses() {
+        assert_eq!(flat_binary(&loadable()), Ok((0x100, vec![1, 2, 3, 4, 0, 0, 0, 0, 5, 6])));
+        assert_eq!(flat_binary(&image()), Err("no loadable segment".to_string()));
+        let mut cut = loadable();
+        cut.truncate(cut.len() - 1);
+        assert_eq!(flat_binary(&cut), Err("truncated ELF segment".to_string()));
     }
 
     #[test]

@@ -7,6 +7,8 @@
 //! - `cargo xtask firmware`: builds the cell firmware for both boards and
 //!   checks it against its flash and RAM budget.
 //! - `cargo xtask qemu-net --cells N`: a hexagonal patch of N QEMU cells.
+//! - `cargo xtask image --key KEY --version V`: a board's firmware as a
+//!   signed update image (`skin sign`).
 
 mod elf;
 
@@ -87,13 +89,16 @@ fn main() -> ExitCode {
         Some("install") => install(),
         Some("firmware") => firmware(),
         Some("qemu-net") => qemu_net(&args[1..]),
+        Some("image") => image(&args[1..]),
         _ => {
             eprintln!(
                 "usage: cargo xtask <command>\n\n  \
                  ci                   install what is missing, then run every CI check\n  \
-                 install              only install what is missing (rustup target and components, qemu-system-arm, Python readers)\n  \
+                 install              only install what is missing (rustup target and components, qemu-system-arm, openssl, Python readers)\n  \
                  firmware             build the cell firmware for both boards and check its size\n  \
-                 qemu-net --cells N   run a hexagonal patch of N QEMU cells (more flags: --json, --keep)"
+                 qemu-net --cells N   run a hexagonal patch of N QEMU cells (more flags: --json, --keep)\n  \
+                 image --key KEY --version V [--board qemu|stm32f4] [--out FILE]\n                       \
+                 build a board's firmware and sign it into an update image"
             );
             return ExitCode::from(2);
         }
@@ -221,13 +226,22 @@ fn install() -> Result<(), String> {
             run("rustup", &["component", "add", component])?;
         }
     }
-    if !succeeds("qemu-system-arm", &["--version"]) {
+    // QEMU runs the firmware tests; OpenSSL checks our update keys and
+    // signatures as a reader we did not write (`update_cli`).
+    let missing: Vec<&str> = [("qemu-system-arm", "qemu-system-arm"), ("openssl", "openssl")]
+        .into_iter()
+        .filter(|(program, _)| !succeeds(program, &["version"]) && !succeeds(program, &["--version"]))
+        .map(|(_, package)| package)
+        .collect();
+    if !missing.is_empty() {
         let root = output("id", &["-u"]).is_some_and(|u| u.trim() == "0");
         if !root {
-            return Err("qemu-system-arm is missing: run `sudo apt-get install -y qemu-system-arm`".into());
+            return Err(format!("missing: run `sudo apt-get install -y {}`", missing.join(" ")));
         }
         run("apt-get", &["update", "-q"])?;
-        run("apt-get", &["install", "-y", "-q", "qemu-system-arm"])?;
+        let mut args = vec!["install", "-y", "-q"];
+        args.extend(&missing);
+        run("apt-get", &args)?;
     }
     python_readers()
 }
@@ -300,6 +314,50 @@ fn firmware_size() -> Result<Vec<String>, String> {
     } else {
         Err(format!("over budget: {} ({})", over.join(", "), lines.join("; ")))
     }
+}
+
+/// `cargo xtask image --key KEY --version V [--board B] [--out FILE]`:
+/// builds the board's firmware, flattens its ELF and signs it with `skin sign`.
+fn image(args: &[String]) -> Result<(), String> {
+    let flag = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).map(String::as_str);
+    let key = flag("--key").ok_or("image needs --key KEY (make one with `skin keygen`)")?;
+    let version = flag("--version").ok_or("image needs --version V")?;
+    let board = flag("--board").unwrap_or("qemu");
+    let (features, bin) = BOARDS
+        .into_iter()
+        .find(|(b, _)| *b == board)
+        .ok_or_else(|| format!("unknown --board {board}; one of {}", BOARDS.map(|(b, _)| b).join(", ")))?;
+    let signed_board = if board == "qemu" { "mps2-an386" } else { "stm32f405" };
+    build_board(features, bin)?;
+    let elf_path = target_dir().join(THUMB).join("firmware").join(bin);
+    let bytes = fs::read(&elf_path).map_err(|e| format!("cannot read {}: {e}", elf_path.display()))?;
+    let (at, flat) = elf::flat_binary(&bytes).map_err(|e| format!("{}: {e}", elf_path.display()))?;
+    let program = elf_path.with_extension("bin");
+    fs::write(&program, &flat).map_err(|e| format!("cannot write {}: {e}", program.display()))?;
+    println!("{}: {} bytes loaded at {at:#010x}", program.display(), flat.len());
+    let default_out = elf_path.with_extension("skfw").display().to_string();
+    let out = flag("--out").unwrap_or(&default_out);
+    let program = program.display().to_string();
+    run(
+        "cargo",
+        &[
+            "run",
+            "--quiet",
+            "-p",
+            "skin-host",
+            "--",
+            "sign",
+            &program,
+            "--key",
+            key,
+            "--version",
+            version,
+            "--board",
+            signed_board,
+            "--out",
+            out,
+        ],
+    )
 }
 
 /// `cargo xtask qemu-net --cells N ...`: builds the QEMU board and runs the

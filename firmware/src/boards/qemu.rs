@@ -391,6 +391,36 @@ pub fn exit(code: i32) -> ! {
     semihosting::process::exit(code)
 }
 
+/// Instructions per SysTick tick under QEMU's `-icount shift=0` (one
+/// instruction per ns) with SysTick on the 25 MHz core clock.
+pub const INSTRUCTIONS_PER_TICK: u64 = 40;
+
+/// Instruction counts for the measuring examples: SysTick counting down
+/// freely over its 24 bits, read before and after.
+#[derive(Debug)]
+pub struct Ticks;
+
+impl Ticks {
+    /// Starts SysTick free-running on the core clock.
+    pub fn start(syst: &mut cortex_m::peripheral::SYST) -> Ticks {
+        syst.set_clock_source(cortex_m::peripheral::syst::SystClkSource::Core);
+        syst.set_reload(0x00FF_FFFF);
+        syst.clear_current();
+        syst.enable_counter();
+        Ticks
+    }
+
+    /// Runs `f` and returns its result and the SysTick ticks it took.
+    pub fn count<R>(&self, f: impl FnOnce() -> R) -> (R, u64) {
+        // SAFETY: read-only access to the SysTick counter.
+        let start = unsafe { (*cortex_m::peripheral::SYST::PTR).cvr.read() };
+        let result = f();
+        // SAFETY: as above.
+        let end = unsafe { (*cortex_m::peripheral::SYST::PTR).cvr.read() };
+        (result, u64::from(start.wrapping_sub(end) & 0x00FF_FFFF))
+    }
+}
+
 #[exception]
 unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
     defmt::error!("hard fault at pc {=u32:#x}, cfsr {=u32:#x}", frame.pc(), (*SCB::PTR).cfsr.read());

@@ -4,13 +4,16 @@ mod calibrate;
 mod config;
 mod demo;
 mod explore;
+mod flash;
 mod grasp;
 mod job;
+mod keygen;
 mod loadgen;
 mod monitor;
 mod replay;
 mod run;
 mod seconds;
+mod sign;
 mod sim_endpoint;
 mod world;
 
@@ -48,6 +51,12 @@ enum Command {
     SimEndpoint(sim_endpoint::Args),
     /// Simulate a skin that sends interface datagrams to a host (for measuring and watching without hardware).
     Loadgen(loadgen::Args),
+    /// Make a new firmware update key pair (secret key and FILE.pub).
+    Keygen(keygen::Args),
+    /// Sign a cell program into a firmware image, or check an image (--check).
+    Sign(sign::Args),
+    /// Update every cell of the skin to a signed image through the interface ports.
+    Flash(flash::Args),
 }
 
 /// Runs the subcommand; errors are printed as one line, never a backtrace.
@@ -68,6 +77,9 @@ pub fn main() -> ExitCode {
         Command::Run(args) => run::run(args),
         Command::Replay(args) => replay::run(args),
         Command::SimEndpoint(args) => sim_endpoint::run(args),
+        Command::Keygen(args) => keygen::run(args),
+        Command::Sign(args) => sign::run(args),
+        Command::Flash(args) => flash::run(args),
     };
     result.unwrap_or_else(|e| {
         eprintln!("error: {e}");

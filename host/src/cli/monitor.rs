@@ -176,6 +176,7 @@ impl View {
                 EventKind::IdAssigned { parent, port } => {
                     format!("gave ID {} to the cell on port {} of {parent}", cell.0, port.index())
                 }
+                EventKind::UpdateReport(r) => format!("{cell}: update {:?} of version {}", r.state, r.version),
             };
             self.note(now_us, line);
         }

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use clap::ValueEnum;
 use skin_sim::endpoint::{Endpoint, EndpointConfig, Pacing, Running};
-use skin_sim::network::NetworkConfig;
+use skin_sim::network::{NetworkConfig, UpdateSetup};
 
 use super::seconds;
 
@@ -32,6 +32,12 @@ pub struct Args {
     /// Stop after this many wall-clock seconds [default: run until killed].
     #[arg(long, value_name = "S")]
     duration: Option<f64>,
+    /// Cells take firmware updates signed with the secret half of this public key (`skin keygen`), for `skin flash`.
+    #[arg(long, value_name = "FILE")]
+    update_key: Option<std::path::PathBuf>,
+    /// The firmware version the cells run at power-up (with --update-key).
+    #[arg(long, default_value_t = 1, requires = "update_key")]
+    firmware_version: u32,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -51,7 +57,16 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Pace::Lockstep => Pacing::Lockstep,
         Pace::Realtime => Pacing::RealTime,
     };
-    let network = NetworkConfig { seed: args.seed, ..NetworkConfig::default() };
+    let update = match &args.update_key {
+        Some(path) => {
+            let key = skin_host::update::keys::load_public(path)?;
+            Some(UpdateSetup { key: *key, version: args.firmware_version })
+        }
+        None => None,
+    };
+    // A cell's update reports ride on its sampling pulse: no cell rests.
+    let network =
+        NetworkConfig { seed: args.seed, update, skip_resting_cells: update.is_none(), ..NetworkConfig::default() };
     let config = EndpointConfig { robot: args.robot, host: args.host, pacing, network };
     // Served on a thread of its own, watched from here: when it fails or
     // panics, the process ends with its error instead of serving nothing.

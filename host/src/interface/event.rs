@@ -1,6 +1,6 @@
 //! What the interface hands to the rest of the host.
 
-use skin_protocol::message::{ConfigAck, NeighbourReport, Port, TactileEvent};
+use skin_protocol::message::{ConfigAck, NeighbourReport, Port, TactileEvent, UpdateReport};
 use skin_protocol::{Address, Sample};
 
 /// One thing that happened on the skin.
@@ -36,6 +36,8 @@ pub enum EventKind {
     Neighbours(NeighbourReport),
     /// The cell acknowledged a configuration write.
     ConfigAck(ConfigAck),
+    /// The cell reported on a firmware update.
+    UpdateReport(UpdateReport),
     /// The host answered an ID request: `cell` is the ID given to the cell
     /// on `port` of `parent` (again, when the request was repeated).
     IdAssigned {

@@ -136,7 +136,7 @@ impl Ingest {
         })?;
         let (src, kind) = (frame.src(), frame.kind());
         let from_cell = match kind {
-            Kind::Sample | Kind::Event | Kind::NeighbourReport | Kind::ConfigAck => true,
+            Kind::Sample | Kind::Event | Kind::NeighbourReport | Kind::ConfigAck | Kind::UpdateReport => true,
             Kind::IdRequest => false,
             _ => return Err(FrameReject::UnexpectedKind),
         };
@@ -177,6 +177,7 @@ impl Ingest {
             Message::Sample(s) => EventKind::Sample(s),
             Message::Event(e) => EventKind::Tactile(e),
             Message::ConfigAck(a) => EventKind::ConfigAck(a),
+            Message::UpdateReport(r) => EventKind::UpdateReport(r),
             Message::NeighbourReport(r) => EventKind::Neighbours(r),
             // Ruled out by the kind check above.
             _ => return Err(FrameReject::UnexpectedKind),

@@ -204,6 +204,26 @@ impl Interface {
         Ok(tags)
     }
 
+    /// Sends update messages (see [`skin_protocol::update::Distributor`])
+    /// to `target`: down the port a known cell is heard through, or down
+    /// every port whose address is known.
+    pub fn send_update(&mut self, target: Address, messages: &[Message]) -> Result<(), Error> {
+        let known = |i: &usize| self.ingest.ports().get(*i).address().is_some();
+        let cell_port = self.ingest.registry().get(target).and_then(|c| self.ingest.ports().index_of(c.interface()));
+        let ports: Vec<usize> = match cell_port {
+            Some(p) => vec![p],
+            None => (0..self.ingest.ports().len()).filter(known).collect(),
+        };
+        if ports.is_empty() {
+            return Err(Error::NoPortAddress);
+        }
+        let frames: Vec<Frame> = messages.iter().map(|m| Frame::new(Address::HOST, target, m)).collect();
+        for port in ports {
+            self.send_down(port, &frames);
+        }
+        Ok(())
+    }
+
     /// Sends frames down port `index`, in datagrams of up to 72 frames.
     /// Failures are counted and logged, not returned: the skin side repeats
     /// what matters (ID requests), and a lost configuration write shows as

@@ -5,18 +5,41 @@ use super::{App, Losses, SettingsStore, Uplink};
 use crate::address::Address;
 use crate::cell::{Arrived, Cell, Received, SendError};
 use crate::frame::Frame;
-use crate::message::{ConfigWrite, Message, Port, Setting};
+use crate::message::{ConfigWrite, ImageChunk, Message, Port, Setting, UpdateCommand, UpdateOffer};
 use crate::organize::Config;
 use crate::processing::Processor;
 use crate::router::{Discard, Meta, Stamp};
+use crate::update::{BootAction, Slot, Updater};
 use crate::Sample;
+
+/// A message for the application, out of [`CellApp::receive`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Delivered {
+    /// A configuration write, for [`CellApp::configure`].
+    Config(ConfigWrite),
+    /// A firmware update message, for [`CellApp::update`].
+    Update(UpdateInput),
+}
+
+/// The update messages a cell takes (see [`crate::update`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UpdateInput {
+    /// An image offered.
+    Offer(UpdateOffer),
+    /// A chunk of it.
+    Chunk(ImageChunk),
+    /// Boot, confirm, roll back, report.
+    Command(UpdateCommand),
+}
 
 /// One skin cell: network stack ([`Cell`]) and application ([`App`]),
 /// with metadata `M` on its upstream frames (`()` in the firmware).
 ///
 /// A configuration write comes out of [`CellApp::receive`] and goes back
 /// in through [`CellApp::configure`], so the caller can bring the
-/// processing up to date in between (the simulator's resting cells).
+/// processing up to date in between (the simulator's resting cells); an
+/// update message goes back in through [`CellApp::update`] with the
+/// caller's [`Updater`] and slot, which live as long as the board does.
 #[derive(Debug)]
 pub struct CellApp<S, M = ()> {
     cell: Cell<M>,
@@ -77,22 +100,60 @@ impl<S: SettingsStore, M: Meta> CellApp<S, M> {
     }
 
     /// Takes the bytes of one frame received; see [`Cell::receive`].
-    /// Returns a configuration write for [`CellApp::configure`].
-    pub fn receive(&mut self, rx: Received<'_, M>, now_us: u64, stamp: &mut impl Stamp<M>) -> Option<ConfigWrite> {
+    /// Returns a message for the application.
+    pub fn receive(&mut self, rx: Received<'_, M>, now_us: u64, stamp: &mut impl Stamp<M>) -> Option<Delivered> {
         let delivered = self.cell.receive(rx, now_us, self.app.store_mut(), stamp);
-        Self::write(delivered)
+        Self::for_app(delivered)
     }
 
     /// Takes a checked frame; see [`Cell::receive_frame`].
-    pub fn receive_frame(&mut self, rx: Arrived<M>, now_us: u64, stamp: &mut impl Stamp<M>) -> Option<ConfigWrite> {
+    pub fn receive_frame(&mut self, rx: Arrived<M>, now_us: u64, stamp: &mut impl Stamp<M>) -> Option<Delivered> {
         let delivered = self.cell.receive_frame(rx, now_us, self.app.store_mut(), stamp);
-        Self::write(delivered)
+        Self::for_app(delivered)
     }
 
-    fn write(delivered: Option<(crate::frame::Header, Message)>) -> Option<ConfigWrite> {
-        match delivered {
-            Some((_, Message::ConfigWrite(write))) => Some(write),
-            _ => None,
+    fn for_app(delivered: Option<(crate::frame::Header, Message)>) -> Option<Delivered> {
+        Some(match delivered?.1 {
+            Message::ConfigWrite(write) => Delivered::Config(write),
+            Message::UpdateOffer(o) => Delivered::Update(UpdateInput::Offer(o)),
+            Message::ImageChunk(c) => Delivered::Update(UpdateInput::Chunk(c)),
+            Message::UpdateCommand(c) => Delivered::Update(UpdateInput::Command(c)),
+            _ => return None,
+        })
+    }
+
+    /// Hands an update message to `updater` (writing chunks to `slot`) and
+    /// sends its report upstream; returns what the board must do.
+    pub fn update(
+        &mut self,
+        input: &UpdateInput,
+        updater: &mut Updater,
+        slot: &mut impl Slot,
+        now_us: u64,
+        stamp: &mut impl Stamp<M>,
+        sent: impl FnMut(&Message, Result<(), SendError>),
+    ) -> Option<BootAction> {
+        let (report, action) = match input {
+            UpdateInput::Offer(o) => (updater.offer(*o, slot, now_us), None),
+            UpdateInput::Chunk(c) => (updater.chunk(c, slot, now_us), None),
+            UpdateInput::Command(c) => updater.command(c, now_us),
+        };
+        if let Some(report) = report {
+            self.app.report(&Message::UpdateReport(report), &mut Net { cell: &mut self.cell, stamp, sent });
+        }
+        action
+    }
+
+    /// Lets time pass for `updater`: its due report goes upstream.
+    pub fn poll_update(
+        &mut self,
+        updater: &mut Updater,
+        now_us: u64,
+        stamp: &mut impl Stamp<M>,
+        sent: impl FnMut(&Message, Result<(), SendError>),
+    ) {
+        if let Some(report) = updater.poll(now_us) {
+            self.app.report(&Message::UpdateReport(report), &mut Net { cell: &mut self.cell, stamp, sent });
         }
     }
 

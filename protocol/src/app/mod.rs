@@ -13,7 +13,7 @@
 mod cell_app;
 pub mod store;
 
-pub use cell_app::CellApp;
+pub use cell_app::{CellApp, Delivered, UpdateInput};
 pub use store::{MemoryStore, SettingsStore, StoreFailed};
 
 use crate::cell::SendError;
@@ -114,6 +114,12 @@ impl<S: SettingsStore> App<S> {
             #[cfg(feature = "defmt")]
             defmt::info!("calibrated offsets {}", offsets);
         }
+    }
+
+    /// Sends one of the cell's reports (an update report); a refused one
+    /// is counted, and the report is made again when next due.
+    pub fn report(&mut self, message: &Message, net: &mut impl Uplink) {
+        self.send(message, net);
     }
 
     /// Sends one message; false (and counted) when the network refused it.

@@ -30,9 +30,10 @@ pub mod simulator;
 pub mod stimulus;
 pub mod topology;
 pub mod transport;
+pub mod update;
 
 pub use scenario::{NetworkReport, Scenario};
-pub use simulator::{HostDatagram, Network, NetworkConfig, SimCell, Stamper, Trace};
+pub use simulator::{Firmware, HostDatagram, Network, NetworkConfig, SimCell, Stamper, Trace, UpdateSetup, TRIAL_NS};
 pub use topology::Topology;
 
 /// What can go wrong building or running a network simulation.

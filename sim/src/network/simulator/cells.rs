@@ -1,10 +1,12 @@
 //! What happens in a cell: power-up, polls, samples, frames received and
 //! configuration writes, and the traces its router carries.
 
-use skin_protocol::app::{CellApp, MemoryStore};
+use skin_protocol::app::{CellApp, Delivered, MemoryStore};
 use skin_protocol::cell::{Arrived, Received, SendError};
 use skin_protocol::frame::Frame;
 use skin_protocol::message::{ConfigWrite, Message, Port};
+
+use super::firmware::Firmware;
 use skin_protocol::organize::Config;
 use skin_protocol::router::{Counters, Discard, Meta, Source, Stamp};
 
@@ -53,12 +55,14 @@ pub struct SimCell {
     store: MemoryStore,
     /// Router counters of earlier lives (before reboots).
     pub(super) retired: Counters,
+    /// Its update side, when the skin runs updates (it survives reboots).
+    pub(super) firmware: Option<Box<Firmware>>,
 }
 
 impl SimCell {
     /// An unpowered cell whose store holds `store`.
-    pub fn new(store: MemoryStore) -> SimCell {
-        SimCell { app: None, store, retired: Counters::default() }
+    pub fn new(store: MemoryStore, firmware: Option<Box<Firmware>>) -> SimCell {
+        SimCell { app: None, store, retired: Counters::default(), firmware }
     }
 
     /// Boots the cell at `now_us` from its store: the ID and the settings
@@ -127,7 +131,7 @@ impl Network {
     }
 
     /// Books what a call of cell `i` stamped and what its router gave up.
-    fn book(&mut self, i: usize, stamp: Stamper) {
+    pub(super) fn book(&mut self, i: usize, stamp: Stamper) {
         self.m.ledger.entered += stamp.entered;
         let Some(app) = self.stacks[i].app.as_mut() else { return };
         while let Some((trace, why)) = app.take_discarded() {
@@ -177,7 +181,7 @@ impl Network {
     }
 
     /// A signal reaches port `p` of powered cell `i`, `valid` when it is a
-    /// frame; returns the configuration write it delivered.
+    /// frame; returns the message it delivered to the application.
     pub(super) fn receive(
         &mut self,
         i: usize,
@@ -185,7 +189,7 @@ impl Network {
         signal: Signal,
         followed: Option<Followed>,
         valid: bool,
-    ) -> Option<ConfigWrite> {
+    ) -> Option<Delivered> {
         let mut stamp = self.stamper();
         let (now_ns, processing_ns) = (stamp.now_ns, stamp.processing_ns);
         // A frame that is not one is lost as corrupt by the caller.
@@ -265,6 +269,7 @@ impl Network {
         });
         self.book(i, stamp);
         self.schedule_sample(i);
+        self.update_pulse(i);
         if measuring && self.pulses[i].has_id {
             self.m.samples += 1;
         }
@@ -278,7 +283,7 @@ impl Network {
 
 /// Books a message a cell sent (or could not) on its own, in sampling
 /// period `w`.
-fn book_sent(
+pub(super) fn book_sent(
     m: &mut Measurements,
     window: &mut (u64, u64),
     w: u64,

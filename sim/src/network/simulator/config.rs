@@ -31,6 +31,9 @@ pub struct NetworkConfig {
     /// Cells the stimulus leaves at rest skip their samples while they
     /// provably send nothing (the same run, faster); off only to check that.
     pub skip_resting_cells: bool,
+    /// The cells' update key and factory version, when they take firmware
+    /// updates (each cell then has a 66 KiB slot).
+    pub update: Option<super::UpdateSetup>,
 }
 
 impl Default for NetworkConfig {
@@ -45,6 +48,7 @@ impl Default for NetworkConfig {
             bit_error_rate: 0.0,
             seed: 0,
             skip_resting_cells: true,
+            update: None,
         }
     }
 }

@@ -53,7 +53,7 @@ impl Network {
         }
     }
 
-    fn power_off(&mut self, c: usize, power: Power) {
+    pub(super) fn power_off(&mut self, c: usize, power: Power) {
         // The samples it skipped so far were taken (their noise drawn).
         if let Some(r) = self.rests[c] {
             self.end_rest(c, r, self.taken_through(c, &r));

@@ -35,6 +35,7 @@ mod cells;
 mod config;
 mod ethernet;
 mod faults;
+mod firmware;
 mod rest;
 mod wires;
 
@@ -62,6 +63,7 @@ use cells::Followed;
 pub use cells::{SimCell, Stamper, Trace};
 pub use config::NetworkConfig;
 use ethernet::Interface;
+pub use firmware::{Firmware, UpdateSetup, TRIAL_NS};
 use rest::Rest;
 use wires::{End, Signal};
 
@@ -262,7 +264,9 @@ impl Network {
         Ok(Network {
             frame_ns: config.timing.frame_ns(),
             period_ns: period_us * 1000,
-            stacks: (0..topology.cells()).map(|_| SimCell::new(store)).collect(),
+            stacks: (0..topology.cells())
+                .map(|_| SimCell::new(store, config.update.map(|u| Box::new(Firmware::new(u)))))
+                .collect(),
             rests: vec![None; topology.cells()],
             resting: 0,
             pulses,

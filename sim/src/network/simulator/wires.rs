@@ -1,6 +1,7 @@
 //! The cell-2-cell wires: transmitters, frames in flight, bit errors, and
 //! what a frame does when it reaches a cell or an interface port.
 
+use skin_protocol::app::Delivered;
 use skin_protocol::frame::{Frame, FRAME_LEN};
 use skin_protocol::message::Port;
 use skin_protocol::organize::FromCell;
@@ -162,12 +163,14 @@ impl Network {
                 };
                 // A followed frame the router refuses comes back from it,
                 // with the reason; one that is no frame is lost here.
-                let write = self.receive(i, p, signal, followed, valid);
+                let delivered = self.receive(i, p, signal, followed, valid);
                 if !valid {
                     lost(self, DropReason::Corrupt);
                 }
-                if let Some(w) = write {
-                    self.configure(i, &w);
+                match delivered {
+                    Some(Delivered::Config(w)) => self.configure(i, &w),
+                    Some(Delivered::Update(u)) => self.update(i, &u),
+                    None => {}
                 }
                 // A frame from below only ever waits for the master port
                 // (which it cannot change); anything else may go anywhere.

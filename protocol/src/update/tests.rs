@@ -1,0 +1,226 @@
+use proptest::prelude::*;
+
+use super::*;
+use crate::image::{Board, HEADER_LEN};
+use crate::message::{
+    ImageChunk, Refusal, UpdateAction, UpdateCommand, UpdateOffer, UpdateReport, UpdateState, CHUNK_LEN,
+};
+
+const SLOT: usize = 4096;
+type TestSlot = MemorySlot<SLOT>;
+
+fn key_pair(seed: u8) -> salty::Keypair {
+    salty::Keypair::from(&[seed; 32])
+}
+
+/// A signed image of `len` body bytes, and its chunks.
+fn image(board: Board, version: u32, len: usize, seed: u8) -> (Vec<u8>, Vec<ImageChunk>) {
+    let body: Vec<u8> = (0..len).map(|i| (i * 31 + 7) as u8).collect();
+    let bytes = crate::image::sign(&body, board, version, &[seed; 32]).unwrap();
+    let chunks = chunks(&bytes);
+    (bytes, chunks)
+}
+
+fn chunks(bytes: &[u8]) -> Vec<ImageChunk> {
+    super::chunks(bytes).collect()
+}
+
+fn offer_of(version: u32, chunks: &[ImageChunk]) -> UpdateOffer {
+    UpdateOffer { version, chunks: chunks.len() as u16 }
+}
+
+fn cell() -> Updater {
+    Updater::new(Board::Mps2An386, key_pair(1).public.to_bytes(), 1, BootState::Confirmed)
+}
+
+fn state(r: Option<UpdateReport>) -> Option<UpdateState> {
+    r.map(|r| r.state)
+}
+
+#[test]
+fn an_image_in_order_becomes_ready_then_boots_on_trial() {
+    let (bytes, chunks) = image(Board::Mps2An386, 2, 1000, 1);
+    let (mut u, mut slot) = (cell(), TestSlot::default());
+    let first = u.offer(offer_of(2, &chunks), &mut slot, 0).unwrap();
+    assert_eq!(
+        first,
+        UpdateReport { version: 2, state: UpdateState::Receiving, first_missing: 0, missing: REPAIR_WINDOW }
+    );
+    let mut reports = Vec::new();
+    for (t, c) in chunks.iter().enumerate() {
+        reports.extend(u.chunk(c, &mut slot, t as u64));
+    }
+    assert_eq!(reports.iter().map(|r| r.state).collect::<Vec<_>>(), [UpdateState::Ready]);
+    assert_eq!(&slot.bytes()[..bytes.len()], &bytes[..]);
+    let boot = UpdateCommand { version: 2, action: UpdateAction::Boot };
+    assert_eq!(u.command(&boot, 1).1, Some(BootAction::BootTrial));
+    // A command for another version does nothing.
+    assert_eq!(u.command(&UpdateCommand { version: 3, action: UpdateAction::Boot }, 2).1, None);
+}
+
+#[test]
+fn a_cell_asks_for_the_runs_it_missed_and_only_after_a_quiet_time() {
+    let (bytes, chunks) = image(Board::Mps2An386, 2, 1000, 1);
+    let (mut u, mut slot) = (cell(), TestSlot::default());
+    u.offer(offer_of(2, &chunks), &mut slot, 0);
+    for c in chunks.iter().filter(|c| !(20..25).contains(&c.index) && c.index != 40) {
+        assert_eq!(u.chunk(c, &mut slot, 1_000), None);
+    }
+    assert_eq!(u.poll(1_000 + QUIET_US - 1), None, "not quiet long enough");
+    let nack = u.poll(1_000 + QUIET_US).unwrap();
+    // The span from the first gap to the last within the window: 20..=40.
+    assert_eq!((nack.state, nack.first_missing, nack.missing), (UpdateState::Receiving, 20, 21));
+    assert_eq!(u.poll(1_000 + QUIET_US + 1), None, "one report per quiet time");
+    for c in &chunks[20..25] {
+        u.chunk(c, &mut slot, 200_000);
+    }
+    let nack = u.poll(200_000 + QUIET_US).unwrap();
+    assert_eq!((nack.first_missing, nack.missing), (40, 1));
+    assert_eq!(state(u.chunk(&chunks[40], &mut slot, 300_000)), Some(UpdateState::Ready));
+    assert_eq!(&slot.bytes()[..bytes.len()], &bytes[..]);
+    assert_eq!(u.poll(10_000_000), None, "a ready cell asks for nothing");
+}
+
+#[test]
+fn a_forged_header_is_refused_before_the_body_arrives() {
+    let (_, chunks) = image(Board::Mps2An386, 2, 1000, 9);
+    let (mut u, mut slot) = (cell(), TestSlot::default());
+    u.offer(offer_of(2, &chunks), &mut slot, 0);
+    let header_chunks = HEADER_LEN.div_ceil(CHUNK_LEN);
+    let mut reports = Vec::new();
+    for c in &chunks[..header_chunks] {
+        reports.extend(u.chunk(c, &mut slot, 0));
+    }
+    assert_eq!(reports.iter().map(|r| r.state).collect::<Vec<_>>(), [UpdateState::Refused(Refusal::BadSignature)]);
+    assert_eq!(u.chunk(&chunks[header_chunks], &mut slot, 0), None, "nothing more is written");
+    assert_eq!(u.poll(QUIET_US * 10), None);
+    assert_eq!(u.command(&UpdateCommand { version: 2, action: UpdateAction::Boot }, 0).1, None);
+}
+
+#[test]
+fn wrong_board_truncated_and_corrupted_images_are_refused() {
+    let refused = |chunks: &[ImageChunk], offer: UpdateOffer| {
+        let (mut u, mut slot) = (cell(), TestSlot::default());
+        u.offer(offer, &mut slot, 0);
+        chunks.iter().filter_map(|c| u.chunk(c, &mut slot, 0)).map(|r| r.state).collect::<Vec<_>>()
+    };
+    let (_, other) = image(Board::Stm32f405, 2, 500, 1);
+    assert_eq!(refused(&other, offer_of(2, &other)), [UpdateState::Refused(Refusal::WrongBoard)]);
+
+    let (bytes, good) = image(Board::Mps2An386, 2, 500, 1);
+    let short = chunks(&bytes[..bytes.len() - 11]);
+    assert_eq!(
+        refused(&short, offer_of(2, &short)),
+        [UpdateState::Refused(Refusal::BadHeader)],
+        "offer and header disagree"
+    );
+
+    let mut corrupt = good.clone();
+    corrupt[30].data[3] ^= 1;
+    assert_eq!(refused(&corrupt, offer_of(2, &corrupt)), [UpdateState::Refused(Refusal::BadBody)]);
+
+    assert_eq!(
+        refused(&good, offer_of(3, &good)),
+        [UpdateState::Refused(Refusal::BadHeader)],
+        "offered as another version"
+    );
+    let (mut u, mut slot) = (cell(), TestSlot::default());
+    let too_long = UpdateOffer { version: 2, chunks: (SLOT / CHUNK_LEN + 1) as u16 };
+    assert_eq!(state(u.offer(too_long, &mut slot, 0)), Some(UpdateState::Refused(Refusal::TooLong)));
+}
+
+#[test]
+fn the_running_version_is_not_taken_again_and_a_trial_confirms() {
+    let (_, chunks) = image(Board::Mps2An386, 2, 300, 1);
+    let mut u = Updater::new(Board::Mps2An386, key_pair(1).public.to_bytes(), 2, BootState::Trial);
+    let mut slot = TestSlot::default();
+    assert_eq!(state(u.offer(offer_of(2, &chunks), &mut slot, 0)), Some(UpdateState::Trial));
+    assert_eq!(u.chunk(&chunks[0], &mut slot, 0), None);
+    let (report, action) = u.command(&UpdateCommand { version: 2, action: UpdateAction::Confirm }, 0);
+    assert_eq!((state(report), action), (Some(UpdateState::Running), Some(BootAction::Confirm)));
+    let (_, action) = u.command(&UpdateCommand { version: 2, action: UpdateAction::Rollback }, 0);
+    assert_eq!(action, None, "a confirmed image is not rolled back");
+
+    let mut trial = Updater::new(Board::Mps2An386, key_pair(1).public.to_bytes(), 2, BootState::Trial);
+    let (_, action) = trial.command(&UpdateCommand { version: 2, action: UpdateAction::Rollback }, 0);
+    assert_eq!(action, Some(BootAction::Rollback));
+    let mut back = Updater::new(Board::Mps2An386, key_pair(1).public.to_bytes(), 1, BootState::RolledBack { from: 2 });
+    let rolled_back = UpdateReport { version: 1, state: UpdateState::RolledBack, first_missing: 0, missing: 0 };
+    assert_eq!(back.report(), rolled_back);
+    assert_eq!(
+        back.offer(offer_of(2, &chunks), &mut slot, 0),
+        Some(rolled_back),
+        "the failed version is not taken again"
+    );
+}
+
+fn any_message() -> impl Strategy<Value = (u8, u16, [u8; CHUNK_LEN], u32)> {
+    (0u8..4, any::<u16>(), any::<[u8; CHUNK_LEN]>(), 0u32..4)
+}
+
+proptest! {
+    /// Lossy, reordered, duplicated delivery with selective repeat always
+    /// ends with the image verified and in the slot, byte for byte.
+    #[test]
+    fn any_loss_and_order_ends_ready_with_the_image_in_the_slot(
+        len in 1usize..1500,
+        order in any::<u64>(),
+        loss_per_mille in 0u32..900,
+    ) {
+        let (bytes, chunks) = image(Board::Mps2An386, 5, len, 1);
+        let (mut u, mut slot) = (cell(), TestSlot::default());
+        u.offer(offer_of(5, &chunks), &mut slot, 0);
+        let mut rng = order | 1;
+        let mut next = || { rng ^= rng << 13; rng ^= rng >> 7; rng ^= rng << 17; rng };
+        let mut now = 0;
+        let mut last = None;
+        // The broadcast pass, lossy and with some duplicates.
+        for c in &chunks {
+            for _ in 0..1 + next() % 2 {
+                if (next() % 1000) as u32 >= loss_per_mille {
+                    last = u.chunk(c, &mut slot, now).or(last);
+                }
+                now += 10;
+            }
+        }
+        // Selective repeat: resend what the cell reports missing, lossy too.
+        for _ in 0..10_000 {
+            if state(last) == Some(UpdateState::Ready) { break; }
+            now += QUIET_US;
+            if let Some(r) = u.poll(now) {
+                prop_assert_eq!(r.state, UpdateState::Receiving);
+                prop_assert!(r.missing > 0);
+                for c in &chunks[usize::from(r.first_missing)..usize::from(r.first_missing + r.missing)] {
+                    if (next() % 1000) as u32 >= loss_per_mille {
+                        last = u.chunk(c, &mut slot, now).or(last);
+                    }
+                }
+            }
+        }
+        prop_assert_eq!(state(last), Some(UpdateState::Ready));
+        prop_assert_eq!(&slot.bytes()[..bytes.len()], &bytes[..]);
+    }
+
+    /// Any messages in any order never panic, and the cell is only ever
+    /// ready with the genuine image in its slot.
+    #[test]
+    fn any_messages_never_panic_and_ready_means_genuine(script in proptest::collection::vec(any_message(), 0..300)) {
+        let (bytes, chunks) = image(Board::Mps2An386, 2, 200, 1);
+        let (mut u, mut slot) = (cell(), TestSlot::default());
+        for (t, (what, index, data, version)) in script.into_iter().enumerate() {
+            let now = t as u64 * 1000;
+            let report = match what {
+                0 => u.offer(UpdateOffer { version, chunks: index % 600 }, &mut slot, now),
+                1 => u.chunk(&ImageChunk { index: index % 40, data }, &mut slot, now),
+                2 => u.chunk(&chunks[usize::from(index) % chunks.len()], &mut slot, now),
+                _ => u.poll(now * 100),
+            };
+            if let Some(r) = report {
+                if r.state == UpdateState::Ready {
+                    prop_assert_eq!(r.version, 2);
+                    prop_assert_eq!(&slot.bytes()[..bytes.len()], &bytes[..]);
+                }
+            }
+        }
+    }
+}

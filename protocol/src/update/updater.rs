@@ -1,0 +1,251 @@
+//! The cell's update state machine: messages and time in, reports and boot
+//! actions out, the image into a [`Slot`].
+
+use super::{Bitmap, Slot};
+use crate::image::{Board, ImageError, ImageHeader, Verifier, HEADER_LEN, PUBLIC_KEY_LEN};
+use crate::message::{
+    ImageChunk, Refusal, UpdateAction, UpdateCommand, UpdateOffer, UpdateReport, UpdateState, CHUNK_LEN,
+};
+
+/// Quiet time after the last chunk before a receiving cell reports what it
+/// misses, and the least time between two of its reports.
+pub const QUIET_US: u64 = 20_000;
+/// Chunks a report's missing span covers at most: what the host resends for it.
+pub const REPAIR_WINDOW: u16 = 64;
+/// How often a cell on trial reports until the host confirms it.
+pub const TRIAL_REPORT_US: u64 = 200_000;
+/// Chunks a cell can take: a 64 KiB image and its header.
+const WORDS: usize = (64 * 1024 + HEADER_LEN).div_ceil(CHUNK_LEN).div_ceil(32);
+/// Chunks of the header.
+const HEADER_CHUNKS: u16 = HEADER_LEN.div_ceil(CHUNK_LEN) as u16;
+/// Bytes read back from the slot at a time to verify the body.
+const READ_LEN: usize = 64;
+
+/// How the running image was booted, as the bootloader tells the firmware.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum BootState {
+    /// A confirmed image.
+    Confirmed,
+    /// A new image on trial: unless confirmed, the next boot goes back.
+    Trial,
+    /// The old image again, after a trial of version `from` that was not
+    /// confirmed: that version is not taken again.
+    RolledBack {
+        /// The version that failed its trial.
+        from: u32,
+    },
+}
+
+/// What the board (and its bootloader) must do for the updater.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum BootAction {
+    /// Mark the spare slot for a trial boot and restart.
+    BootTrial,
+    /// Keep the running trial image for good.
+    Confirm,
+    /// Mark the previous image and restart.
+    Rollback,
+}
+
+/// Where the offered image is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Progress {
+    Receiving,
+    Ready,
+    Refused(Refusal),
+}
+
+/// One cell's side of an update.
+#[derive(Clone, Debug)]
+pub struct Updater {
+    board: Board,
+    key: [u8; PUBLIC_KEY_LEN],
+    running: u32,
+    boot: BootState,
+    offer: Option<(UpdateOffer, Progress)>,
+    have: Bitmap<WORDS>,
+    header_checked: bool,
+    last_chunk_us: u64,
+    last_report_us: Option<u64>,
+}
+
+impl Updater {
+    /// A cell of `board` trusting `key`, running `version` booted as `boot`.
+    pub fn new(board: Board, key: [u8; PUBLIC_KEY_LEN], version: u32, boot: BootState) -> Updater {
+        Updater {
+            board,
+            key,
+            running: version,
+            boot,
+            offer: None,
+            have: Bitmap::EMPTY,
+            header_checked: false,
+            last_chunk_us: 0,
+            last_report_us: None,
+        }
+    }
+
+    /// The version running.
+    pub fn running(&self) -> u32 {
+        self.running
+    }
+
+    /// Chunks of the offered image in the slot.
+    pub fn received(&self) -> u32 {
+        self.have.count()
+    }
+
+    /// What the cell would report now.
+    pub fn report(&self) -> UpdateReport {
+        let (version, state, first_missing, missing) = match self.offer {
+            Some((offer, progress)) if offer.version != self.running => match progress {
+                Progress::Receiving => {
+                    let (first, count) = self.have.first_missing(0, REPAIR_WINDOW).unwrap_or((offer.chunks, 0));
+                    (offer.version, UpdateState::Receiving, first, count)
+                }
+                Progress::Ready => (offer.version, UpdateState::Ready, 0, 0),
+                Progress::Refused(r) => (offer.version, UpdateState::Refused(r), 0, 0),
+            },
+            _ => {
+                let state = match self.boot {
+                    BootState::Confirmed => UpdateState::Running,
+                    BootState::Trial => UpdateState::Trial,
+                    BootState::RolledBack { .. } => UpdateState::RolledBack,
+                };
+                (self.running, state, 0, 0)
+            }
+        };
+        UpdateReport { version, state, first_missing, missing }
+    }
+
+    fn reported(&mut self, now_us: u64) -> Option<UpdateReport> {
+        self.last_report_us = Some(now_us);
+        Some(self.report())
+    }
+
+    /// An offer: a new version clears the slot for it; every offer is answered.
+    pub fn offer(&mut self, offer: UpdateOffer, slot: &mut impl Slot, now_us: u64) -> Option<UpdateReport> {
+        let current = self.offer.is_some_and(|(o, _)| o == offer);
+        let failed = self.boot == BootState::RolledBack { from: offer.version };
+        if offer.version != self.running && !current && !failed {
+            let progress = if usize::from(offer.chunks) * CHUNK_LEN > slot.capacity() as usize
+                || usize::from(offer.chunks) < usize::from(HEADER_CHUNKS)
+            {
+                Progress::Refused(Refusal::TooLong)
+            } else if slot.erase().is_err() {
+                Progress::Refused(Refusal::SlotFailed)
+            } else {
+                Progress::Receiving
+            };
+            let have = Bitmap::new(offer.chunks);
+            let progress = if have.is_none() { Progress::Refused(Refusal::TooLong) } else { progress };
+            self.have = have.unwrap_or(self.have);
+            self.offer = Some((offer, progress));
+            self.header_checked = false;
+            self.last_chunk_us = now_us;
+        }
+        self.reported(now_us)
+    }
+
+    /// A chunk of the offered image; reports when the image is complete or refused.
+    pub fn chunk(&mut self, chunk: &ImageChunk, slot: &mut impl Slot, now_us: u64) -> Option<UpdateReport> {
+        let Some((offer, Progress::Receiving)) = self.offer else { return None };
+        if !self.have.insert(chunk.index) {
+            return None;
+        }
+        self.last_chunk_us = now_us;
+        let offset = u32::from(chunk.index) * CHUNK_LEN as u32;
+        let progress = if slot.write(offset, &chunk.data).is_err() {
+            Some(Progress::Refused(Refusal::SlotFailed))
+        } else if !self.header_checked && (0..HEADER_CHUNKS).all(|i| self.have.has(i)) {
+            self.header_checked = true;
+            self.verifier(offer, slot).err().map(Progress::Refused)
+        } else {
+            None
+        };
+        let progress = progress.or_else(|| {
+            self.have.is_full().then(|| match self.check_image(slot) {
+                Ok(_) => Progress::Ready,
+                Err(refusal) => Progress::Refused(refusal),
+            })
+        })?;
+        self.offer = Some((offer, progress));
+        self.reported(now_us)
+    }
+
+    /// The header in the slot, checked against the offer, the board and the key.
+    fn verifier(&self, offer: UpdateOffer, slot: &impl Slot) -> Result<Verifier, Refusal> {
+        let mut bytes = [0u8; HEADER_LEN];
+        slot.read(0, &mut bytes).map_err(|_| Refusal::SlotFailed)?;
+        let header = ImageHeader::parse(&bytes).map_err(refusal)?;
+        let chunks = header.image_len().div_ceil(CHUNK_LEN as u64);
+        if header.version != offer.version || chunks != u64::from(offer.chunks) {
+            return Err(Refusal::BadHeader);
+        }
+        let room = (u64::from(offer.chunks) * CHUNK_LEN as u64).saturating_sub(HEADER_LEN as u64);
+        Verifier::new(&header, self.board, u32::try_from(room).unwrap_or(u32::MAX), &self.key).map_err(refusal)
+    }
+
+    /// The whole image read back from the slot and verified.
+    fn check_image(&self, slot: &impl Slot) -> Result<ImageHeader, Refusal> {
+        let Some((offer, _)) = self.offer else { return Err(Refusal::BadHeader) };
+        let mut verifier = self.verifier(offer, slot)?;
+        let end = HEADER_LEN as u64 + u64::from(verifier.header().body_len);
+        let mut at = HEADER_LEN as u64;
+        let mut buf = [0u8; READ_LEN];
+        while at < end {
+            let n = (end - at).min(READ_LEN as u64) as usize;
+            slot.read(at as u32, &mut buf[..n]).map_err(|_| Refusal::SlotFailed)?;
+            verifier.absorb(&buf[..n]).map_err(refusal)?;
+            at += n as u64;
+        }
+        verifier.finish().map_err(refusal)
+    }
+
+    /// Lets time pass: a receiving cell that heard no chunk for
+    /// [`QUIET_US`] reports the first run it misses; a cell on trial
+    /// reports every [`TRIAL_REPORT_US`] until it is confirmed.
+    pub fn poll(&mut self, now_us: u64) -> Option<UpdateReport> {
+        let since = |t: Option<u64>, period: u64| t.is_none_or(|t| now_us.saturating_sub(t) >= period);
+        let due = match self.offer {
+            Some((_, Progress::Receiving)) => {
+                now_us.saturating_sub(self.last_chunk_us) >= QUIET_US && since(self.last_report_us, QUIET_US)
+            }
+            _ => self.boot == BootState::Trial && since(self.last_report_us, TRIAL_REPORT_US),
+        };
+        if due {
+            self.reported(now_us)
+        } else {
+            None
+        }
+    }
+
+    /// A command from the host: the report to send and what the board must do.
+    pub fn command(&mut self, command: &UpdateCommand, now_us: u64) -> (Option<UpdateReport>, Option<BootAction>) {
+        let ready = matches!(self.offer, Some((o, Progress::Ready)) if o.version == command.version);
+        let trial = self.boot == BootState::Trial && self.running == command.version;
+        let action = match command.action {
+            UpdateAction::Boot if ready => Some(BootAction::BootTrial),
+            UpdateAction::Confirm if trial => {
+                self.boot = BootState::Confirmed;
+                Some(BootAction::Confirm)
+            }
+            UpdateAction::Rollback if trial => Some(BootAction::Rollback),
+            _ => None,
+        };
+        (self.reported(now_us), action)
+    }
+}
+
+/// The refusal a cell reports for an image error.
+fn refusal(e: ImageError) -> Refusal {
+    match e {
+        ImageError::BadSignature | ImageError::BadKey => Refusal::BadSignature,
+        ImageError::WrongBoard { .. } => Refusal::WrongBoard,
+        ImageError::TooLong { .. } => Refusal::TooLong,
+        ImageError::BadDigest | ImageError::LengthMismatch { .. } => Refusal::BadBody,
+        _ => Refusal::BadHeader,
+    }
+}
