@@ -7,6 +7,7 @@ mod grasp;
 mod job;
 mod loadgen;
 mod monitor;
+mod objects;
 mod run;
 mod seconds;
 mod sim_endpoint;

@@ -199,6 +199,11 @@ impl Events {
         self.areas(kind).any(|a| self.level(a, modality) >= level)
     }
 
+    /// How many areas of the kind have a cell at `level` or above.
+    pub fn count(&self, kind: AreaKind, modality: Modality, level: u8) -> usize {
+        self.areas(kind).filter(|a| self.level(*a, modality) >= level).count()
+    }
+
     /// Whether every area of the kind (at least one) has a cell at `level`
     /// or above.
     pub fn every(&self, kind: AreaKind, modality: Modality, level: u8) -> bool {
