@@ -209,8 +209,9 @@ fn run(program: &str, args: &[&str]) -> Result<(), String> {
 }
 
 /// Installs what a fresh machine lacks: the thumb target, rustfmt and
-/// clippy, and QEMU for the firmware tests (from Debian's packages when
-/// running as root; otherwise says the command to run).
+/// clippy, QEMU for the firmware tests and Python 3 for the object-file
+/// interop test (from Debian's packages when running as root; otherwise
+/// says the command to run).
 fn install() -> Result<(), String> {
     let targets = output("rustup", &["target", "list", "--installed"]).ok_or("rustup is not available")?;
     if !targets.lines().any(|t| t.trim() == THUMB) {
@@ -221,13 +222,24 @@ fn install() -> Result<(), String> {
             run("rustup", &["component", "add", component])?;
         }
     }
-    if !succeeds("qemu-system-arm", &["--version"]) {
+    // QEMU for the firmware tests; Python 3.11+ (its tomllib reads our
+    // object files in the sim tests, a reader we did not write).
+    let missing: Vec<&str> = [("qemu-system-arm", &["--version"][..]), ("python3", &["-c", "import tomllib"][..])]
+        .into_iter()
+        .filter(|(program, args)| !succeeds(program, args))
+        .map(|(program, _)| program)
+        .collect();
+    if !missing.is_empty() {
         let root = output("id", &["-u"]).is_some_and(|u| u.trim() == "0");
         if !root {
-            return Err("qemu-system-arm is missing: run `sudo apt-get install -y qemu-system-arm`".into());
+            return Err(format!(
+                "{} missing: run `sudo apt-get install -y {}`",
+                missing.join(" and "),
+                missing.join(" ")
+            ));
         }
         run("apt-get", &["update", "-q"])?;
-        run("apt-get", &["install", "-y", "-q", "qemu-system-arm"])?;
+        run("apt-get", &[&["install", "-y", "-q"][..], &missing].concat())?;
     }
     Ok(())
 }
