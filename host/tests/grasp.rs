@@ -141,17 +141,34 @@ fn mistakes_get_a_message_not_a_panic() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// The five objects held at the default spot's sides: 3 cm either way and
-/// turned 0.3 rad either way (the default spot is
-/// `five_objects_grasped_with_one_parameter_set`). About 2 min in release:
+/// The five objects held 3 cm to either side of the default spot (the
+/// spot itself is `five_objects_grasped_with_one_parameter_set`). About
+/// 1.5 min in release:
 /// `cargo test --release -p skin-host --test grasp -- --ignored placed`.
 #[test]
 #[ignore]
-fn five_objects_held_placed_off_centre_and_turned() {
-    for placement in [["--offset", "0,0.03,0"], ["--offset", "0,-0.03,0"], ["--yaw", "0.3"], ["--yaw", "-0.3"]] {
-        let runs = runs(&[&["--object", "all"][..], &placement[..]].concat());
+fn five_objects_held_placed_3_cm_to_either_side() {
+    five_held_at(&[["--offset", "0,0.03,0"], ["--offset", "0,-0.03,0"]]);
+}
+
+/// The five objects held turned 0.3 rad either way. Fails today: the
+/// delivery box (hard, 20,000 N/m) reaches pain on one cell when turned
+/// (README, Limits). About 1.5 min in release:
+/// `cargo test --release -p skin-host --test grasp -- --ignored turned`.
+#[test]
+#[ignore]
+fn five_objects_held_turned_0_3_rad_either_way() {
+    five_held_at(&[["--yaw", "0.3"], ["--yaw", "-0.3"]]);
+}
+
+/// Every Figure 16 object held at each placement.
+fn five_held_at(placements: &[[&str; 2]]) {
+    for placement in placements {
+        let out = skin(&[&["grasp", "--json", "--object", "all"][..], &placement[..]].concat());
+        let v: Value = serde_json::from_slice(&out.stdout).expect("JSON");
+        let runs = v.as_array().expect("an array");
         assert_eq!(runs.len(), 5);
-        for r in &runs {
+        for r in runs {
             check_held(r);
             let p = &r["placement"];
             let moved = p["offset_m"][1].as_f64().unwrap().abs() == 0.03 || p["yaw_rad"].as_f64().unwrap().abs() == 0.3;

@@ -24,7 +24,7 @@ use super::{job, objects};
 #[derive(clap::Args)]
 pub struct Args {
     #[command(flatten)]
-    objects: objects::Args,
+    objects: objects::ObjectArgs,
     /// Grasp parameters (TOML, like host/config/grasp.toml) instead of Table 4.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,

@@ -16,7 +16,7 @@ use skin_sim::scene::placement::{ObjectAt, Placement};
 
 /// The object arguments of `skin grasp`.
 #[derive(clap::Args)]
-pub struct Args {
+pub struct ObjectArgs {
     /// The object: trash_bin, sponge_rock, moving_box, box_lid, delivery_box, all, or none
     /// [default: all, or none of these when --object-file is given].
     #[arg(long)]
@@ -49,7 +49,7 @@ fn offset(text: &str) -> Result<[f64; 3], String> {
     }
 }
 
-impl Args {
+impl ObjectArgs {
     /// What to grasp, in order, each where it is put.
     pub fn chosen(&self) -> Result<Vec<Option<ObjectAt>>, Box<dyn std::error::Error>> {
         let default = if self.object_file.is_empty() { Some("all") } else { None };

@@ -39,6 +39,8 @@ impl Modality {
 pub mod level {
     /// Force level at which pain begins.
     pub const PAIN: u8 = 4;
+    /// The force level below pain (Table 3's high force).
+    pub const HIGH: u8 = 3;
     /// Proximity level of a close contact.
     pub const CLOSE_CONTACT: u8 = 4;
 }

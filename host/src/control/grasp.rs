@@ -292,12 +292,28 @@ impl Grasp {
                 }
             }
             Pull => {
-                // Against the chest with the arms on it: one arm and the
-                // chest alone pin the object, they do not hold it, unless
-                // the object is what stops the arms closing further.
-                let arms = every(Contact, Force, 1) || (trajectory == Some(Stalled) && any(Contact, Force, 1));
-                if any(Chest, Proximity, t.chest_proximity) && arms {
+                // The object is against the chest when the chest sees it
+                // close or feels it; held when both arms are on it too: one
+                // arm and the chest alone pin the object, unless the object
+                // is what stops the arms closing further. So an arm on it
+                // that can pull it no closer, the chest seeing it near (the
+                // contact level: nearer than where it was put down), ends
+                // the pull too (a turned object may touch the chest
+                // beside its cells, and an arm's bare surface may hold it
+                // where no cell feels it).
+                let stalled = trajectory == Some(Stalled);
+                let chest_close = any(Chest, Proximity, t.chest_proximity) || any(Chest, Force, 1);
+                let chest_near = any(Chest, Proximity, t.contact_proximity);
+                let both_arms = every(Contact, Force, 1);
+                let one_arm = any(Contact, Force, 1);
+                // Pulling against high force on an arm, the object will not
+                // come closer: hold it if it is near the chest, else give
+                // up before the force reaches pain.
+                let straining = any(Contact, Force, level::HIGH);
+                if (chest_close && both_arms) || ((stalled || straining) && chest_near && one_arm) {
                     Some((Hold, Cause::Chest))
+                } else if straining {
+                    Some((Cancel, Cause::Force))
                 } else if !any(Contact, Proximity, t.approach_proximity) {
                     Some((Cancel, Cause::ContactLost))
                 } else {

@@ -83,7 +83,7 @@ pub enum ObjectError {
 #[serde(deny_unknown_fields)]
 struct File {
     name: String,
-    shape: ShapeFile,
+    shape: Shape,
     mass_kg: f64,
     stiffness_n_per_m: f64,
     reflectance: f64,
@@ -94,67 +94,36 @@ struct File {
     yaw_rad: f64,
 }
 
-#[derive(Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-enum ShapeFile {
-    Box {
-        half: [f64; 3],
-        #[serde(default)]
-        round_m: f64,
-    },
-    Cylinder {
-        radius: f64,
-        half_height: f64,
-    },
-    Sphere {
-        radius: f64,
-    },
-    Blob {
-        semi: [f64; 3],
-        #[serde(default)]
-        bump_m: f64,
-        #[serde(default)]
-        bump_rad_per_m: f64,
-    },
-}
-
 /// A half size in (0, 1] m.
 fn half(key: &str, v: f64) -> Result<(), ObjectError> {
     in_range(key, v, f64::MIN_POSITIVE, MAX_HALF_M, "a size in (0, 1] m")
 }
 
-fn halves(key: &str, v: [f64; 3]) -> Result<Vector3<f64>, ObjectError> {
+fn halves(key: &str, v: &Vector3<f64>) -> Result<(), ObjectError> {
     for (i, h) in v.iter().enumerate() {
         half(&format!("{key}[{i}]"), *h)?;
     }
-    Ok(Vector3::from(v))
+    Ok(())
 }
 
-impl ShapeFile {
-    fn check(self) -> Result<Shape, ObjectError> {
-        Ok(match self {
-            ShapeFile::Box { half, round_m } => {
-                let half = halves("shape.box.half", half)?;
-                in_range("shape.box.round_m", round_m, 0.0, half.min(), "from 0 to the smallest half size")?;
-                Shape::Box { half, round_m }
-            }
-            ShapeFile::Cylinder { radius, half_height } => {
-                half("shape.cylinder.radius", radius)?;
-                half("shape.cylinder.half_height", half_height)?;
-                Shape::Cylinder { radius, half_height }
-            }
-            ShapeFile::Sphere { radius } => {
-                half("shape.sphere.radius", radius)?;
-                Shape::Sphere { radius }
-            }
-            ShapeFile::Blob { semi, bump_m, bump_rad_per_m } => {
-                let semi = halves("shape.blob.semi", semi)?;
-                let most = semi.min() / 2.0;
-                in_range("shape.blob.bump_m", bump_m, 0.0, most, "from 0 to half the smallest semi-axis")?;
-                in_range("shape.blob.bump_rad_per_m", bump_rad_per_m, 0.0, 1000.0, "from 0 to 1000 rad/m")?;
-                Shape::Blob { semi, bump_m, bump_rad_per_m }
-            }
-        })
+/// Checks a shape is a body: sizes in (0, 1] m, edges no rounder than the
+/// box, bumps no deeper than half the blob.
+fn check_shape(shape: &Shape) -> Result<(), ObjectError> {
+    match *shape {
+        Shape::Box { half, round_m } => {
+            halves("shape.box.half", &half)?;
+            in_range("shape.box.round_m", round_m, 0.0, half.min(), "from 0 to the smallest half size")
+        }
+        Shape::Cylinder { radius, half_height } => {
+            self::half("shape.cylinder.radius", radius)?;
+            self::half("shape.cylinder.half_height", half_height)
+        }
+        Shape::Sphere { radius } => self::half("shape.sphere.radius", radius),
+        Shape::Blob { semi, bump_m, bump_rad_per_m } => {
+            halves("shape.blob.semi", &semi)?;
+            in_range("shape.blob.bump_m", bump_m, 0.0, semi.min() / 2.0, "from 0 to half the smallest semi-axis")?;
+            in_range("shape.blob.bump_rad_per_m", bump_rad_per_m, 0.0, 1000.0, "from 0 to 1000 rad/m")
+        }
     }
 }
 
@@ -174,7 +143,8 @@ fn check_name(name: &str) -> Result<(), ObjectError> {
 pub fn parse(text: &str) -> Result<ObjectAt, ObjectError> {
     let f: File = toml::from_str(text).map_err(ObjectError::Toml)?;
     check_name(&f.name)?;
-    let shape = f.shape.check()?;
+    check_shape(&f.shape)?;
+    let shape = f.shape;
     in_range("mass_kg", f.mass_kg, f64::MIN_POSITIVE, 1000.0, "a mass in (0, 1000] kg")?;
     in_range("stiffness_n_per_m", f.stiffness_n_per_m, 1.0, 1e7, "a stiffness in [1, 1e7] N/m")?;
     in_range("reflectance", f.reflectance, 0.0, 2.0, "an infrared reflectance relative to skin in [0, 2]")?;

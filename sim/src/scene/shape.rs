@@ -8,14 +8,17 @@
 
 use nalgebra::{Point3, Vector3};
 
-/// A shape in its own frame, centred on the origin, z up.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A shape in its own frame, centred on the origin, z up (as object files
+/// write it: `{ box = { half = [x, y, z], round_m = r } }`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum Shape {
     /// A box with half edge lengths and rounded edges, m.
     Box {
         /// Half extents along x, y, z, m.
         half: Vector3<f64>,
         /// Radius of its edges and corners (the give of cardboard), m.
+        #[serde(default)]
         round_m: f64,
     },
     /// An upright cylinder.
@@ -35,8 +38,10 @@ pub enum Shape {
         /// Semi-axes, m.
         semi: Vector3<f64>,
         /// Height of the bumps, m.
+        #[serde(default)]
         bump_m: f64,
         /// Spatial frequency of the bumps, rad/m.
+        #[serde(default)]
         bump_rad_per_m: f64,
     },
 }
