@@ -306,10 +306,10 @@ impl Grasp {
                 let chest_near = any(Chest, Proximity, t.contact_proximity);
                 let both_arms = every(Contact, Force, 1);
                 let one_arm = any(Contact, Force, 1);
-                // Pulling against high force on an arm, the object will not
-                // come closer: hold it if it is near the chest, else give
-                // up before the force reaches pain.
-                let straining = any(Contact, Force, level::HIGH);
+                // Pulling against high force on an arm or the chest, the
+                // object will not come closer: hold it if it is near the
+                // chest, else give up before the force reaches pain.
+                let straining = touch.highest(Force) >= level::HIGH;
                 if (chest_close && both_arms) || ((stalled || straining) && chest_near && one_arm) {
                     Some((Hold, Cause::Chest))
                 } else if straining {
