@@ -14,12 +14,19 @@
 //! the host gave them, as an operator writes them into the configuration
 //! of a real robot after touching the cells in `skin monitor`.
 //!
+//! Each grasp is judged by the simulator's truth ([`verdict`]), never by
+//! the controller reaching Hold.
+//!
 //! [`crate::report::traces::write_traces`] writes what each grasp felt (Figure 18) as CSV and SVG.
+
+pub mod verdict;
 
 use serde::Serialize;
 use skin_protocol::{Address, Sample};
-use skin_sim::scene::object::Object;
+use skin_sim::scene::force::Calibration;
+use skin_sim::scene::held::ObjectTruth;
 use skin_sim::scene::operator::{Note, Order};
+use skin_sim::scene::placement::ObjectAt;
 use tracing::info;
 
 use crate::control::areas::{parse_specs, AreaId, AreaKind, Areas};
@@ -69,7 +76,7 @@ pub enum GraspError {
     #[error("the person at the robot: {0}")]
     Person(String),
     /// An object that is not in Figure 16.
-    #[error("no object \"{0}\": choose trash_bin, sponge_rock, moving_box, box_lid, delivery_box, all or none")]
+    #[error("no object \"{0}\": choose trash_bin, sponge_rock, moving_box, box_lid, delivery_box, all or none, or give --object-file")]
     UnknownObject(String),
 }
 
@@ -136,21 +143,69 @@ pub struct TraceRow {
     pub object_gap_m: Option<f64>,
 }
 
+/// What the person said they saw during one grasp.
+#[derive(Clone, Copy, Debug, Default)]
+struct Watched {
+    max_force_n: f64,
+    grip_force_max_n: f64,
+    hand_force_max_n: f64,
+    object: Option<ObjectTruth>,
+    ever_gripped: bool,
+    heard: bool,
+}
+
+impl Watched {
+    fn hear(&mut self, note: &Note) {
+        if let Note::Seen { max_force_n, grip_force_max_n, hand_force_max_n, object, .. } = *note {
+            *self = Watched {
+                max_force_n,
+                grip_force_max_n,
+                hand_force_max_n,
+                object,
+                ever_gripped: self.ever_gripped || object.is_some_and(|o| o.gripped()),
+                heard: true,
+            };
+        }
+    }
+}
+
+/// Where an object was put, from the default spot.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct PlacementJson {
+    /// Forward, left, up, m.
+    pub offset_m: [f64; 3],
+    /// Turn about the vertical, rad.
+    pub yaw_rad: f64,
+}
+
 /// One grasp.
 #[derive(Clone, Debug, Serialize)]
 pub struct GraspRun {
     /// The object, or "none".
     pub object: String,
-    /// Contact made, force applied and the object pulled to the chest (the
-    /// paper's criterion): the grasp reached Hold.
+    /// Where it was put (none: nothing was).
+    pub placement: Option<PlacementJson>,
+    /// The truth's verdict: when the person patted to release, the object
+    /// was between the arms, against the chest, both arms on it.
     pub succeeded: bool,
-    /// The state it ended in.
-    pub final_state: State,
+    /// Why not (none: held).
+    pub reason: Option<verdict::Failure>,
+    /// What the truth said when the person patted to release (none: the
+    /// controller never held it that long).
+    pub at_release: Option<ObjectTruth>,
+    /// The state the controller ended in.
+    pub controller_state: State,
     /// From the launching pat to the final state, s.
     pub time_s: f64,
+    /// Ground truth: the largest force of the object on any one force
+    /// cell, N (the grip; the person's pats not included).
+    pub grip_force_max_n: f64,
+    /// Ground truth: the largest force of the person's hands on any one
+    /// force cell, N (the pats that launch and release).
+    pub hand_force_max_n: f64,
     /// Ground truth: the largest force on any one force cell, N.
     pub max_cell_force_n: f64,
-    /// Pain-level touches (each one evaded).
+    /// Pain-level touches the controller evaded.
     pub pain_events: usize,
     /// Every transition.
     pub state_log: Vec<Logged>,
@@ -297,12 +352,13 @@ pub fn learn<R: Robot + SampleSource>(
 
 /// Brings the robot home, lets the person put `object` (or nothing)
 /// between its arms, launch a grasp with a pat, release the object with
-/// another once it has been held, and take it away.
+/// another once it has been held, and take it away. The verdict is the
+/// truth's, as the person saw it when patting to release.
 pub fn grasp<R: Robot + SampleSource>(
     robot: &mut R,
     person: &mut dyn Experimenter,
     taught: &Taught,
-    object: Option<&Object>,
+    object: Option<&ObjectAt>,
     params: &Params,
 ) -> Result<GraspRun, GraspError> {
     let mut lab = Lab::new(robot, person);
@@ -313,56 +369,79 @@ pub fn grasp<R: Robot + SampleSource>(
     let areas = traced_areas(c.areas());
     let start = lab.time_s;
     let launch = start + LAUNCH_AT_S;
-    let (mut launched, mut release_at, mut released) = (false, None, false);
-    // What the person saw last: the largest force so far, the object's gap.
-    let mut seen = None;
+    let (mut launched, mut held_s, mut released) = (false, 0.0, false);
+    let mut watched = Watched::default();
+    let mut at_release = None;
     let mut trace = Vec::new();
     let mut next_row = launch;
-    let end = loop {
+    let (end, timed_out) = loop {
         let t = lab.time_s;
-        if c.state() == Some(State::Hold) && release_at.is_none() {
-            release_at = Some(t + HOLD_S);
+        // Released once held for HOLD_S in all (an arm that lets go pulls
+        // again meanwhile), at a moment it holds.
+        let holding = c.state() == Some(State::Hold);
+        if holding {
+            held_s += lab.robot.tick_s();
         }
-        if (t >= launch && !std::mem::replace(&mut launched, true))
-            || (release_at.is_some_and(|at| t >= at) && !std::mem::replace(&mut released, true))
-        {
+        let release = holding && held_s >= HOLD_S && !std::mem::replace(&mut released, true);
+        if release {
+            at_release = Some(watched.object);
+        }
+        if (t >= launch && !std::mem::replace(&mut launched, true)) || release {
             lab.person.order(Order::Pat)?;
         }
         lab.period(&mut c, &taught.map)?;
         for note in lab.notes.drain(..) {
-            if let Note::Seen { max_force_n, object_gap_m, .. } = note {
-                seen = Some((max_force_n, object_gap_m));
-            }
+            watched.hear(&note);
         }
         let t = lab.time_s;
         if t >= next_row {
             next_row += 1.0 / TRACE_HZ;
-            trace.push(row(&c, &areas, lab.robot.positions(), t - launch, seen.and_then(|s| s.1)));
+            let gap = watched.object.map(|o| o.gap_m);
+            trace.push(row(&c, &areas, lab.robot.positions(), t - launch, gap));
         }
         let state = c.state().expect("grasp mode");
-        let over = launched && matches!(state, State::Done | State::Cancelled);
-        if over || t - launch > GRASP_LIMIT_S {
-            break state;
+        if launched && matches!(state, State::Done | State::Cancelled) {
+            break (state, false);
+        }
+        if t - launch > GRASP_LIMIT_S {
+            break (state, true);
         }
     };
     lab.person.order(Order::Place(None))?;
-    let Some((max_cell_force_n, _)) = seen else {
+    if !watched.heard {
         return Err(GraspError::Person("said nothing of what they saw during the grasp".into()));
-    };
+    }
     let state_log: Vec<Logged> =
         c.transitions().iter().map(|tr| Logged { state: tr.to, time_s: tr.time_s - launch, cause: tr.cause }).collect();
+    let pain_events = state_log.iter().filter(|l| l.cause == Cause::Pain).count();
+    let pain_n = Calibration::default().force(f64::from(params.levels.force[3]));
+    let seen = verdict::Seen {
+        pain: pain_events > 0 || watched.max_force_n >= pain_n,
+        timed_out,
+        reached_hold: state_log.iter().any(|l| l.state == State::Hold),
+        held_at_release: at_release.map(|o| o.is_some_and(|o: ObjectTruth| o.held())),
+        ever_gripped: watched.ever_gripped,
+        cancelled_by: state_log.iter().find(|l| l.state == State::Cancel).map(|l| l.cause),
+    };
+    let verdict = verdict::judge(&seen);
     let run = GraspRun {
-        object: object.map_or("none", |o| o.name).to_owned(),
-        succeeded: state_log.iter().any(|l| l.state == State::Hold),
-        final_state: end,
+        object: object.map_or("none", |o| &o.object.name).to_owned(),
+        placement: object
+            .map(|o| PlacementJson { offset_m: o.placement.offset_m.into(), yaw_rad: o.placement.yaw_rad }),
+        succeeded: verdict.is_ok(),
+        reason: verdict.err(),
+        at_release: at_release.flatten(),
+        controller_state: end,
         time_s: state_log.last().map_or(0.0, |l| l.time_s),
-        max_cell_force_n,
-        pain_events: state_log.iter().filter(|l| l.cause == Cause::Pain).count(),
+        grip_force_max_n: watched.grip_force_max_n,
+        hand_force_max_n: watched.hand_force_max_n,
+        max_cell_force_n: watched.max_force_n,
+        pain_events,
         state_log,
         trace,
         dof_names: lab.robot.dof_names(),
     };
-    info!(object = run.object, succeeded = run.succeeded, final_state = ?run.final_state, "grasp");
+    info!(object = run.object, succeeded = run.succeeded, reason = ?run.reason, controller_state = ?run.controller_state, "grasp");
     Ok(run)
 }
 

@@ -98,7 +98,8 @@ fn the_quick_demo_writes_a_complete_and_true_report() {
     assert!(dir.join("grasp_trash_bin.csv").metadata().unwrap().len() > 0);
     let runs = report["grasps"]["runs"].as_array().unwrap();
     assert_eq!(runs.len(), 1);
-    assert_eq!(runs[0]["succeeded"], true, "{}", runs[0]);
+    assert_eq!(runs[0]["succeeded"], true, "held by the simulator's truth: {}", runs[0]);
+    assert!(runs[0]["grip_force_max_n"].as_f64().unwrap() > 0.1, "the grip, not the pats: {}", runs[0]);
     let lessons = report["grasps"]["lessons"].as_array().unwrap();
     assert_eq!(lessons.len(), 3, "open, closed and pulled taught");
     // Teaching and grasping ran on the served skin: its network carried a

@@ -214,8 +214,9 @@ fn run(program: &str, args: &[&str]) -> Result<(), String> {
 }
 
 /// Installs what a fresh machine lacks: the thumb target, rustfmt and
-/// clippy, and QEMU for the firmware tests (from Debian's packages when
-/// running as root; otherwise says the command to run).
+/// clippy, QEMU for the firmware tests and Python 3 for the object-file
+/// interop test (from Debian's packages when running as root; otherwise
+/// says the command to run).
 fn install() -> Result<(), String> {
     let targets = output("rustup", &["target", "list", "--installed"]).ok_or("rustup is not available")?;
     if !targets.lines().any(|t| t.trim() == THUMB) {
@@ -227,12 +228,17 @@ fn install() -> Result<(), String> {
         }
     }
     // QEMU runs the firmware tests; OpenSSL checks our update keys and
-    // signatures as a reader we did not write (`update_cli`).
-    let missing: Vec<&str> = [("qemu-system-arm", "qemu-system-arm"), ("openssl", "openssl")]
-        .into_iter()
-        .filter(|(program, _)| !succeeds(program, &["version"]) && !succeeds(program, &["--version"]))
-        .map(|(_, package)| package)
-        .collect();
+    // signatures, Python 3.11+ (its tomllib) our object files: readers we
+    // did not write.
+    let missing: Vec<&str> = [
+        ("qemu-system-arm", &["--version"][..]),
+        ("openssl", &["version"][..]),
+        ("python3", &["-c", "import tomllib"][..]),
+    ]
+    .into_iter()
+    .filter(|(program, args)| !succeeds(program, args))
+    .map(|(program, _)| program)
+    .collect();
     if !missing.is_empty() {
         let root = output("id", &["-u"]).is_some_and(|u| u.trim() == "0");
         if !root {

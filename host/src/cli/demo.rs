@@ -34,11 +34,12 @@ use skin_sim::endpoint::{Endpoint, EndpointConfig, Pacing, Running, Truth};
 use skin_sim::network::NetworkConfig;
 use skin_sim::robot::hrp2;
 use skin_sim::scene::experiment::Setup;
-use skin_sim::scene::object::Object;
 use skin_sim::scene::operator::{Note, Order};
+use skin_sim::scene::placement::{ObjectAt, Placement};
 use skin_sim::world::{World, WorldConfig};
 
 use super::job::{self, bar, Steps};
+use super::objects::built_in;
 
 /// The loopback address with a port the OS picks.
 const LOOPBACK: SocketAddr = SocketAddr::new(std::net::IpAddr::V4(std::net::Ipv4Addr::LOCALHOST), 0);
@@ -82,7 +83,10 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let found = job::run(&mut remote, &steps)?;
     let exploration = found.exploration.clone();
     let grasp_wall = Instant::now();
-    let chosen = objects(if args.quick { "trash_bin" } else { "all" })?;
+    let chosen: Vec<Option<ObjectAt>> = built_in(if args.quick { "trash_bin" } else { "all" })?
+        .into_iter()
+        .map(|o| o.map(|object| ObjectAt { object, placement: Placement::default() }))
+        .collect();
     let (taught, runs) =
         teach_and_grasp(&mut remote, &mut endpoint, exploration.smm.clone(), &Params::default(), &chosen)?;
     let grasp_wall_s = grasp_wall.elapsed().as_secs_f64();
@@ -157,22 +161,13 @@ impl Experimenter for Person<'_> {
     }
 }
 
-/// The objects a command-line choice names: one, all of Figure 16, or none.
-pub(super) fn objects(choice: &str) -> Result<Vec<Option<Object>>, GraspError> {
-    match choice {
-        "all" => Ok(Object::figure_16().into_iter().map(Some).collect()),
-        "none" => Ok(vec![None]),
-        name => Object::by_name(name).map(|o| vec![Some(o)]).ok_or_else(|| GraspError::UnknownObject(name.into())),
-    }
-}
-
 /// Teaching by the person at the robot, then a grasp of each of `objects`.
 pub(super) fn teach_and_grasp(
     remote: &mut Remote,
     person: &mut Running,
     map: SensoryMotorMap,
     params: &Params,
-    objects: &[Option<Object>],
+    objects: &[Option<ObjectAt>],
 ) -> Result<(Taught, Vec<GraspRun>), GraspError> {
     let progress = bar("{msg:32} [{bar:30}] {pos}/{len} steps");
     progress.set_length((6 + objects.len()) as u64);
@@ -183,7 +178,7 @@ pub(super) fn teach_and_grasp(
     })?;
     let mut runs = Vec::new();
     for object in objects {
-        progress.set_message(format!("grasping {}", object.as_ref().map_or("nothing", |o| o.name)));
+        progress.set_message(format!("grasping {}", object.as_ref().map_or("nothing", |o| &o.object.name)));
         runs.push(grasp(remote, person, &taught, object.as_ref(), params)?);
         progress.inc(1);
     }

@@ -17,15 +17,14 @@ use skin_host::grasping::{GraspRun, Taught};
 use skin_host::report::check_folder;
 use skin_host::report::traces::write_traces;
 
-use super::demo::{objects, serve_experiment, teach_and_grasp};
-use super::job;
+use super::demo::{serve_experiment, teach_and_grasp};
+use super::{job, objects};
 
 /// Arguments of `skin grasp`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// The object: trash_bin, sponge_rock, moving_box, box_lid, delivery_box, all, or none.
-    #[arg(long, default_value = "all")]
-    object: String,
+    #[command(flatten)]
+    objects: objects::ObjectArgs,
     /// Grasp parameters (TOML, like host/config/grasp.toml) instead of Table 4.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
@@ -45,7 +44,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Some(path) => Params::read(path)?,
         None => Params::default(),
     };
-    let chosen = objects(&args.object)?;
+    let chosen = args.objects.chosen()?;
     if let Some(dir) = &args.traces {
         check_folder(dir)?;
     }
@@ -64,9 +63,9 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
         other => other?,
     }
-    // An object not grasped, or nothing that was not cancelled, is a failure.
+    // An object not held, or nothing that was not cancelled, is a failure.
     let as_expected =
-        runs.iter().all(|r| if r.object == "none" { r.final_state == State::Cancelled } else { r.succeeded });
+        runs.iter().all(|r| if r.object == "none" { r.controller_state == State::Cancelled } else { r.succeeded });
     Ok(if as_expected { ExitCode::SUCCESS } else { ExitCode::FAILURE })
 }
 
@@ -82,22 +81,27 @@ fn summary(exploration_s: f64, taught: &Taught, runs: &[GraspRun], written: &[Pa
         );
     }
     s += &format!(
-        "\n{:<14} {:<10} {:<11} {:>8} {:>12} {:>6}\n",
-        "object", "result", "final", "time s", "max force N", "pain"
+        "\n{:<14} {:<20} {:<10} {:>7} {:>7} {:>7} {:>7} {:>5}\n",
+        "object", "placement", "verdict", "ctrl", "time s", "grip N", "pats N", "pain"
     );
     for r in runs {
-        let result = match (r.object.as_str(), r.succeeded) {
-            ("none", _) if r.final_state == State::Cancelled => "cancelled",
-            (_, true) => "grasped",
-            _ => "FAILED",
+        let verdict = match (r.object.as_str(), r.reason) {
+            (_, None) => "held",
+            ("none", Some(_)) if r.controller_state == State::Cancelled => "cancelled",
+            (_, Some(why)) => why.name(),
         };
+        let placement = r
+            .placement
+            .map_or(String::new(), |p| format!("{:+.3},{:+.3} {:+.2}", p.offset_m[0], p.offset_m[1], p.yaw_rad));
         s += &format!(
-            "{:<14} {:<10} {:<11} {:>8.1} {:>12.2} {:>6}\n",
+            "{:<14} {:<20} {:<10} {:>7} {:>7.1} {:>7.2} {:>7.2} {:>5}\n",
             r.object,
-            result,
-            r.final_state.name(),
+            placement,
+            verdict,
+            r.controller_state.name(),
             r.time_s,
-            r.max_cell_force_n,
+            r.grip_force_max_n,
+            r.hand_force_max_n,
             r.pain_events
         );
     }

@@ -151,7 +151,7 @@ pub fn summary(r: &Report, written: &[PathBuf]) -> String {
     if let Some(g) = &r.grasps {
         let held = g.runs.iter().filter(|r| r.succeeded).count();
         let names: Vec<String> =
-            g.runs.iter().map(|r| format!("{} {}", r.object, if r.succeeded { "held" } else { "NOT held" })).collect();
+            g.runs.iter().map(|r| format!("{} {}", r.object, r.reason.map_or("held", |why| why.name()))).collect();
         s += &format!("grasps: {held} of {} held ({})\n", g.runs.len(), names.join(", "));
     }
     if let Some(truth) = &r.truth {

@@ -10,6 +10,7 @@ mod job;
 mod keygen;
 mod loadgen;
 mod monitor;
+mod objects;
 mod replay;
 mod run;
 mod seconds;

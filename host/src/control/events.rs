@@ -39,6 +39,8 @@ impl Modality {
 pub mod level {
     /// Force level at which pain begins.
     pub const PAIN: u8 = 4;
+    /// The force level below pain (Table 3's high force).
+    pub const HIGH: u8 = 3;
     /// Proximity level of a close contact.
     pub const CLOSE_CONTACT: u8 = 4;
 }
@@ -197,6 +199,11 @@ impl Events {
     /// Whether some area of the kind has a cell at `level` or above.
     pub fn any(&self, kind: AreaKind, modality: Modality, level: u8) -> bool {
         self.areas(kind).any(|a| self.level(a, modality) >= level)
+    }
+
+    /// How many areas of the kind have a cell at `level` or above.
+    pub fn count(&self, kind: AreaKind, modality: Modality, level: u8) -> usize {
+        self.areas(kind).filter(|a| self.level(*a, modality) >= level).count()
     }
 
     /// Whether every area of the kind (at least one) has a cell at `level`

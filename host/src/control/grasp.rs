@@ -3,7 +3,12 @@
 //! A pat on the shoulder launches the grasp: open the arms, approach the
 //! object between them fast until a contact area senses it, close slowly
 //! into pre-contact, load it with force, pull it to the chest and hold it;
-//! another pat releases it. Transitions are driven by tactile events (as
+//! another pat releases it. The pull ends only when the chest is close
+//! *and* every contact area feels force (or the arms stall against the
+//! object while one feels it: the object is what holds them back), so the
+//! arms hold the object, not the chest alone; when a contact area that
+//! felt it on holding has not felt it for [`SLIP_S`], the grasp pulls
+//! again. Transitions are driven by tactile events (as
 //! per-area levels) and trajectory events only. A state whose goal is
 //! contact fails when its key pose is reached, or its motion stalls, before
 //! the touch it waits for: then the grasp is cancelled and the robot backs
@@ -20,6 +25,10 @@ use super::areas::AreaKind;
 use super::events::{level, Events, Modality};
 use super::params::{StateParams, States, Transitions};
 use super::trajectory::TrajectoryEvent;
+
+/// How long a contact area that held the object may feel nothing before
+/// the grasp pulls again, s (a relaxing arm flickers at the lowest level).
+pub const SLIP_S: f64 = 0.25;
 
 /// A state of the grasp.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
@@ -135,6 +144,8 @@ pub enum Cause {
     NonContactForce,
     /// The contact areas no longer see the object.
     ContactLost,
+    /// A contact area that held the object no longer feels it.
+    Slipped,
     /// Every contact is gone.
     Clear,
 }
@@ -159,12 +170,23 @@ pub struct Grasp {
     levels: Transitions,
     pat_down: bool,
     evaded_from: State,
+    /// Contact areas feeling force when Hold was entered.
+    held_by: usize,
+    /// Since when fewer contact areas feel it than held it, s.
+    slipping_since_s: Option<f64>,
 }
 
 impl Grasp {
     /// At home.
     pub fn new(levels: Transitions) -> Grasp {
-        Grasp { state: State::Home, levels, pat_down: false, evaded_from: State::Home }
+        Grasp {
+            state: State::Home,
+            levels,
+            pat_down: false,
+            evaded_from: State::Home,
+            held_by: 0,
+            slipping_since_s: None,
+        }
     }
 
     /// The current state.
@@ -179,16 +201,31 @@ impl Grasp {
         let pat_now = touch.any(AreaKind::Pat, Modality::Force, t.pat_force);
         let pat = pat_now && !self.pat_down;
         self.pat_down = pat_now;
-        let (next, cause) = self.next(touch, trajectory, pat)?;
-        if next == State::Evade {
-            self.evaded_from = self.state;
+        let feeling = touch.count(AreaKind::Contact, Modality::Force, 1);
+        self.slipping_since_s = match self.slipping_since_s {
+            _ if self.state != State::Hold || feeling >= self.held_by => None,
+            None => Some(time_s),
+            since => since,
+        };
+        let slipped = self.slipping_since_s.is_some_and(|since| time_s - since >= SLIP_S);
+        let (next, cause) = self.next(touch, trajectory, pat, slipped)?;
+        match next {
+            State::Evade => self.evaded_from = self.state,
+            State::Hold => self.held_by = feeling,
+            _ => {}
         }
         let tr = Transition { from: self.state, to: next, time_s, cause };
         self.state = next;
         Some(tr)
     }
 
-    fn next(&self, touch: &Events, trajectory: Option<TrajectoryEvent>, pat: bool) -> Option<(State, Cause)> {
+    fn next(
+        &self,
+        touch: &Events,
+        trajectory: Option<TrajectoryEvent>,
+        pat: bool,
+        slipped: bool,
+    ) -> Option<(State, Cause)> {
         use AreaKind::{Chest, Contact, NonContact};
         use Modality::{Force, Proximity};
         use State::*;
@@ -255,17 +292,43 @@ impl Grasp {
                 }
             }
             Pull => {
-                if any(Chest, Proximity, t.chest_proximity) {
+                // The object is against the chest when the chest sees it
+                // close or feels it; held when both arms are on it too: one
+                // arm and the chest alone pin the object, unless the object
+                // is what stops the arms closing further. So an arm on it
+                // that can pull it no closer, the chest seeing it near (the
+                // contact level: nearer than where it was put down), ends
+                // the pull too (a turned object may touch the chest
+                // beside its cells, and an arm's bare surface may hold it
+                // where no cell feels it).
+                let stalled = trajectory == Some(Stalled);
+                let chest_close = any(Chest, Proximity, t.chest_proximity) || any(Chest, Force, 1);
+                let chest_near = any(Chest, Proximity, t.contact_proximity);
+                let both_arms = every(Contact, Force, 1);
+                let one_arm = any(Contact, Force, 1);
+                // Pulling against high force on an arm or the chest, the
+                // object will not come closer: hold it if it is near the
+                // chest, else give up before the force reaches pain.
+                let straining = touch.highest(Force) >= level::HIGH;
+                if (chest_close && both_arms) || ((stalled || straining) && chest_near && one_arm) {
                     Some((Hold, Cause::Chest))
+                } else if straining {
+                    Some((Cancel, Cause::Force))
                 } else if !any(Contact, Proximity, t.approach_proximity) {
                     Some((Cancel, Cause::ContactLost))
                 } else {
                     fail(trajectory)
                 }
             }
-            // Held against the chest the arms may relax to no force at all;
-            // the object is lost only when the contact areas no longer see it.
-            Hold => (!any(Contact, Proximity, t.approach_proximity)).then_some((Cancel, Cause::ContactLost)),
+            // The object is lost when the contact areas no longer see it;
+            // when an arm that held it no longer feels it, pull again.
+            Hold => {
+                if !any(Contact, Proximity, t.approach_proximity) {
+                    Some((Cancel, Cause::ContactLost))
+                } else {
+                    slipped.then_some((Pull, Cause::Slipped))
+                }
+            }
             Release => (!any(Contact, Force, 1) && !any(Contact, Proximity, t.release_proximity))
                 .then_some((Done, Cause::Clear)),
             Cancel => trajectory.map(|e| (Cancelled, if e == Reached { Cause::Reached } else { Cause::Stalled })),
@@ -350,8 +413,20 @@ mod tests {
         assert_eq!(r.step(None), State::Pull, "medium force on one arm");
         set(&mut r.ev, 4, 0.5, 0.0);
         assert_eq!(r.step(None), State::Pull);
+        set(&mut r.ev, 2, 0.9, 0.0);
         set(&mut r.ev, 4, 0.85, 0.0);
+        assert_eq!(r.step(None), State::Pull, "the chest is close, but only one arm feels the object");
+        set(&mut r.ev, 2, 0.9, 0.08);
+        assert_eq!(r.step(None), State::Hold, "both arms and the chest");
+        set(&mut r.ev, 2, 0.9, 0.0);
+        for _ in 0..=(SLIP_S / 0.004) as usize {
+            assert_eq!(r.step(None), State::Hold, "an arm may flicker");
+        }
+        assert_eq!(r.step(None), State::Pull, "an arm lost it for {SLIP_S} s: pull again");
+        set(&mut r.ev, 2, 0.9, 0.08);
         assert_eq!(r.step(None), State::Hold);
+        set(&mut r.ev, 2, 0.9, 0.0);
+        assert_eq!(r.step(Some(TrajectoryEvent::Stalled)), State::Hold, "no trajectory in Hold");
         assert_eq!(r.pat(), State::Release);
         for c in [2, 3, 4] {
             set(&mut r.ev, c, 0.011, 0.0);
@@ -411,6 +486,7 @@ mod tests {
                 if after != before {
                     match after {
                         State::Hold => prop_assert_eq!(before, State::Pull),
+                        State::Pull => prop_assert!(matches!(before, State::Load | State::Hold)),
                         State::Release => prop_assert_eq!(before, State::Hold),
                         State::Done => prop_assert_eq!(before, State::Release),
                         s if s.is_grasping() && before.is_rest() => prop_assert_eq!(s, State::Open),

@@ -329,6 +329,32 @@ mod tests {
         ] {
             assert_eq!(Params::from_toml_str(&DEFAULT_TOML.replace(from, to)).unwrap_err().to_string(), says);
         }
+        // Nested values are bounded above too, the key named.
+        for (from, to, says) in [
+            ("settle_s = 0.25", "settle_s = 1e300", "timing.settle_s = 1e300"),
+            ("stall_window_s = 1.0", "stall_window_s = 1e9", "timing.stall_window_s = 1000000000"),
+            ("stall_rad = 0.005", "stall_rad = 7.0", "timing.stall_rad = 7"),
+            (
+                "force = { threshold = 0.05, gain = 1.0 }",
+                "force = { threshold = 0.05, gain = 1e38 }",
+                "force gain = 1e38",
+            ),
+            (
+                "pose = \"pulled\"\nmax_velocity = 0.05",
+                "pose = \"pulled\"\nmax_velocity = 1e30",
+                "state.pull: max_velocity",
+            ),
+            (
+                "pose = \"closed\"\nmax_velocity = 0.4\naccuracy = 0.01",
+                "pose = \"closed\"\nmax_velocity = 0.4\naccuracy = 9.0",
+                "state.approach: accuracy = 9",
+            ),
+        ] {
+            let text = DEFAULT_TOML.replacen(from, to, 1);
+            assert_ne!(text, DEFAULT_TOML, "{from}");
+            let e = Params::from_toml_str(&text).unwrap_err().to_string();
+            assert!(e.contains(says) && e.contains("out of range"), "{to}: {e}");
+        }
         let typo = DEFAULT_TOML.replace("stall_rad", "stall_radians");
         let e = Params::from_toml_str(&typo).unwrap_err().to_string();
         assert!(e.contains("stall_radians"), "{e}");

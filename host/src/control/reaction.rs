@@ -19,6 +19,9 @@ use skin_protocol::Sample;
 use super::cells::SparseSet;
 use super::{ControlError, MotorMap};
 
+/// Largest reaction gain a parameter file may give.
+const MAX_GAIN: f64 = 100.0;
+
 /// Readings at or below this are noise: the cell is quiet. Every active
 /// threshold must be at least this, so that a quiet cell never reacts.
 pub const NOISE_FLOOR: f64 = 0.005;
@@ -60,11 +63,13 @@ impl Primitive {
     }
 
     fn check(&self, what: &str) -> Result<(), ControlError> {
-        if !self.gain.is_finite() {
+        // Table 4's gains are at most 1: a gain past 100 is a typo that
+        // would drive the joints at their limit on any reading.
+        if !(-MAX_GAIN..=MAX_GAIN).contains(&self.gain) {
             return Err(ControlError::Range {
                 what: format!("{what} gain"),
                 value: self.gain,
-                expected: "a finite number",
+                expected: "a gain in [-100, 100]",
             });
         }
         if self.gain != 0.0 && !(NOISE_FLOOR..=1.0).contains(&self.threshold) {

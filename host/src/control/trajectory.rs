@@ -48,30 +48,29 @@ impl Default for Timing {
 }
 
 impl Timing {
-    /// Checks all values are positive and finite.
+    /// Checks every value is positive and within what a robot's key-pose
+    /// motion can use (a typo such as `1e300` is refused with its key).
     pub fn check(&self) -> Result<(), ControlError> {
-        for (what, v) in
-            [("settle_s", self.settle_s), ("stall_window_s", self.stall_window_s), ("stall_rad", self.stall_rad)]
-        {
-            positive(what, v)?;
-        }
-        Ok(())
+        within("timing.settle_s", self.settle_s, 10.0, "a time in (0, 10] s")?;
+        within("timing.stall_window_s", self.stall_window_s, 60.0, "a time in (0, 60] s")?;
+        within("timing.stall_rad", self.stall_rad, std::f64::consts::PI, "an angle in (0, pi] rad")
     }
 }
 
-fn positive(what: &str, v: f64) -> Result<(), ControlError> {
-    if v.is_finite() && v > 0.0 {
+/// `Ok` when `0 < v <= max`.
+fn within(what: &str, v: f64, max: f64, expected: &'static str) -> Result<(), ControlError> {
+    if v > 0.0 && v <= max {
         Ok(())
     } else {
-        Err(ControlError::Range { what: what.to_owned(), value: v, expected: "a positive number" })
+        Err(ControlError::Range { what: what.to_owned(), value: v, expected })
     }
 }
 
 impl Motion {
-    /// Checks the velocity and accuracy are positive and finite.
+    /// Checks the velocity and accuracy are positive and bounded.
     pub fn check(&self) -> Result<(), ControlError> {
-        positive("max_velocity", self.max_velocity)?;
-        positive("accuracy", self.accuracy)
+        within("max_velocity", self.max_velocity, 10.0, "a velocity in (0, 10] rad/s")?;
+        within("accuracy", self.accuracy, std::f64::consts::PI, "an angle in (0, pi] rad")
     }
 }
 

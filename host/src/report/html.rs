@@ -99,17 +99,18 @@ pub fn page(r: &Report) -> String {
         for l in &g.lessons {
             let _ = writeln!(s, "<tr><td>{}</td><td>{:.1} s</td></tr>", escape(&l.pose), l.time_s);
         }
-        s += "</table>\n<table>\n<tr><th>object</th><th>result</th><th>final state</th><th>time</th><th>largest cell force</th></tr>\n";
+        s += "</table>\n<table>\n<tr><th>object</th><th>verdict (the truth's)</th><th>controller ended in</th><th>time</th><th>grip force (object only)</th><th>pats (the person)</th></tr>\n";
         for run in &g.runs {
             let _ = writeln!(
                 s,
-                "<tr><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{:.1} s</td><td>{:.2} N</td></tr>",
+                "<tr><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{:.1} s</td><td>{:.2} N</td><td>{:.2} N</td></tr>",
                 escape(&run.object),
                 if run.succeeded { "ok" } else { "bad" },
-                if run.succeeded { "held" } else { "not held" },
-                run.final_state.name(),
+                run.reason.map_or("held".to_owned(), |why| format!("not held: {}", why.name())),
+                run.controller_state.name(),
                 run.time_s,
-                run.max_cell_force_n
+                run.grip_force_max_n,
+                run.hand_force_max_n
             );
         }
         s += "</table>\n";

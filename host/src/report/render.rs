@@ -250,11 +250,12 @@ impl<'a> Renderer<'a> {
             self.figures.push(Figure {
                 title: format!("Grasp: {}", run.object),
                 caption: format!(
-                    "{} in {:.1} s, ending in {}; largest force on one cell {:.2} N. Joint positions, summed force and highest proximity per touch area against time after the launching pat; grey lines mark state changes (Figure 18). Data: {}.",
-                    if run.succeeded { "Held" } else { "NOT held" },
+                    "{} in {:.1} s, the controller ending in {}; largest grip force on one cell {:.2} N (the person's pats {:.2} N). Joint positions, summed force and highest proximity per touch area against time after the launching pat; grey lines mark state changes (Figure 18). Data: {}.",
+                    run.reason.map_or("Held".to_owned(), |why| format!("NOT held ({})", why.name())),
                     run.time_s,
-                    run.final_state.name(),
-                    run.max_cell_force_n,
+                    run.controller_state.name(),
+                    run.grip_force_max_n,
+                    run.hand_force_max_n,
                     file.replace(".svg", ".csv")
                 ),
                 file,

@@ -296,6 +296,7 @@ mod tests {
     use super::*;
     use crate::scene::object::Object;
     use crate::scene::operator::{Note, Order};
+    use crate::scene::placement::{ObjectAt, Placement};
     use skin_protocol::robot_link::FromRobot;
 
     /// One period with the robot held still, as a bare host asks for it.
@@ -321,11 +322,12 @@ mod tests {
         link.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
 
         let running = Running::spawn(move || Endpoint::experiment(5, config)).unwrap();
-        running.order(Order::Place(Object::by_name("sponge_rock"))).unwrap();
+        let sponge = Object::by_name("sponge_rock").map(|object| ObjectAt { object, placement: Placement::default() });
+        running.order(Order::Place(sponge)).unwrap();
         assert_eq!(running.notes().count(), 0, "nothing happens between periods");
         period(&link, running.robot, 1);
         let notes: Vec<Note> = running.notes().collect();
-        assert!(matches!(notes[..], [Note::Seen { object_gap_m: Some(_), .. }]), "{notes:?}");
+        assert!(matches!(notes[..], [Note::Seen { object: Some(_), .. }]), "{notes:?}");
         // No host has organized the skin: its cells have no IDs to name.
         running.order(Order::Areas).unwrap();
         period(&link, running.robot, 2);

@@ -16,6 +16,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::object::Object;
+use super::placement::Placement;
 use super::{Placed, Scene, SharedScene, SkinModel};
 use crate::robot::kinematics::{self, BodyState, DofMotion};
 use crate::robot::{Robot, Shape as RobotShape, Surface};
@@ -121,26 +122,26 @@ pub fn body_poses(robot: &Robot, pose: &[f64]) -> Vec<Isometry3<f64>> {
     states.into_iter().map(|s| s.pose).collect()
 }
 
-/// How far an object reaches behind its origin, towards the chest, m.
-fn back_extent(object: &Object) -> f64 {
-    // March the shape's distance: exact for boxes and cylinders, a bound
-    // (so a march) for the blob.
-    let mut back = 0.0;
-    while object.shape.distance(&Point3::new(-back, 0.0, 0.0)) < 0.0 {
-        back += 1e-4;
-    }
-    back
+/// How far a placed object reaches behind its centre, towards the chest, m
+/// (objects do not turn, so this holds while it slides).
+pub fn back_extent(placed: &Placed) -> f64 {
+    placed.object.shape.extent(&(placed.pose.rotation.inverse() * -Vector3::x()))
 }
 
-/// The pose of an object put down between the arms, its back `OBJECT_GAP_M`
-/// in front of the chest's skin.
-pub fn object_pose(object: &Object, skin_offset_m: f64) -> Isometry3<f64> {
-    Isometry3::translation(CHEST_FRONT_M + skin_offset_m + OBJECT_GAP_M + back_extent(object), 0.0, OBJECT_HEIGHT_M)
+/// The pose of an object put down between the arms: by default centred,
+/// its back `OBJECT_GAP_M` in front of the chest's skin; then moved and
+/// turned by `placement`.
+pub fn object_pose(object: &Object, placement: &Placement, skin_offset_m: f64) -> Isometry3<f64> {
+    let turned = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), placement.yaw_rad);
+    let back = object.shape.extent(&(turned.inverse() * -Vector3::x()));
+    let spot = Vector3::new(CHEST_FRONT_M + skin_offset_m + OBJECT_GAP_M + back, 0.0, OBJECT_HEIGHT_M);
+    Isometry3::from_parts((spot + placement.offset_m).into(), turned)
 }
 
-/// Ground truth: how far a placed object's back is from the chest's skin, m.
-pub fn gap_to_chest_m(placed: &Placed, skin_offset_m: f64) -> f64 {
-    placed.pose.translation.x - back_extent(&placed.object) - CHEST_FRONT_M - skin_offset_m
+/// Ground truth: how far a placed object's back is from the chest's skin,
+/// given its [`back_extent`], m.
+pub fn gap_to_chest_m(placed: &Placed, back_m: f64, skin_offset_m: f64) -> f64 {
+    placed.pose.translation.x - back_m - CHEST_FRONT_M - skin_offset_m
 }
 
 impl Setup {
@@ -435,5 +436,35 @@ mod tests {
             "{toml}"
         );
         assert_eq!(toml.matches("[[area]]").count(), 4);
+    }
+
+    #[test]
+    fn objects_are_put_down_turned_and_moved_clear_of_the_chest() {
+        let offset = 0.008;
+        for object in Object::figure_16() {
+            for yaw_rad in [-0.3, 0.0, 0.3] {
+                let pose = object_pose(&object, &Placement { yaw_rad, ..Placement::default() }, offset);
+                let placed = Placed { object: object.clone(), pose };
+                let gap = gap_to_chest_m(&placed, back_extent(&placed), offset);
+                assert!((gap - OBJECT_GAP_M).abs() < 1e-9, "{} at {yaw_rad} rad: {gap} m", object.name);
+                // Nothing of it is nearer the chest's skin than the gap (a
+                // grid over its back half).
+                for y in -20..=20 {
+                    for z in -20..=20 {
+                        let p = Point3::new(
+                            CHEST_FRONT_M + offset,
+                            f64::from(y) * 0.01,
+                            OBJECT_HEIGHT_M + f64::from(z) * 0.01,
+                        );
+                        let d = object.shape.distance(&pose.inverse_transform_point(&p));
+                        assert!(d > 0.0, "{} at {yaw_rad} rad reaches the chest at {p}", object.name);
+                    }
+                }
+            }
+            let moved = Placement { offset_m: Vector3::new(0.01, 0.03, 0.0), yaw_rad: 0.0 };
+            let shift = object_pose(&object, &moved, offset).translation.vector
+                - object_pose(&object, &Placement::default(), offset).translation.vector;
+            assert!((shift - moved.offset_m).norm() < 1e-12);
+        }
     }
 }

@@ -17,9 +17,12 @@
 pub mod experiment;
 pub mod force;
 pub mod hand;
+pub mod held;
 pub mod object;
+pub mod object_file;
 pub mod operator;
 pub mod person;
+pub mod placement;
 pub mod proximity;
 pub mod shape;
 mod shared;
@@ -93,6 +96,19 @@ pub struct Placed {
     pub pose: Isometry3<f64>,
 }
 
+/// A contact of the robot with an object.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Contact {
+    /// The skin cell there, or the one whose body carries the bare surface there.
+    pub cell: usize,
+    /// Where, world frame.
+    pub point: Point3<f64>,
+    /// How hard, N.
+    pub force_n: f64,
+    /// Felt by the skin (else bare robot surface).
+    pub felt: bool,
+}
+
 /// Something that can be touched: an object or a hand.
 struct Touchable<'a> {
     shape: &'a Shape,
@@ -121,7 +137,10 @@ pub struct Scene {
     last_time_s: Option<f64>,
     last_windows: Vec<Point3<f64>>,
     sensed: Vec<CellSense>,
+    contacts: Vec<Contact>,
     max_force_n: f64,
+    max_object_force_n: f64,
+    max_hand_force_n: f64,
 }
 
 impl Scene {
@@ -136,7 +155,10 @@ impl Scene {
             last_time_s: None,
             last_windows: Vec::new(),
             sensed: Vec::new(),
+            contacts: Vec::new(),
             max_force_n: 0.0,
+            max_object_force_n: 0.0,
+            max_hand_force_n: 0.0,
         }
     }
 
@@ -185,9 +207,29 @@ impl Scene {
         self.max_force_n
     }
 
-    /// Forgets the largest force.
+    /// The largest force of an object (not a hand) on any force cell
+    /// since the start (or the last reset), N: the grip.
+    pub fn max_object_force_n(&self) -> f64 {
+        self.max_object_force_n
+    }
+
+    /// The largest force of a person's hand on any force cell since the
+    /// start (or the last reset), N: pats and guidance.
+    pub fn max_hand_force_n(&self) -> f64 {
+        self.max_hand_force_n
+    }
+
+    /// Forgets the largest forces.
     pub fn reset_max_force(&mut self) {
         self.max_force_n = 0.0;
+        self.max_object_force_n = 0.0;
+        self.max_hand_force_n = 0.0;
+    }
+
+    /// Where the robot touched an object at the last [`Scene::sense`]:
+    /// felt by the skin or not.
+    pub fn contacts(&self) -> &[Contact] {
+        &self.contacts
     }
 
     /// What the cells at `poses` (world frame, z the outward normal) sense
@@ -198,6 +240,7 @@ impl Scene {
         self.last_time_s = Some(time_s);
         self.sensed.clear();
         self.sensed.resize(poses.len(), CellSense::default());
+        self.contacts.clear();
         let mut loads = vec![Load::default(); self.objects.len()];
         let windows: Vec<Point3<f64>> =
             poses.iter().map(|p| p * Point3::new(0.0, 0.0, self.skin.surface_offset_m)).collect();
@@ -213,6 +256,12 @@ impl Scene {
                 };
                 touch(&self.skin, cell, &body, sense, Some((load, velocity)));
             }
+            // Objects first: what the cell feels so far is theirs alone.
+            let by_objects = sense.force_n;
+            let felt: f64 = by_objects.iter().sum();
+            if felt > 0.0 {
+                self.contacts.push(Contact { cell: u, point: windows[u], force_n: felt, felt: true });
+            }
             for h in &self.hands {
                 // The proximity curve is calibrated on skin: reflectance 1.
                 let shape = h.shape();
@@ -225,7 +274,11 @@ impl Scene {
                 touch(&self.skin, cell, &body, sense, None);
             }
             sense.proximity = sense.proximity.min(1.0);
-            self.max_force_n = sense.force_n.iter().fold(self.max_force_n, |m, f| m.max(*f));
+            for (all, object) in sense.force_n.iter().zip(by_objects) {
+                self.max_force_n = self.max_force_n.max(*all);
+                self.max_object_force_n = self.max_object_force_n.max(object);
+                self.max_hand_force_n = self.max_hand_force_n.max(all - object);
+            }
         }
         for bare in &self.bare {
             let Some(pose) = poses.get(bare.cell) else { continue };
@@ -236,7 +289,9 @@ impl Scene {
                     if depth > 0.0 {
                         // A rigid robot surface against the object's own compliance.
                         let into_body = -(placed.pose.rotation * placed.object.shape.normal(&local));
-                        load.push += depth * placed.object.stiffness_n_per_m * horizontal(&into_body);
+                        let force_n = depth * placed.object.stiffness_n_per_m;
+                        self.contacts.push(Contact { cell: bare.cell, point: pose * p, force_n, felt: false });
+                        load.push += force_n * horizontal(&into_body);
                         load.stiffness += placed.object.stiffness_n_per_m;
                     }
                 }
@@ -403,6 +458,7 @@ mod tests {
             assert!((f - expected).abs() < 1e-6, "{:?}, expected {expected}", s.force_n);
         }
         assert!((scene.max_force_n() - s.force_n.iter().fold(0.0, |m: f64, f| m.max(*f))).abs() < 1e-12);
+        assert_eq!((scene.max_hand_force_n(), scene.max_object_force_n()), (scene.max_force_n(), 0.0), "a hand's");
         let far = scene.sense(0.004, &[cell_at(-0.5)])[0];
         assert_eq!(far, CellSense::default());
     }
@@ -410,7 +466,7 @@ mod tests {
     #[test]
     fn bare_surface_pushes_unfelt() {
         let mut scene = Scene::new(SkinModel::default());
-        scene.place(Object::box_lid(), Isometry3::translation(0.1, 0.0, 0.0));
+        scene.place(Object::by_name("box_lid").unwrap(), Isometry3::translation(0.1, 0.0, 0.0));
         // A bare patch of points 1 cm into the lid's -x face (at x = 0.065),
         // carried by a cell far away.
         let points = (-2..=2).map(|k| Point3::new(0.075, f64::from(k) * 0.01, 0.0)).collect();
@@ -421,13 +477,15 @@ mod tests {
             let s = scene.sense(f64::from(k) * 0.004, &[far]);
             assert_eq!(s[0].force_n, [0.0; 3], "nothing is felt");
         }
+        let unfelt = scene.contacts();
+        assert!(unfelt.iter().all(|c| !c.felt && c.cell == 0 && c.force_n > 0.0) && !unfelt.is_empty());
         assert!(scene.objects()[0].pose.translation.x > start + 0.005, "the lid was pushed away");
     }
 
     #[test]
     fn gripping_skin_carries_an_object_along() {
         let mut scene = Scene::new(SkinModel::default());
-        let lid = Object::box_lid();
+        let lid = Object::by_name("box_lid").unwrap();
         let Shape::Box { half, .. } = lid.shape else { panic!("the lid is a box") };
         scene.place(lid, Isometry3::identity());
         // Two cells squeeze the lid's long faces 2 mm deep, one from each side...
@@ -451,7 +509,7 @@ mod tests {
     #[test]
     fn objects_slide_when_pushed_harder_than_friction() {
         let mut scene = Scene::new(SkinModel::default());
-        let object = Object::delivery_box();
+        let object = Object::by_name("delivery_box").unwrap();
         let Shape::Box { half, .. } = object.shape else { panic!("the delivery box is a box") };
         let half_x = half.x;
         scene.place(object.clone(), Isometry3::translation(0.1 + half_x + 0.008, 0.0, 0.0));
@@ -461,6 +519,10 @@ mod tests {
         let start = scene.objects()[0].pose.translation.x;
         let s = scene.sense(0.0, &cells).to_vec();
         let total: f64 = s.iter().flat_map(|c| c.force_n).sum();
+        let felt: Vec<(usize, f64)> = scene.contacts().iter().map(|c| (c.cell, c.force_n)).collect();
+        let expected: Vec<(usize, f64)> = s.iter().map(|c| c.force_n.iter().sum()).enumerate().collect();
+        assert_eq!(felt, expected, "all of it the box's");
+        assert_eq!((scene.max_object_force_n(), scene.max_hand_force_n()), (scene.max_force_n(), 0.0));
         assert!(total > object.friction * object.mass_kg * G, "pushing harder than friction: {total} N");
         for k in 1..200 {
             scene.sense(f64::from(k) * 0.004, &cells);

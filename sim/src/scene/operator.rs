@@ -15,9 +15,10 @@
 
 use skin_protocol::Address;
 
-use super::experiment::{gap_to_chest_m, intended_pose, object_pose, Setup};
-use super::object::Object;
+use super::experiment::{back_extent, intended_pose, object_pose, Setup};
+use super::held::{Arm, ObjectTruth};
 use super::person::{self, Guiding, Teacher};
+use super::placement::ObjectAt;
 use super::SharedScene;
 use crate::robot::Robot;
 use crate::world::World;
@@ -42,9 +43,9 @@ pub enum Order {
     /// arms look like the picture or a minute has passed; answered by
     /// [`Note::Taught`] once the robot has come to rest.
     Teach(String),
-    /// Put this object in front of the robot, or take the object away;
-    /// from then on every period is answered by [`Note::Seen`].
-    Place(Option<Object>),
+    /// Put this object in front of the robot where it says, or take the
+    /// object away; from then on every period is answered by [`Note::Seen`].
+    Place(Option<ObjectAt>),
     /// Pat the top of the right shoulder once.
     Pat,
     /// Name the cells of each touch area; answered by [`Note::Areas`].
@@ -72,8 +73,12 @@ pub enum Note {
         /// The largest force on any one force cell since the object was
         /// placed (or taken away), N.
         max_force_n: f64,
-        /// How far the object is from the chest's skin, m.
-        object_gap_m: Option<f64>,
+        /// The same of the object's contacts alone: the grip, N.
+        grip_force_max_n: f64,
+        /// The same of the person's hands alone: pats and guidance, N.
+        hand_force_max_n: f64,
+        /// Where the object is and what holds it.
+        object: Option<ObjectTruth>,
     },
     /// The host's area file (TOML `[[area]]` tables), cells by network ID.
     Areas(String),
@@ -111,13 +116,18 @@ pub struct Operator {
     act: Act,
     /// Since the first [`Order::Place`], every period is reported.
     watching: bool,
+    /// How far the placed object reaches behind its centre, m.
+    back_m: f64,
+    /// The arm of each skin cell.
+    arms: Vec<Option<Arm>>,
 }
 
 impl Operator {
     /// A person at `robot` (its model, to picture poses) wearing the skin
     /// of `setup`, acting on `scene`, the world's tactile model.
     pub fn new(robot: Robot, setup: Setup, scene: SharedScene) -> Operator {
-        Operator { robot, setup, scene, act: Act::Idle, watching: false }
+        let arms = setup.skin.cells().iter().map(|c| Arm::of_link(&c.link)).collect();
+        Operator { robot, setup, scene, act: Act::Idle, watching: false, back_m: 0.0, arms }
     }
 
     /// Takes an order at a period boundary; `ids` are the cells' network
@@ -138,9 +148,10 @@ impl Operator {
             Order::Place(object) => {
                 let mut scene = self.scene.get_mut();
                 scene.clear_objects();
-                if let Some(o) = object {
-                    let pose = object_pose(&o, scene.skin().surface_offset_m);
-                    scene.place(o, pose);
+                if let Some(ObjectAt { object, placement }) = object {
+                    let pose = object_pose(&object, &placement, scene.skin().surface_offset_m);
+                    let u = scene.place(object, pose);
+                    self.back_m = back_extent(&scene.objects()[u]);
                 }
                 scene.reset_max_force();
                 self.watching = true;
@@ -196,10 +207,16 @@ impl Operator {
     /// What the person sees after a period, once watching.
     pub fn watch(&self, world: &World) -> Option<Note> {
         let scene = self.scene.get();
+        let offset = scene.skin().surface_offset_m;
         self.watching.then(|| Note::Seen {
             time_s: world.time_s(),
             max_force_n: scene.max_force_n(),
-            object_gap_m: scene.objects().first().map(|p| gap_to_chest_m(p, scene.skin().surface_offset_m)),
+            grip_force_max_n: scene.max_object_force_n(),
+            hand_force_max_n: scene.max_hand_force_n(),
+            object: scene
+                .objects()
+                .first()
+                .map(|p| ObjectTruth::observe(p, self.back_m, offset, &self.arms, scene.contacts())),
         })
     }
 }
@@ -209,6 +226,8 @@ mod tests {
     use super::*;
     use crate::robot::hrp2;
     use crate::scene::experiment::OBJECT_GAP_M;
+    use crate::scene::object::Object;
+    use crate::scene::placement::Placement;
 
     #[test]
     fn orders_are_carried_out_at_period_boundaries_and_answered() {
@@ -232,12 +251,14 @@ mod tests {
         assert!(matches!(op.order(Order::Teach("wave".into()), &world, &ids), Some(Note::Refused(_))));
 
         // A placed object is seen where it was put; a pat presses for a while.
-        let bin = Object::by_name("trash_bin").unwrap();
+        let bin = ObjectAt { object: Object::by_name("trash_bin").unwrap(), placement: Placement::default() };
         assert_eq!(op.order(Order::Place(Some(bin)), &world, &ids), None);
-        let Some(Note::Seen { object_gap_m: Some(gap), max_force_n, .. }) = period(&mut op, &mut world).1 else {
+        let Some(Note::Seen { object: Some(truth), max_force_n, .. }) = period(&mut op, &mut world).1 else {
             panic!("seen after every period once an object is placed")
         };
+        let gap = truth.gap_m;
         assert!((gap - OBJECT_GAP_M).abs() < 1e-9 && max_force_n == 0.0, "{gap} m, {max_force_n} N");
+        assert!(!truth.gripped() && !truth.held(), "put down, not held: {truth:?}");
         assert_eq!(op.order(Order::Pat, &world, &ids), None);
         let start = world.time_s();
         while world.time_s() - start < PAT_S {
@@ -246,10 +267,14 @@ mod tests {
         }
         period(&mut op, &mut world);
         assert!(scene.get().hands().is_empty(), "the hand is taken away");
-        let Some(Note::Seen { max_force_n, .. }) = period(&mut op, &mut world).1 else { panic!("seen") };
+        let Some(Note::Seen { max_force_n, grip_force_max_n, hand_force_max_n, .. }) = period(&mut op, &mut world).1
+        else {
+            panic!("seen")
+        };
         assert!(max_force_n > 0.1, "the pat pressed the shoulder: {max_force_n} N");
+        assert_eq!((grip_force_max_n, hand_force_max_n), (0.0, max_force_n), "a pat is no grip");
         assert_eq!(op.order(Order::Place(None), &world, &ids), None);
-        assert!(matches!(period(&mut op, &mut world).1, Some(Note::Seen { object_gap_m: None, .. })));
+        assert!(matches!(period(&mut op, &mut world).1, Some(Note::Seen { object: None, .. })));
 
         // Home is where the robot is: taught once it has rested.
         assert_eq!(op.order(Order::Teach("home".into()), &world, &ids), None);

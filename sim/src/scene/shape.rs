@@ -8,14 +8,17 @@
 
 use nalgebra::{Point3, Vector3};
 
-/// A shape in its own frame, centred on the origin, z up.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A shape in its own frame, centred on the origin, z up (as object files
+/// write it: `{ box = { half = [x, y, z], round_m = r } }`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum Shape {
     /// A box with half edge lengths and rounded edges, m.
     Box {
         /// Half extents along x, y, z, m.
         half: Vector3<f64>,
         /// Radius of its edges and corners (the give of cardboard), m.
+        #[serde(default)]
         round_m: f64,
     },
     /// An upright cylinder.
@@ -35,8 +38,10 @@ pub enum Shape {
         /// Semi-axes, m.
         semi: Vector3<f64>,
         /// Height of the bumps, m.
+        #[serde(default)]
         bump_m: f64,
         /// Spatial frequency of the bumps, rad/m.
+        #[serde(default)]
         bump_rad_per_m: f64,
     },
 }
@@ -76,6 +81,52 @@ impl Shape {
             self.distance(&(p + e)) - self.distance(&(p - e))
         });
         g.try_normalize(1e-12).unwrap_or_else(Vector3::z)
+    }
+
+    /// How far the shape reaches from its centre along the unit vector
+    /// `dir` (its support function), m: exact for the box, cylinder and
+    /// sphere; for the blob, the farthest of its surface points along a fan
+    /// of rays within 60 degrees of `dir`, found by the sign of the
+    /// distance, which is exact even where its size is a bound.
+    pub fn extent(&self, dir: &Vector3<f64>) -> f64 {
+        match *self {
+            Shape::Box { half, round_m } => (half.add_scalar(-round_m)).dot(&dir.abs()) + round_m,
+            Shape::Cylinder { radius, half_height } => radius * dir.xy().norm() + half_height * dir.z.abs(),
+            Shape::Sphere { radius } => radius,
+            Shape::Blob { .. } => {
+                let side = if dir.z.abs() < 0.9 { Vector3::z() } else { Vector3::x() };
+                let u = dir.cross(&side).normalize();
+                let v = dir.cross(&u);
+                let fan = 12;
+                let mut far = 0.0f64;
+                for i in -fan..=fan {
+                    for j in -fan..=fan {
+                        let (a, b) = (f64::from(i) / f64::from(fan), f64::from(j) / f64::from(fan));
+                        let ray = (dir + u * a * 3f64.sqrt() + v * b * 3f64.sqrt()).normalize();
+                        if ray.dot(dir) < 0.5 {
+                            continue;
+                        }
+                        far = far.max(self.surface_along(&ray) * ray.dot(dir));
+                    }
+                }
+                far
+            }
+        }
+    }
+
+    /// Distance from the centre to the surface along the unit vector
+    /// `ray`, by bisection on the sign of the distance, m.
+    fn surface_along(&self, ray: &Vector3<f64>) -> f64 {
+        let (mut inside, mut outside) = (0.0, self.bounding_radius());
+        for _ in 0..40 {
+            let mid = 0.5 * (inside + outside);
+            if self.distance(&Point3::from(ray * mid)) < 0.0 {
+                inside = mid;
+            } else {
+                outside = mid;
+            }
+        }
+        inside
     }
 
     /// Radius of a sphere around the origin that holds the whole shape, m.
@@ -138,5 +189,26 @@ mod tests {
             p += dir * d;
         }
         assert!(blob.bounding_radius() >= 0.16);
+        // Its extent is that of a surface point: at least the march along
+        // the axis, within the bumps of the semi-axis.
+        let back = blob.extent(&-Vector3::x());
+        let mut t = 0.0;
+        while blob.distance(&Point3::new(-t, 0.0, 0.0)) < 0.0 {
+            t += 1e-4;
+        }
+        assert!(back >= t - 1e-4 && back <= 0.15 + 0.0101, "{back} vs {t}");
+    }
+
+    #[test]
+    fn extents_are_the_support_functions() {
+        let b = Shape::Box { half: Vector3::new(0.1, 0.2, 0.3), round_m: 0.0 };
+        assert!((b.extent(&Vector3::x()) - 0.1).abs() < 1e-12);
+        let diagonal = Vector3::new(1.0, 1.0, 0.0).normalize();
+        assert!((b.extent(&diagonal) - 0.3 / 2f64.sqrt()).abs() < 1e-12, "a corner reaches furthest");
+        let rounded = Shape::Box { half: Vector3::new(0.1, 0.2, 0.3), round_m: 0.02 };
+        assert!((rounded.extent(&-Vector3::y()) - 0.2).abs() < 1e-12);
+        let c = Shape::Cylinder { radius: 0.1, half_height: 0.2 };
+        assert!((c.extent(&diagonal) - 0.1).abs() < 1e-12 && (c.extent(&Vector3::z()) - 0.2).abs() < 1e-12);
+        assert_eq!(Shape::Sphere { radius: 0.04 }.extent(&diagonal), 0.04);
     }
 }

@@ -1,0 +1,128 @@
+//! What the simulator's truth says of an object between the arms: the
+//! verdict on a grasp rests on this, never on the controller's own word.
+//!
+//! Held means the object is between the arms (each arm presses on it from
+//! its own side of the object's centre), against the chest, and both arms
+//! press on it, with their skin or their bare surface: the truth counts
+//! what holds the object, whether the skin feels it or not.
+
+use super::experiment::gap_to_chest_m;
+use super::{Contact, Placed};
+
+/// Within this of the chest's skin the object is against the chest, m.
+pub const AGAINST_CHEST_M: f64 = 0.01;
+/// At least this much force of the object on an arm's skin is contact, N.
+pub const ARM_CONTACT_N: f64 = 0.05;
+
+/// Which arm a skin cell is on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Arm {
+    /// The robot's right arm (towards -y).
+    Right,
+    /// Its left arm (towards +y).
+    Left,
+}
+
+impl Arm {
+    /// The arm of a cell on link `link` of the built-in robot, if any.
+    pub fn of_link(link: &str) -> Option<Arm> {
+        if link.starts_with("RARM") {
+            Some(Arm::Right)
+        } else if link.starts_with("LARM") {
+            Some(Arm::Left)
+        } else {
+            None
+        }
+    }
+}
+
+/// The truth about an object at one instant.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct ObjectTruth {
+    /// How far the object is from the chest's skin, m.
+    pub gap_m: f64,
+    /// The object's force on the skin of each arm (right, left), N.
+    pub arm_force_n: [f64; 2],
+    /// Each arm presses from its own side of the object's centre.
+    pub between_arms: bool,
+}
+
+impl ObjectTruth {
+    /// The truth about `placed` (reaching `back_m` behind its centre)
+    /// touched at `contacts`, each on the arm of its cell by `arms`.
+    pub fn observe(
+        placed: &Placed,
+        back_m: f64,
+        skin_offset_m: f64,
+        arms: &[Option<Arm>],
+        contacts: &[Contact],
+    ) -> ObjectTruth {
+        let mut force = [0.0; 2];
+        // Force-weighted sideways position of each arm's contacts.
+        let mut weighted_y = [0.0; 2];
+        for c in contacts {
+            let Some(Some(arm)) = arms.get(c.cell) else { continue };
+            let k = *arm as usize;
+            force[k] += c.force_n;
+            weighted_y[k] += c.force_n * c.point.y;
+        }
+        let centre_y = placed.pose.translation.y;
+        let touched = force.map(|f| f >= ARM_CONTACT_N);
+        let between_arms =
+            touched == [true, true] && weighted_y[0] / force[0] < centre_y && weighted_y[1] / force[1] > centre_y;
+        ObjectTruth { gap_m: gap_to_chest_m(placed, back_m, skin_offset_m), arm_force_n: force, between_arms }
+    }
+
+    /// Both arms press on it.
+    pub fn gripped(&self) -> bool {
+        self.arm_force_n.iter().all(|f| *f >= ARM_CONTACT_N)
+    }
+
+    /// Held: between the arms, against the chest, both arms pressing.
+    pub fn held(&self) -> bool {
+        self.between_arms && self.gripped() && self.gap_m <= AGAINST_CHEST_M
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::object::Object;
+    use nalgebra::{Isometry3, Point3};
+
+    fn placed(y: f64) -> Placed {
+        Placed { object: Object::by_name("box_lid").unwrap(), pose: Isometry3::translation(0.2, y, 0.15) }
+    }
+
+    #[test]
+    fn held_needs_both_arms_from_both_sides_and_the_chest() {
+        let arms = [Some(Arm::Right), Some(Arm::Left), None];
+        let at = |cell: usize, y: f64, force_n: f64, felt: bool| Contact {
+            cell,
+            point: Point3::new(0.2, y, 0.15),
+            force_n,
+            felt,
+        };
+        // The right arm's skin, the left arm's skin and bare surface, the chest.
+        let press = [at(0, -0.2, 0.1, true), at(1, 0.2, 0.05, true), at(1, 0.2, 0.05, false), at(2, 0.0, 3.0, true)];
+        // The lid reaches 0.06 m back: its back at 0.14, the chest's skin at 0.138.
+        let truth = ObjectTruth::observe(&placed(0.0), 0.06, 0.008, &arms, &press);
+        assert!((truth.gap_m - 0.002).abs() < 1e-12);
+        assert_eq!(truth.arm_force_n, [0.1, 0.1], "the chest's force is no arm's; bare surface counts");
+        assert!(truth.between_arms && truth.held());
+        let far = ObjectTruth::observe(&placed(0.0), 0.03, 0.008, &arms, &press);
+        assert!(far.gripped() && !far.held(), "3.2 cm from the chest");
+        let one_arm = ObjectTruth::observe(&placed(0.0), 0.06, 0.008, &arms, &press[..1]);
+        assert!(!one_arm.gripped() && !one_arm.between_arms && !one_arm.held());
+        // Both arms on the object's left: pinned, not held between.
+        let aside = ObjectTruth::observe(&placed(-0.25), 0.06, 0.008, &arms, &press);
+        assert!(aside.gripped() && !aside.between_arms && !aside.held());
+    }
+
+    #[test]
+    fn arms_by_link() {
+        assert_eq!(Arm::of_link("RARM_LINK3"), Some(Arm::Right));
+        assert_eq!(Arm::of_link("LARM_LINK0"), Some(Arm::Left));
+        assert_eq!(Arm::of_link("CHEST"), None);
+    }
+}
