@@ -215,3 +215,56 @@ fn the_built_in_robot_over_many_seeds() {
         worst_frame
     );
 }
+
+fn skin_cli(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_skin")).args(args).output().unwrap()
+}
+
+#[test]
+fn skin_calibrate_writes_its_files_and_takes_its_own_skin_file_back() {
+    let dir = std::env::temp_dir().join(format!("skin-calibrate-{}", std::process::id()));
+    let out = skin_cli(&["calibrate", "--json", "--out", dir.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let first: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let cells = first["cells"].as_array().unwrap();
+    assert_eq!(cells.len(), 74);
+    for key in ["id", "link", "xyz", "rpy", "observable", "position_sigma_m", "orientation_sigma_deg"] {
+        assert!(cells.iter().all(|c| !c[key].is_null()), "{key}");
+    }
+    assert!(first["robot_time_s"]["calibration"].as_f64().unwrap() > 10.0 && first["wall_time_s"].as_f64().is_some());
+    let saved: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("calibration.json")).unwrap()).unwrap();
+    assert_eq!(saved["cells"], first["cells"]);
+    let svg = std::fs::read_to_string(dir.join("calibration.svg")).unwrap();
+    assert!(svg.contains("<svg") && svg.len() > 10_000);
+    assert!(std::fs::read_to_string(dir.join("robot_with_skin.urdf")).unwrap().contains("skin_cell_"));
+
+    // The calibrated skin fed back into the simulator: the same IDs come out.
+    let skin = dir.join("skin.toml");
+    let out = skin_cli(&["calibrate", "--json", "--seed", "1", "--skin", skin.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let again: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let ids = |v: &serde_json::Value| {
+        let mut ids: Vec<u64> = v["cells"].as_array().unwrap().iter().map(|c| c["id"].as_u64().unwrap()).collect();
+        ids.sort_unstable();
+        ids
+    };
+    assert_eq!(ids(&again), ids(&first));
+    assert_eq!(again["truth"]["wrong_link"], 0);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn skin_calibrate_refuses_what_it_cannot_do_in_one_line() {
+    for (args, says) in [
+        (vec!["calibrate", "--base", "lying"], "upright"),
+        (vec!["calibrate", "--postures", "1"], "at least 2 postures"),
+        (vec!["calibrate", "--axis-clearance", "-1"], "--axis-clearance"),
+        (vec!["calibrate", "--urdf", "/nonexistent.urdf"], "nonexistent"),
+    ] {
+        let out = skin_cli(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(says), "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+    }
+}
