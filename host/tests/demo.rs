@@ -220,8 +220,9 @@ fn skin_run_drives_the_simulated_robot_served_by_another_process() {
     // The first host also calibrates the skin on the robot's description.
     let urdf = dir.with_extension("urdf");
     std::fs::write(&urdf, skin_sim::robot::hrp2::urdf()).unwrap();
+    let calibrated = dir.join("first.mcap");
     let results = [
-        run(&dirs[0], &["--urdf".as_ref(), urdf.as_os_str()]),
+        run(&dirs[0], &["--urdf".as_ref(), urdf.as_os_str(), "--record".as_ref(), calibrated.as_os_str()]),
         run(
             &dirs[1],
             &["--config".as_ref(), config.as_os_str(), "--imu".as_ref(), "--record".as_ref(), recording.as_os_str()],
@@ -238,7 +239,7 @@ fn skin_run_drives_the_simulated_robot_served_by_another_process() {
         assert!(report["truth"].is_null() && report["grasps"].is_null(), "no simulator truth over the wire");
         assert_eq!(report["robot"]["lockstep"], true);
         if dir == &dirs[0] {
-            check_calibration(dir, &report);
+            check_calibration(dir, &report, &calibrated);
         }
         if dir == &dirs[1] {
             check_replay(&recording, &report);
@@ -254,7 +255,7 @@ fn skin_run_drives_the_simulated_robot_served_by_another_process() {
 /// The skin calibrated over the wire: the chest's 14 cells on the fixed
 /// base without a position, the arms' with one, and the files that say so
 /// readable by the simulator's own skin reader and the URDF reader.
-fn check_calibration(dir: &Path, report: &Value) {
+fn check_calibration(dir: &Path, report: &Value, recording: &Path) {
     let c = &report["calibration"];
     assert_eq!(c["cells_unobservable"], 14, "{c}");
     assert!(c["cells_3d"].as_u64().unwrap() >= 50, "{c}");
@@ -276,6 +277,19 @@ fn check_calibration(dir: &Path, report: &Value) {
         let xyz: Vec<f64> = frame["xyz"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
         let t = cell.pose.translation.vector;
         assert!((t - nalgebra::Vector3::new(xyz[0], xyz[1], xyz[2])).norm() < 1e-5, "cell {}: {frame}", cell.id.0);
+    }
+    // The recording's last /tf_static puts every cell on its URDF link where
+    // the calibration does, and its /robot_description has the skin's frames.
+    let tf = common::run_json(&python, "tf_static_frames.py", &[recording]);
+    assert_eq!(tf["description_skin_frames"], 74, "{tf}");
+    let frames = tf["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 74);
+    for f in frames {
+        let id: u16 = f[1].as_str().unwrap().trim_start_matches("skin_cell_").parse().unwrap();
+        let cell = skin.cells().iter().find(|c| c.id.0 == id).expect("a calibrated cell");
+        assert_eq!(f[0], cell.link.as_str());
+        let xyz: Vec<f64> = f[2].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        assert!((cell.pose.translation.vector - nalgebra::Vector3::new(xyz[0], xyz[1], xyz[2])).norm() < 1e-5);
     }
 }
 

@@ -39,6 +39,23 @@ fn rpy(pose: &Isometry3<f64>) -> [f64; 3] {
     [r, p, y]
 }
 
+/// Every cell's frame on its link, as the ROS 2 topics place it.
+pub fn ros_poses(model: &Model, calibration: &Calibration) -> Vec<crate::ros::skin::CellPose> {
+    calibration
+        .cells
+        .iter()
+        .map(|c| {
+            let pose = in_link(model, c);
+            crate::ros::skin::CellPose {
+                id: c.id.0,
+                frame: c.link.clone(),
+                xyz: pose.translation.vector.into(),
+                rpy: rpy(&pose),
+            }
+        })
+        .collect()
+}
+
 /// The skin description (TOML), cells grouped by link, with their IDs.
 pub fn skin_toml(model: &Model, calibration: &Calibration) -> String {
     let mut links: Vec<&str> = calibration.cells.iter().map(|c| c.link.as_str()).collect();

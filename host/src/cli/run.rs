@@ -10,11 +10,11 @@
 
 use std::io::Write;
 use std::net::SocketAddr;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
-use skin_host::calibrate::export::{picture, skin_toml, urdf_with_skin};
+use skin_host::calibrate::export::{picture, ros_poses, skin_toml, urdf_with_skin};
 use skin_host::calibrate::{calibrate, CalibrateConfig};
 use skin_host::config::{Config, Traffic};
 use skin_host::explore::ExploreConfig;
@@ -137,31 +137,15 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     if let Some(path) = &args.record {
         job::record(&mut remote, path, &steps, args.imu)?;
     }
-    let found = job::run(&mut remote, &steps);
+    let found = job::run(&mut remote, &steps).map_err(Box::<dyn std::error::Error>::from).and_then(|found| {
+        let calibration = match &description {
+            Some((text, model)) => Some(calibrate_skin(&mut remote, text, model, &found, range, &args.out)?),
+            None => None,
+        };
+        Ok((found, calibration))
+    });
     let recorded = job::finish_recording(&mut remote)?;
-    let found = found?;
-    let calibration = match &description {
-        Some((text, model)) => {
-            let bar = job::bar("{msg:24} [{bar:30}] {pos}/{len} postures and excitations");
-            bar.set_message("skin calibration");
-            let cfg = CalibrateConfig { range, ..CalibrateConfig::default() };
-            let c = calibrate(&mut remote, model, &found.exploration, &cfg, &mut |p| {
-                bar.set_length(p.total as u64);
-                bar.set_position(p.done as u64);
-            })?;
-            bar.finish_and_clear();
-            let mut files = Vec::new();
-            for (file, content) in
-                [("skin.toml", skin_toml(model, &c)), ("robot_with_skin.urdf", urdf_with_skin(text, model, &c)?)]
-            {
-                let path = args.out.join(file);
-                std::fs::write(&path, content).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-                files.push(file.to_owned());
-            }
-            Some(CalibrationSection::new(&c, picture(model, &c, &c.description_start), files))
-        }
-        None => None,
-    };
+    let (found, calibration) = found?;
     let mut report = job::report(&remote, source, found);
     report.calibration = calibration;
     report.timing.total_wall_s = wall.elapsed().as_secs_f64();
@@ -175,4 +159,36 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         other => other?,
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Calibrates the skin on the robot's description `text` (parsed into
+/// `model`), writes skin.toml and robot_with_skin.urdf into `out`, and
+/// gives the recording, if any, the calibrated frames.
+fn calibrate_skin(
+    remote: &mut Remote,
+    text: &str,
+    model: &Robot,
+    found: &job::Found,
+    range: AccelRange,
+    out: &Path,
+) -> Result<CalibrationSection, Box<dyn std::error::Error>> {
+    let bar = job::bar("{msg:24} [{bar:30}] {pos}/{len} postures and excitations");
+    bar.set_message("skin calibration");
+    let cfg = CalibrateConfig { range, ..CalibrateConfig::default() };
+    let c = calibrate(remote, model, &found.exploration, &cfg, &mut |p| {
+        bar.set_length(p.total as u64);
+        bar.set_position(p.done as u64);
+    })?;
+    bar.finish_and_clear();
+    let with_skin = urdf_with_skin(text, model, &c)?;
+    let mut files = Vec::new();
+    for (file, content) in [("skin.toml", skin_toml(model, &c)), ("robot_with_skin.urdf", with_skin.clone())] {
+        let path = out.join(file);
+        std::fs::write(&path, content).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        files.push(file.to_owned());
+    }
+    if let Some(session) = remote.recording_mut() {
+        session.calibrated(ros_poses(model, &c), with_skin);
+    }
+    Ok(CalibrationSection::new(&c, picture(model, &c, &c.description_start), files))
 }

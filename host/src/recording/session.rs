@@ -184,6 +184,16 @@ impl Session {
         self.put(skin::ROBOT_DESCRIPTION, t, &description);
     }
 
+    /// The skin is calibrated on the robot's description: every cell's
+    /// frame on its link, and that description with the skin's frames.
+    pub fn calibrated(&mut self, poses: Vec<skin::CellPose>, description: String) {
+        self.topics.set_poses(poses);
+        let t = now_ns();
+        let tf = self.topics.tf_static(Stamp::from_nanos(t));
+        self.put(skin::TF_STATIC, t, &tf);
+        self.put(skin::ROBOT_DESCRIPTION, t, &StringMsg(description));
+    }
+
     /// Messages written so far.
     pub fn written(&self) -> u32 {
         self.writer.written()
