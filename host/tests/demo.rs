@@ -239,7 +239,7 @@ fn skin_run_drives_the_simulated_robot_served_by_another_process() {
         assert!(report["truth"].is_null() && report["grasps"].is_null(), "no simulator truth over the wire");
         assert_eq!(report["robot"]["lockstep"], true);
         if dir == &dirs[0] {
-            check_calibration(dir, &report, &calibrated);
+            check_calibration(dir, &report, &calibrated, &urdf);
         }
         if dir == &dirs[1] {
             check_replay(&recording, &report);
@@ -255,7 +255,7 @@ fn skin_run_drives_the_simulated_robot_served_by_another_process() {
 /// The skin calibrated over the wire: the chest's 14 cells on the fixed
 /// base without a position, the arms' with one, and the files that say so
 /// readable by the simulator's own skin reader and the URDF reader.
-fn check_calibration(dir: &Path, report: &Value, recording: &Path) {
+fn check_calibration(dir: &Path, report: &Value, recording: &Path, urdf: &Path) {
     let c = &report["calibration"];
     assert_eq!(c["cells_unobservable"], 14, "{c}");
     assert!(c["cells_3d"].as_u64().unwrap() >= 50, "{c}");
@@ -263,21 +263,27 @@ fn check_calibration(dir: &Path, report: &Value, recording: &Path) {
     let files: Vec<&str> = report["figures"].as_array().unwrap().iter().map(|f| f["file"].as_str().unwrap()).collect();
     assert!(files.contains(&"calibration.svg"), "{files:?}");
     let robot = skin_sim::robot::hrp2::robot();
-    let skin = skin_sim::skin::Skin::from_file(&robot, &dir.join("skin.toml")).expect("the calibrated skin reads back");
-    assert_eq!(skin.cells().len(), 74);
+    let calibrated =
+        skin_sim::skin::Skin::from_file(&robot, &dir.join("skin.toml")).expect("the calibrated skin reads back");
+    assert_eq!(calibrated.cells().len(), 74);
     let with_skin = skin_sim::robot::Robot::from_urdf_file(&dir.join("robot_with_skin.urdf")).expect("a URDF");
-    assert!(skin.cells().iter().all(|cell| with_skin.link(&format!("skin_cell_{}", cell.id.0)).is_some()));
+    assert!(calibrated.cells().iter().all(|cell| with_skin.link(&format!("skin_cell_{}", cell.id.0)).is_some()));
     // ROS's own URDF parser finds a fixed frame per cell, where the skin file puts it.
     let Some(python) = common::python() else { return };
     let parsed = common::run_json(&python, "urdf_frames.py", &[&dir.join("robot_with_skin.urdf")]);
     assert_eq!(parsed["links"].as_u64(), Some(robot.links().len() as u64 + 74), "{parsed}");
-    for cell in skin.cells() {
+    for cell in calibrated.cells() {
         let frame = &parsed["cells"][cell.id.0.to_string()];
         assert_eq!(frame["parent"], cell.link.as_str());
         let xyz: Vec<f64> = frame["xyz"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
         let t = cell.pose.translation.vector;
         assert!((t - nalgebra::Vector3::new(xyz[0], xyz[1], xyz[2])).norm() < 1e-5, "cell {}: {frame}", cell.id.0);
     }
+    // The replay of the recording calibrates the same skin, to the digit.
+    let replayed = skin().args(["replay", "--calibrate"]).arg(urdf).arg(recording).output().unwrap();
+    assert!(replayed.status.success(), "{}", String::from_utf8_lossy(&replayed.stderr));
+    let live = std::fs::read_to_string(dir.join("skin.toml")).unwrap();
+    assert_eq!(String::from_utf8(replayed.stdout).unwrap().trim_end(), live.trim_end());
     // The recording's last /tf_static puts every cell on its URDF link where
     // the calibration does, and its /robot_description has the skin's frames.
     let tf = common::run_json(&python, "tf_static_frames.py", &[recording]);
@@ -286,7 +292,7 @@ fn check_calibration(dir: &Path, report: &Value, recording: &Path) {
     assert_eq!(frames.len(), 74);
     for f in frames {
         let id: u16 = f[1].as_str().unwrap().trim_start_matches("skin_cell_").parse().unwrap();
-        let cell = skin.cells().iter().find(|c| c.id.0 == id).expect("a calibrated cell");
+        let cell = calibrated.cells().iter().find(|c| c.id.0 == id).expect("a calibrated cell");
         assert_eq!(f[0], cell.link.as_str());
         let xyz: Vec<f64> = f[2].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
         assert!((cell.pose.translation.vector - nalgebra::Vector3::new(xyz[0], xyz[1], xyz[2])).norm() < 1e-5);

@@ -133,9 +133,9 @@ fn finite_or_null(x: f64) -> Value {
     }
 }
 
-fn report(name: &str, c: &Calibration, truth: &CalibrationTruth, exploration_s: f64, wall_time_s: f64) -> Value {
-    let cells: Vec<Value> = c
-        .cells
+/// Every cell's calibrated pose and sensor, as JSON.
+pub(super) fn cells_json(c: &Calibration) -> Vec<Value> {
+    c.cells
         .iter()
         .map(|p| {
             let observable: Vec<&str> =
@@ -157,7 +157,11 @@ fn report(name: &str, c: &Calibration, truth: &CalibrationTruth, exploration_s: 
                 "ambiguous_with": p.ambiguous_with,
             })
         })
-        .collect();
+        .collect()
+}
+
+fn report(name: &str, c: &Calibration, truth: &CalibrationTruth, exploration_s: f64, wall_time_s: f64) -> Value {
+    let cells = cells_json(c);
     json!({
         "robot": name,
         "cells": cells,

@@ -1,16 +1,20 @@
 //! `skin replay`: a recording (`skin run --record`, `skin demo`) fed to
 //! the host instead of the network. `--explore` runs the exploration
 //! again on the recorded samples and robot states and prints what it
-//! learned: the same as the live run that recorded it.
+//! learned: the same as the live run that recorded it; `--calibrate
+//! ROBOT.urdf` also runs the skin calibration that followed it.
 
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use skin_host::calibrate::export::skin_toml;
+use skin_host::calibrate::{calibrate, CalibrateConfig};
 use skin_host::explore::{explore, ExploreConfig};
 use skin_host::recording::{Record, Recording};
 use skin_host::replay::Replay;
 use skin_host::report::ExplorationSection;
+use skin_sim::robot::Robot;
 
 /// Arguments of `skin replay`.
 #[derive(clap::Args)]
@@ -21,7 +25,12 @@ pub struct Args {
     /// Run the recorded exploration again and print its result.
     #[arg(long)]
     explore: bool,
-    /// Print JSON instead of the human summary (with --explore: the report's exploration section).
+    /// Run the recorded exploration and the skin calibration that followed it (`skin run --urdf`)
+    /// again, on this description, and print the calibrated skin description (TOML) as the run wrote it.
+    #[arg(long, value_name = "ROBOT.urdf", conflicts_with = "explore")]
+    calibrate: Option<PathBuf>,
+    /// Print JSON instead of the human summary (with --explore: the report's exploration section;
+    /// with --calibrate: every cell's pose).
     #[arg(long)]
     json: bool,
 }
@@ -37,7 +46,20 @@ pub enum Error {
 
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let recording = Recording::open(&args.file)?;
-    let text = if args.explore {
+    let text = if let Some(urdf) = &args.calibrate {
+        let model = Robot::from_urdf_file(urdf)?;
+        let mut replay = Replay::explore(recording)?;
+        let start = replay.start().clone();
+        let range = start.accel_range().ok_or(Error::Range(start.accel_range_g))?;
+        let exploration = explore(&mut replay, &ExploreConfig { range, ..ExploreConfig::default() }, &mut |_| {})?;
+        let cfg = CalibrateConfig { range, ..CalibrateConfig::default() };
+        let c = calibrate(&mut replay, &model, &exploration, &cfg, &mut |_| {})?;
+        if args.json {
+            serde_json::to_string_pretty(&super::calibrate::cells_json(&c))?
+        } else {
+            skin_toml(&model, &c)
+        }
+    } else if args.explore {
         let mut replay = Replay::explore(recording)?;
         let start = replay.start().clone();
         let range = start.accel_range().ok_or(Error::Range(start.accel_range_g))?;
