@@ -206,6 +206,15 @@ fn the_built_in_robot_over_many_seeds() {
         worst_p95 = worst_p95.max(t.position_m.p95);
         worst_frame = worst_frame.max(t.orientation_deg.mean);
         sum_mean += t.position_m.mean;
+        if (seed + 1) % 100 == 0 {
+            println!(
+                "{} seeds met the goals; worst mean {:.2} mm, worst p95 {:.2} mm, worst frame mean {:.2} deg",
+                seed + 1,
+                worst_mean * 1e3,
+                worst_p95 * 1e3,
+                worst_frame
+            );
+        }
     }
     println!(
         "{seeds} seeds: position mean of means {:.2} mm, worst mean {:.2} mm, worst p95 {:.2} mm; worst frame mean {:.2} deg",
