@@ -162,7 +162,7 @@ fn loopback(
             }
             let recorded = session.map(|s| {
                 let written = s.written();
-                let path = s.finish().expect("finish the recording");
+                let path = s.finish().expect("finish the recording").expect("a recorded file");
                 (written, std::fs::metadata(&path).map_or(0, |m| m.len()))
             });
             Received {
