@@ -48,6 +48,10 @@ fn ci_steps() -> Vec<Step> {
         cargo("format", "fmt --all --check"),
         cargo("clippy (host crates)", "clippy --workspace --all-targets -- -D warnings"),
         cargo(
+            "clippy (skin-host with ROS 2 over Zenoh)",
+            "clippy -p skin-host --all-targets --features ros2 -- -D warnings",
+        ),
+        cargo(
             "clippy (skin-protocol, thumb)",
             "clippy -p skin-protocol --target thumbv7em-none-eabihf --no-default-features --features defmt -- -D warnings",
         ),
@@ -61,6 +65,7 @@ fn ci_steps() -> Vec<Step> {
         ),
         cargo("docs", r#"doc --workspace --no-deps --config build.rustdocflags=["-D","warnings"]"#),
         cargo("tests (host)", "test --workspace"),
+        cargo("tests (ROS 2 over Zenoh: unit, and a Python zenoh peer)", "test -p skin-host --features ros2 --lib --test ros2_live"),
         cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
         cargo(
             "build firmware (qemu board)",
@@ -232,9 +237,11 @@ fn install() -> Result<(), String> {
     python_readers()
 }
 
-/// The Python readers the ROS 2 tests check our files with (readers we
-/// did not write), pinned, in a venv under the target directory.
-const PYTHON_READERS: [&str; 2] = ["rosbags==0.11.9", "mcap-ros2-support==0.6.0"];
+/// The Python readers the ROS 2 tests check our files and our live
+/// topics with (readers we did not write), pinned, in a venv under the
+/// target directory: rosbags and mcap-ros2-support read MCAP and CDR,
+/// eclipse-zenoh subscribes as a ROS 2 machine's peer would.
+const PYTHON_READERS: [&str; 3] = ["rosbags==0.11.9", "mcap-ros2-support==0.6.0", "eclipse-zenoh==1.10.2"];
 
 /// Creates the venv `target/pyenv` with [`PYTHON_READERS`]; without
 /// python3 it says that those tests will be skipped.
@@ -249,7 +256,7 @@ fn python_readers() -> Result<(), String> {
     if !Path::new(python).exists() {
         run("python3", &["-m", "venv", venv.to_str().ok_or("the target directory's path is not UTF-8")?])?;
     }
-    if !succeeds(python, &["-c", "import rosbags, mcap_ros2"]) {
+    if !succeeds(python, &["-c", "import rosbags, mcap_ros2, zenoh"]) {
         let mut args = vec!["-m", "pip", "install", "-q"];
         args.extend(PYTHON_READERS);
         run(python, &args)?;

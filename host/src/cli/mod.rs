@@ -6,6 +6,7 @@ mod demo;
 mod explore;
 mod grasp;
 mod job;
+mod live;
 mod loadgen;
 mod monitor;
 mod replay;
