@@ -12,10 +12,16 @@
 //!    - recording on (`skin run --record`: every datagram and the ROS 2
 //!      topics into an MCAP file) at 1,260 cells and at the 74 cells of
 //!      HRP-2 (5 ports), against the same without recording: loss, CPU
-//!      and messages written per second.
+//!      and messages written per second;
+//!    - with `--features ros2`, publishing on (`--ros2`: the ROS 2 topics
+//!      over Zenoh, to a subscriber in the same process connected over
+//!      loopback TCP): loss, the receiving thread's CPU and the other
+//!      threads' (load generator, Zenoh's runtime), and messages and bytes
+//!      the subscriber got per second.
 //!
-//! `cargo bench -p skin-host --bench interface` (about 2 minutes);
-//! `SKIN_BENCH_SECONDS` sets the length of each loopback run (default 10).
+//! `cargo bench -p skin-host --bench interface [--features ros2]` (about 4 minutes);
+//! `SKIN_BENCH_SECONDS` sets the length of each loopback run (default 10);
+//! `SKIN_BENCH_ONLY_PUBLISH=1` runs only publishing and its baselines.
 
 use std::hint::black_box;
 use std::net::SocketAddr;
@@ -106,8 +112,60 @@ fn rcvbuf_errors() -> Option<u64> {
     values.get(names.iter().position(|n| *n == "RcvbufErrors")?)?.parse().ok()
 }
 
+/// What the receiving thread does with what it hears besides decoding it.
+#[derive(Clone)]
+enum Output {
+    Nothing,
+    /// Records into this MCAP file.
+    Record(std::path::PathBuf),
+    /// Publishes the ROS 2 topics over Zenoh to a subscriber.
+    #[cfg(feature = "ros2")]
+    Publish,
+}
+
+/// CPU time of the process's live threads in seconds (Linux): a thread that ended is not counted.
+fn process_cpu_s() -> Option<f64> {
+    let mut ns = 0.0;
+    for task in std::fs::read_dir("/proc/self/task").ok()?.flatten() {
+        let text = std::fs::read_to_string(task.path().join("schedstat")).unwrap_or_default();
+        ns += text.split_whitespace().next().and_then(|t| t.parse::<f64>().ok()).unwrap_or(0.0);
+    }
+    Some(ns / 1e9)
+}
+
+/// Messages and bytes a subscriber got.
+#[cfg(feature = "ros2")]
+type Counts = Arc<(std::sync::atomic::AtomicU64, std::sync::atomic::AtomicU64)>;
+
+/// A Zenoh subscriber to everything `node` publishes, counting messages and bytes.
+#[cfg(feature = "ros2")]
+fn subscriber(node: &skin_host::ros::rmw_zenoh::Node) -> (zenoh::Session, zenoh::pubsub::Subscriber<()>, Counts) {
+    use zenoh::Wait;
+    let mut config = zenoh::Config::default();
+    config.insert_json5("mode", "\"peer\"").expect("mode");
+    config.insert_json5("scouting/multicast/enabled", "false").expect("scouting");
+    config.insert_json5("listen/endpoints", "[]").expect("listen");
+    config.insert_json5("connect/endpoints", &serde_json::to_string(&node.locators()).expect("json")).expect("connect");
+    let session = zenoh::open(config).wait().expect("open the subscriber's session");
+    let counts = Arc::new((std::sync::atomic::AtomicU64::new(0), std::sync::atomic::AtomicU64::new(0)));
+    let c = counts.clone();
+    let sub = session
+        .declare_subscriber("0/**")
+        .callback(move |s| {
+            c.0.fetch_add(1, Ordering::Relaxed);
+            c.1.fetch_add(s.payload().len() as u64, Ordering::Relaxed);
+        })
+        .wait()
+        .expect("subscribe");
+    // Until the subscription has reached the publisher's side.
+    thread::sleep(Duration::from_millis(500));
+    (session, sub, counts)
+}
+
 struct Received {
     counters: InterfaceCounters,
+    /// Messages and bytes the Zenoh subscriber got, when publishing.
+    published: Option<(u64, u64)>,
     samples: u64,
     cpu_s: Option<f64>,
     busy_s: f64,
@@ -117,12 +175,12 @@ struct Received {
 }
 
 /// Runs the load generator against an interface polled on its own thread,
-/// recording into `record` if given.
+/// with `output`.
 fn loopback(
     spec: LoadSpec,
     pace: Pace,
     seconds: f64,
-    record: Option<std::path::PathBuf>,
+    output: Output,
 ) -> (skin_host::interface::loadgen::LoadReport, Received) {
     let config = InterfaceConfig {
         listen: SocketAddr::from(([127, 0, 0, 1], 0)),
@@ -135,8 +193,27 @@ fn loopback(
     let receiver = {
         let stop = stop.clone();
         thread::spawn(move || {
+            // Reads what the Zenoh subscriber got, when publishing.
+            #[allow(unused_mut)]
+            let mut published: Option<Box<dyn Fn() -> (u64, u64)>> = None;
+            let mut session = match &output {
+                Output::Nothing => None,
+                Output::Record(p) => Some(Session::create(p, AccelRange::G2, false).expect("create")),
+                #[cfg(feature = "ros2")]
+                Output::Publish => {
+                    use skin_host::ros::rmw_zenoh::{Node, ZenohConfig};
+                    let node = Node::open(ZenohConfig::default()).expect("open the Zenoh node");
+                    let (zenoh_session, zenoh_subscriber, counts) = subscriber(&node);
+                    published = Some(Box::new(move || {
+                        let _alive = (&zenoh_session, &zenoh_subscriber);
+                        (counts.0.load(Ordering::Relaxed), counts.1.load(Ordering::Relaxed))
+                    }));
+                    let mut s = Session::live(AccelRange::G2, false);
+                    s.add_outlet(Box::new(node));
+                    Some(s)
+                }
+            };
             let cpu0 = thread_cpu_s();
-            let mut session = record.as_ref().map(|p| Session::create(p, AccelRange::G2, false).expect("create"));
             let mut events = Vec::new();
             let (mut first, mut last, mut samples) = (None, Instant::now(), 0u64);
             let start = Instant::now();
@@ -144,9 +221,12 @@ fn loopback(
                 events.clear();
                 let timeout = Duration::from_millis(50);
                 let n = match &mut session {
-                    Some(s) => interface
-                        .poll_tapped(timeout, &mut events, &mut |from, now_us, bytes| s.datagram(from, now_us, bytes)),
-                    None => interface.poll(timeout, &mut events),
+                    Some(s) if s.records_datagrams() => {
+                        interface.poll_tapped(timeout, &mut events, &mut |from, now_us, bytes| {
+                            s.datagram(from, now_us, bytes)
+                        })
+                    }
+                    _ => interface.poll(timeout, &mut events),
                 }
                 .expect("poll");
                 if let Some(s) = &mut session {
@@ -160,16 +240,21 @@ fn loopback(
                     break;
                 }
             }
-            let recorded = session.map(|s| {
+            let cpu1 = thread_cpu_s();
+            let recorded = session.and_then(|s| {
                 let written = s.written();
-                let path = s.finish().expect("finish the recording");
-                (written, std::fs::metadata(&path).map_or(0, |m| m.len()))
+                let path = s.finish().expect("finish the recording")?;
+                Some((written, std::fs::metadata(&path).map_or(0, |m| m.len())))
             });
+            // What is still in flight arrives.
+            thread::sleep(Duration::from_millis(if published.is_some() { 300 } else { 0 }));
+            let published = published.map(|count| count());
             Received {
                 recorded,
+                published,
                 counters: *interface.counters(),
                 samples,
-                cpu_s: thread_cpu_s().zip(cpu0).map(|(b, a)| b - a),
+                cpu_s: cpu1.zip(cpu0).map(|(b, a)| b - a),
                 busy_s: first.map_or(0.0, |f| (last - f).as_secs_f64()),
                 recv_buffer_bytes: interface.recv_buffer_bytes(),
             }
@@ -217,7 +302,7 @@ fn loopback_report(seconds: f64) {
     );
     let flat = heavy_skin(1_000_000);
     let drops0 = rcvbuf_errors();
-    let (sent, got) = loopback(flat, Pace::FlatOut, seconds, None);
+    let (sent, got) = loopback(flat, Pace::FlatOut, seconds, Output::Nothing);
     let f = got.counters.frames;
     println!(
         "  flat out, {:.1} frames/datagram: sent {} frames, decoded {} ({} samples dispatched), lost {}\n    \
@@ -238,16 +323,29 @@ fn loopback_report(seconds: f64) {
 
     let file = std::env::temp_dir().join(format!("skin-bench-{}.mcap", std::process::id()));
     let hrp2 = LoadSpec { cells: 74, ports: 5, ..heavy_skin(1000) };
-    for (spec, what, record) in [
-        (heavy_skin(1000), "each port sends every 1 ms", None),
-        (heavy_skin(0), "one datagram per frame", None),
-        (heavy_skin(1000), "each port sends every 1 ms, RECORDING", Some(file.clone())),
-        (hrp2.clone(), "74 cells on 5 ports, each sends every 1 ms", None),
-        (hrp2, "74 cells on 5 ports, each sends every 1 ms, RECORDING", Some(file.clone())),
-    ] {
+    #[allow(unused_mut)]
+    let mut runs = vec![
+        (heavy_skin(1000), "each port sends every 1 ms", Output::Nothing),
+        (heavy_skin(0), "one datagram per frame", Output::Nothing),
+        (heavy_skin(1000), "each port sends every 1 ms, RECORDING", Output::Record(file.clone())),
+        (hrp2.clone(), "74 cells on 5 ports, each sends every 1 ms", Output::Nothing),
+        (hrp2.clone(), "74 cells on 5 ports, each sends every 1 ms, RECORDING", Output::Record(file.clone())),
+    ];
+    #[cfg(feature = "ros2")]
+    runs.extend([
+        (heavy_skin(1000), "each port sends every 1 ms, PUBLISHING over Zenoh", Output::Publish),
+        (hrp2, "74 cells on 5 ports, each sends every 1 ms, PUBLISHING over Zenoh", Output::Publish),
+    ]);
+    // Publishing and its baselines alone.
+    if std::env::var_os("SKIN_BENCH_ONLY_PUBLISH").is_some() {
+        runs.retain(|(_, what, _)| !what.contains("RECORDING") && !what.contains("one datagram per frame"));
+    }
+    for (spec, what, output) in runs {
         let rate = spec.sample_rate_hz();
         let drops0 = rcvbuf_errors();
-        let (sent, got) = loopback(spec, Pace::RealTime, seconds, record);
+        let process0 = process_cpu_s();
+        let (sent, got) = loopback(spec, Pace::RealTime, seconds, output);
+        let process_cpu = process_cpu_s().zip(process0).map(|(b, a)| b - a);
         let c = got.counters;
         let lost = sent.frames - c.frames.accepted.min(sent.frames);
         println!(
@@ -269,7 +367,18 @@ fn loopback_report(seconds: f64) {
             got.recv_buffer_bytes,
             InterfaceConfig::default().recv_buffer_bytes,
         );
-        println!("    kernel UDP receive-buffer overflows (system-wide): {}", delta(drops0, rcvbuf_errors()));
+        println!(
+            "    kernel UDP receive-buffer overflows (system-wide): {}; the other threads (load generator, Zenoh's runtime): {}",
+            delta(drops0, rcvbuf_errors()),
+            process_cpu.map_or("CPU unknown".into(), |cpu| format!("{:.1} % of a core", 100.0 * cpu / sent.wall_time_s))
+        );
+        if let Some((messages, bytes)) = got.published {
+            println!(
+                "    the Zenoh subscriber got {messages} messages = {:.1} per second, {:.2} MB/s",
+                messages as f64 / sent.wall_time_s,
+                bytes as f64 / 1e6 / sent.wall_time_s
+            );
+        }
         if let Some((messages, bytes)) = got.recorded {
             println!(
                 "    recorded {messages} messages = {:.0} per second, {:.1} MB = {:.1} MB/s",

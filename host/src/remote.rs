@@ -286,9 +286,9 @@ impl Remote {
         self.recording.as_mut()
     }
 
-    /// Stops recording and closes the file; `None` when nothing was recorded.
+    /// Stops recording and publishing and closes the file; `None` when no file was recorded.
     pub fn finish_recording(&mut self) -> Option<Result<std::path::PathBuf, RecordError>> {
-        self.recording.take().map(Session::finish)
+        self.recording.take().map(Session::finish)?.transpose()
     }
 
     /// The robot link.
@@ -339,12 +339,12 @@ impl Remote {
         self.events.clear();
         loop {
             let taken = match &mut self.recording {
-                Some(session) => {
+                Some(session) if session.records_datagrams() => {
                     self.interface.poll_tapped(Duration::ZERO, &mut self.events, &mut |from, now_us, bytes| {
                         session.datagram(from, now_us, bytes)
                     })
                 }
-                None => self.interface.poll(Duration::ZERO, &mut self.events),
+                _ => self.interface.poll(Duration::ZERO, &mut self.events),
             }
             .map_err(|e| RobotError::Disconnected(format!("skin interface: {e}")))?;
             if taken == 0 {

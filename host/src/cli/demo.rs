@@ -39,6 +39,7 @@ use skin_sim::scene::placement::{ObjectAt, Placement};
 use skin_sim::world::{World, WorldConfig};
 
 use super::job::{self, bar, Steps};
+use super::live::LiveArgs;
 use super::objects::built_in;
 
 /// The loopback address with a port the OS picks.
@@ -61,12 +62,14 @@ pub struct Args {
     /// Print report.json on stdout instead of the human summary.
     #[arg(long)]
     json: bool,
-    /// Also record every cell's acceleration as `sensor_msgs/Imu` on `/skin/imu` (in `recording.mcap`).
-    #[arg(long, conflicts_with = "no_record")]
+    /// Also record (and with `--ros2` publish) every cell's acceleration as `sensor_msgs/Imu` on `/skin/imu`.
+    #[arg(long)]
     imu: bool,
     /// Do not write `recording.mcap` (about 400 MB for the whole demo).
     #[arg(long)]
     no_record: bool,
+    #[command(flatten)]
+    live: LiveArgs,
 }
 
 /// The demo's recording, in its report folder.
@@ -80,6 +83,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     if !args.no_record {
         job::record(&mut remote, &args.out.join(RECORDING), &steps, args.imu)?;
     }
+    args.live.start(&mut remote, steps.explore.range, args.imu)?;
     let found = job::run(&mut remote, &steps)?;
     let exploration = found.exploration.clone();
     let grasp_wall = Instant::now();

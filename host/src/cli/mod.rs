@@ -8,6 +8,7 @@ mod flash;
 mod grasp;
 mod job;
 mod keygen;
+mod live;
 mod loadgen;
 mod monitor;
 mod objects;

@@ -26,6 +26,7 @@ use skin_protocol::message::AccelRange;
 use skin_sim::robot::Robot;
 
 use super::job::{self, Steps};
+use super::live::LiveArgs;
 use super::seconds;
 
 /// Arguments of `skin run`.
@@ -62,9 +63,11 @@ pub struct Args {
     /// Record the run into this MCAP file: interface datagrams, robot link, ROS 2 topics (`skin replay` reads it).
     #[arg(long, value_name = "FILE.mcap")]
     record: Option<PathBuf>,
-    /// Also record every cell's acceleration as `sensor_msgs/Imu` on `/skin/imu`.
-    #[arg(long, requires = "record")]
+    /// Also record (and with `--ros2` publish) every cell's acceleration as `sensor_msgs/Imu` on `/skin/imu`.
+    #[arg(long)]
     imu: bool,
+    #[command(flatten)]
+    live: LiveArgs,
 }
 
 /// Why `skin run` could not start.
@@ -137,6 +140,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     if let Some(path) = &args.record {
         job::record(&mut remote, path, &steps, args.imu)?;
     }
+    args.live.start(&mut remote, range, args.imu)?;
     let found = job::run(&mut remote, &steps).map_err(Box::<dyn std::error::Error>::from).and_then(|found| {
         let calibration = match &description {
             Some((text, model)) => Some(calibrate_skin(&mut remote, text, model, &found, range, &args.out)?),

@@ -1,5 +1,6 @@
-//! A run being recorded: the raw channels `skin replay` reads and the
-//! ROS 2 topics, written as the run goes. A failed write (a full disk)
+//! A run being recorded and published: the raw channels `skin replay`
+//! reads go to the file, the ROS 2 topics to the file and to every live
+//! [`Outlet`] (each message encoded once). A failed write (a full disk)
 //! does not stop the robot: the session stops writing, says so once, and
 //! [`Session::finish`] returns the error.
 
@@ -17,6 +18,7 @@ use crate::config::PortConfig;
 use crate::explore::Exploration;
 use crate::interface::Event;
 use crate::ros::msgs::{Datagram, Message, Stamp, StringMsg};
+use crate::ros::outlet::Outlet;
 use crate::ros::skin::{self, SkinTopics};
 
 /// Robot time between two `/skin/cells` clouds (and `/skin/imu` rounds), s: 50 Hz.
@@ -61,10 +63,15 @@ impl ExploreStart {
     }
 }
 
-/// A recording in progress.
+/// A recording (or live publishing) in progress.
 #[derive(Debug)]
 pub struct Session {
-    writer: McapWriter,
+    /// The file, if the run is recorded.
+    writer: Option<McapWriter>,
+    /// Live destinations of the ROS 2 topics.
+    outlets: Vec<Box<dyn Outlet>>,
+    /// The last ROS 2 message's CDR: its allocation serves the next.
+    scratch: Vec<u8>,
     topics: SkinTopics,
     imu: bool,
     last_cloud_s: Option<f64>,
@@ -81,21 +88,56 @@ impl Session {
     /// Starts a recording at `path`; accelerations are read in `range`;
     /// `imu` adds `/skin/imu`.
     pub fn create(path: &Path, range: AccelRange, imu: bool) -> Result<Session, RecordError> {
-        Ok(Session {
-            writer: McapWriter::create(path)?,
+        let mut session = Session::live(range, imu);
+        session.writer = Some(McapWriter::create(path)?);
+        Ok(session)
+    }
+
+    /// Publishes the ROS 2 topics to outlets only, with no file.
+    pub fn live(range: AccelRange, imu: bool) -> Session {
+        Session {
+            writer: None,
+            outlets: Vec::new(),
+            scratch: Vec::new(),
             topics: SkinTopics::new(range),
             imu,
             last_cloud_s: None,
             failed: None,
             sources: Vec::new(),
-        })
+        }
     }
 
+    /// Publishes the ROS 2 topics to `outlet` too from now on.
+    pub fn add_outlet(&mut self, outlet: Box<dyn Outlet>) {
+        self.outlets.push(outlet);
+    }
+
+    /// Whether interface datagrams are written (a file is being recorded).
+    pub fn records_datagrams(&self) -> bool {
+        self.writer.is_some()
+    }
+
+    /// A raw channel: to the file only.
     fn put<M: Message>(&mut self, topic: &'static str, time_ns: u64, message: &M) {
         if self.failed.is_some() {
             return;
         }
-        if let Err(e) = self.writer.write(topic, time_ns, message) {
+        if let Some(Err(e)) = self.writer.as_mut().map(|w| w.write(topic, time_ns, message)) {
+            tracing::error!("recording stopped: {e}");
+            self.failed = Some(e);
+        }
+    }
+
+    /// A ROS 2 topic: encoded once, to the file and every outlet.
+    fn publish<M: Message>(&mut self, topic: &'static str, time_ns: u64, message: &M) {
+        message.encode_into(&mut self.scratch);
+        for outlet in &mut self.outlets {
+            outlet.publish(topic, M::TYPE, time_ns, &self.scratch);
+        }
+        if self.failed.is_some() {
+            return;
+        }
+        if let Some(Err(e)) = self.writer.as_mut().map(|w| w.write_cdr(topic, M::TYPE, time_ns, &self.scratch)) {
             tracing::error!("recording stopped: {e}");
             self.failed = Some(e);
         }
@@ -106,7 +148,8 @@ impl Session {
     pub fn robot(&mut self, robot: SocketAddr, command: &ToRobot, state: &FromRobot, dof_names: &[String]) {
         let t = now_ns();
         let mut buf = [0u8; robot_link::MAX_DATAGRAM];
-        for topic in [COMMAND, STATE] {
+        let topics = if self.writer.is_some() { [COMMAND, STATE].as_slice() } else { &[] };
+        for &topic in topics {
             let bytes = match topic {
                 COMMAND => robot_link::encode(command, &mut buf),
                 _ => robot_link::encode(state, &mut buf),
@@ -120,12 +163,15 @@ impl Session {
             }
         }
         if let FromRobot::State { positions, .. } = state {
-            self.put(skin::JOINT_STATES, t, &skin::joint_state(Stamp::from_nanos(t), dof_names, positions));
+            self.publish(skin::JOINT_STATES, t, &skin::joint_state(Stamp::from_nanos(t), dof_names, positions));
         }
     }
 
     /// One interface datagram as received, at `now_us` of the interface's clock.
     pub fn datagram(&mut self, from: SocketAddr, now_us: u64, bytes: &[u8]) {
+        if self.writer.is_none() {
+            return;
+        }
         // The interface's sources are a handful of ports: their text is kept.
         let i = match self.sources.iter().position(|(a, _)| *a == from) {
             Some(i) => i,
@@ -150,17 +196,17 @@ impl Session {
         let stamp = Stamp::from_nanos(t);
         self.topics.take(events, stamp);
         if let Some(markers) = self.topics.take_contacts() {
-            self.put(skin::EVENTS, t, &markers);
+            self.publish(skin::EVENTS, t, &markers);
         }
         if self.last_cloud_s.is_some_and(|last| robot_s - last < CLOUD_PERIOD_S) {
             return;
         }
         self.last_cloud_s = Some(robot_s);
         let cloud = self.topics.cloud(stamp);
-        self.put(skin::CELLS, t, &cloud);
+        self.publish(skin::CELLS, t, &cloud);
         if self.imu {
             for imu in self.topics.imus(stamp) {
-                self.put(skin::IMU, t, &imu);
+                self.publish(skin::IMU, t, &imu);
             }
         }
     }
@@ -180,8 +226,8 @@ impl Session {
         self.topics.set_poses(poses);
         let t = now_ns();
         let tf = self.topics.tf_static(Stamp::from_nanos(t));
-        self.put(skin::TF_STATIC, t, &tf);
-        self.put(skin::ROBOT_DESCRIPTION, t, &description);
+        self.publish(skin::TF_STATIC, t, &tf);
+        self.publish(skin::ROBOT_DESCRIPTION, t, &description);
     }
 
     /// The skin is calibrated on the robot's description: every cell's
@@ -194,16 +240,17 @@ impl Session {
         self.put(skin::ROBOT_DESCRIPTION, t, &StringMsg(description));
     }
 
-    /// Messages written so far.
+    /// Messages written to the file so far.
     pub fn written(&self) -> u32 {
-        self.writer.written()
+        self.writer.as_ref().map_or(0, McapWriter::written)
     }
 
-    /// Closes the file; the first write that failed, if any, is the error.
-    pub fn finish(self) -> Result<PathBuf, RecordError> {
+    /// Closes the file, if any, and the outlets; the first write that
+    /// failed, if any, is the error.
+    pub fn finish(self) -> Result<Option<PathBuf>, RecordError> {
         match self.failed {
             Some(e) => Err(e),
-            None => self.writer.finish(),
+            None => self.writer.map(McapWriter::finish).transpose(),
         }
     }
 }

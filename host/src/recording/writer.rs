@@ -8,6 +8,7 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use crate::ros::msgs::Message;
+use crate::ros::schema::MsgType;
 
 use super::RecordError;
 
@@ -45,10 +46,25 @@ impl McapWriter {
 
     /// Writes `message` on `topic` at `time_ns` (nanoseconds since the Unix epoch).
     pub fn write<M: Message>(&mut self, topic: &'static str, time_ns: u64, message: &M) -> Result<(), RecordError> {
+        let mut cdr = std::mem::take(&mut self.scratch);
+        message.encode_into(&mut cdr);
+        let written = self.write_cdr(topic, M::TYPE, time_ns, &cdr);
+        self.scratch = cdr;
+        written
+    }
+
+    /// Writes a message of type `ty` already encoded (`cdr`, header first) on `topic`.
+    pub fn write_cdr(
+        &mut self,
+        topic: &'static str,
+        ty: &'static MsgType,
+        time_ns: u64,
+        cdr: &[u8],
+    ) -> Result<(), RecordError> {
         let channel_id = match self.channels.iter().find(|(t, _)| *t == topic) {
             Some(&(_, id)) => id,
             None => {
-                let id = self.channel::<M>(topic).map_err(|e| RecordError::mcap(&self.path, e))?;
+                let id = self.channel(topic, ty).map_err(|e| RecordError::mcap(&self.path, e))?;
                 self.channels.push((topic, id));
                 id
             }
@@ -60,12 +76,11 @@ impl McapWriter {
             log_time: time_ns,
             publish_time: time_ns,
         };
-        message.encode_into(&mut self.scratch);
-        self.writer.write_to_known_channel(&header, &self.scratch).map_err(|e| RecordError::mcap(&self.path, e))
+        self.writer.write_to_known_channel(&header, cdr).map_err(|e| RecordError::mcap(&self.path, e))
     }
 
-    fn channel<M: Message>(&mut self, topic: &'static str) -> Result<u16, mcap::McapError> {
-        let schema = self.writer.add_schema(M::TYPE.name, "ros2msg", M::TYPE.ros2msg().as_bytes())?;
+    fn channel(&mut self, topic: &'static str, ty: &MsgType) -> Result<u16, mcap::McapError> {
+        let schema = self.writer.add_schema(ty.name, "ros2msg", ty.ros2msg().as_bytes())?;
         let mut metadata = BTreeMap::new();
         if matches!(topic, crate::ros::skin::TF_STATIC | crate::ros::skin::ROBOT_DESCRIPTION) {
             metadata.insert("offered_qos_profiles".to_owned(), LATCHED_QOS.to_owned());

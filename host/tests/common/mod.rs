@@ -1,5 +1,6 @@
-//! The Python readers we did not write (rosbags, mcap-ros2-support), as
-//! `cargo xtask install` puts them in a venv under the target directory.
+//! The Python readers we did not write (rosbags, mcap-ros2-support,
+//! eclipse-zenoh), as `cargo xtask install` puts them in a venv under the
+//! target directory.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -20,7 +21,7 @@ pub fn python() -> Option<PathBuf> {
         return None;
     }
     panic!(
-        "{} is missing: run `cargo xtask install` (it installs rosbags and mcap-ros2-support there)",
+        "{} is missing: run `cargo xtask install` (it installs rosbags, mcap-ros2-support and eclipse-zenoh there)",
         venv.display()
     );
 }

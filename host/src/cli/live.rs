@@ -1,0 +1,86 @@
+//! `--ros2` on `skin run` and `skin demo`: the ROS 2 topics published
+//! live over Zenoh in rmw_zenoh's format (the `ros2` feature), besides or
+//! instead of a recording.
+
+use skin_host::recording::Session;
+use skin_host::remote::Remote;
+use skin_protocol::message::AccelRange;
+
+/// The live-output flags.
+#[derive(clap::Args, Debug, Default)]
+pub struct LiveArgs {
+    /// Publish the ROS 2 topics live over Zenoh as rmw_zenoh does (`ros2 topic list` on a ROS 2 machine sees them).
+    #[arg(long)]
+    ros2: bool,
+    /// A Zenoh router or peer to connect to, e.g. `tcp/192.168.1.10:7447` (the robot PC's `rmw_zenohd`); repeatable.
+    #[arg(long, value_name = "ENDPOINT", requires = "ros2")]
+    zenoh_connect: Vec<String>,
+    /// A Zenoh endpoint to listen on [default: tcp/127.0.0.1:0]; repeatable.
+    #[arg(long, value_name = "ENDPOINT", requires = "ros2")]
+    zenoh_listen: Vec<String>,
+    /// The ROS domain ID.
+    #[arg(long, value_name = "ID", default_value_t = 0, requires = "ros2")]
+    ros_domain: u32,
+    /// Speak to Humble (no type hashes: `TypeHashNotSupported`) instead of Jazzy and later (RIHS01).
+    #[arg(long, requires = "ros2")]
+    ros_humble: bool,
+}
+
+/// Why the live outputs did not start.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum LiveError {
+    /// `--ros2` on a binary built without Zenoh.
+    #[cfg(not(feature = "ros2"))]
+    #[error("this `skin` was built without ROS 2 over Zenoh; build it with `cargo build --release -p skin-host --features ros2`")]
+    NotBuilt,
+    /// The Zenoh session did not start.
+    #[cfg(feature = "ros2")]
+    #[error(transparent)]
+    Zenoh(#[from] skin_host::ros::rmw_zenoh::ZenohError),
+}
+
+impl LiveArgs {
+    /// Whether anything is published live.
+    pub fn any(&self) -> bool {
+        self.ros2
+    }
+
+    /// Starts what was asked for on `remote`'s session (a recording, or
+    /// one of its own); accelerations are read in `range`, `imu` adds `/skin/imu`.
+    pub fn start(&self, remote: &mut Remote, range: AccelRange, imu: bool) -> Result<(), LiveError> {
+        if !self.any() {
+            return Ok(());
+        }
+        if remote.recording_mut().is_none() {
+            remote.record(Session::live(range, imu));
+        }
+        let Some(session) = remote.recording_mut() else { return Ok(()) };
+        self.start_ros2(session)
+    }
+
+    #[cfg(feature = "ros2")]
+    fn start_ros2(&self, session: &mut Session) -> Result<(), LiveError> {
+        use skin_host::ros::rmw_zenoh::{Node, TypeHashes, ZenohConfig};
+        let node = Node::open(ZenohConfig {
+            connect: self.zenoh_connect.clone(),
+            listen: self.zenoh_listen.clone(),
+            domain: self.ros_domain,
+            hashes: if self.ros_humble { TypeHashes::NotSupported } else { TypeHashes::Rihs01 },
+            ..ZenohConfig::default()
+        })?;
+        eprintln!(
+            "ROS 2 over Zenoh: node /skin in domain {}, zenoh peer {} listening on {}",
+            self.ros_domain,
+            node.zid(),
+            node.locators().join(" ")
+        );
+        session.add_outlet(Box::new(node));
+        Ok(())
+    }
+
+    #[cfg(not(feature = "ros2"))]
+    fn start_ros2(&self, _session: &mut Session) -> Result<(), LiveError> {
+        Err(LiveError::NotBuilt)
+    }
+}

@@ -1,0 +1,122 @@
+//! ROS 2 over Zenoh, checked by a subscriber we did not write: `skin demo
+//! --quick --ros2` publishes while a Python `eclipse-zenoh` peer (multicast
+//! off, connecting to the endpoint the demo prints) subscribes on
+//! rmw_zenoh's key expressions, decodes every topic's CDR with rosbags,
+//! reads the attachments, collects the liveliness tokens, and joins late
+//! to fetch the transient-local topics from the publishers' caches.
+
+mod common;
+
+use std::io::{BufRead, BufReader, Read};
+use std::process::{Command, Stdio};
+
+use serde_json::Value;
+use skin_host::ros::rmw_zenoh::keys;
+
+#[test]
+fn a_zenoh_peer_sees_the_demo_as_rmw_zenoh_publishes() {
+    let Some(python) = common::python() else { return };
+    let dir = std::env::temp_dir().join(format!("skin-ros2-live-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut demo = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(["demo", "--quick", "--no-record", "--json", "--ros2", "--imu", "--out"])
+        .arg(&dir)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = BufReader::new(demo.stderr.take().unwrap());
+    let mut announced = String::new();
+    while !announced.contains("ROS 2 over Zenoh:") {
+        announced.clear();
+        assert!(stderr.read_line(&mut announced).unwrap() > 0, "the demo ended without announcing its node");
+    }
+    // The rest of stderr is drained so that the demo never blocks on it.
+    let drain = std::thread::spawn(move || {
+        let mut rest = String::new();
+        let _ = stderr.read_to_string(&mut rest);
+        rest
+    });
+    let words: Vec<&str> = announced.split_whitespace().collect();
+    let zid = words[words.iter().position(|w| *w == "peer").unwrap() + 1].to_owned();
+    let endpoint = words.iter().find(|w| w.starts_with("tcp/127.0.0.1:")).expect("a loopback endpoint").to_string();
+
+    let got = common::run_json(&python, "ros2_live.py", &[endpoint.as_ref(), "120".as_ref()]);
+    let out = demo.wait_with_output().unwrap();
+    let rest = drain.join().unwrap();
+    assert!(out.status.success(), "the demo failed: {rest}");
+    let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(report["exploration"]["body_parts"].as_array().is_some_and(|p| !p.is_empty()));
+
+    assert!(
+        got["peers"].as_array().unwrap().iter().any(|p| p == zid.as_str()),
+        "the subscriber's peer is our node: {got}"
+    );
+    // The transient-local topics are checked as the late joiner got them
+    // (the live subscriber may have joined after they were sent).
+    let latched = |topic: &str| topic == "/tf_static" || topic == "/robot_description";
+    let one = |topic: &str| -> &Value {
+        let heard = if latched(topic) { &got["late"] } else { &got["topics"] };
+        let entries = heard.get(topic).and_then(Value::as_array).unwrap_or_else(|| panic!("{topic} not heard: {got}"));
+        assert_eq!(entries.len(), 1, "{topic} on one key only: {entries:?}");
+        &entries[0]
+    };
+    let types = [
+        ("/skin/cells", "sensor_msgs/msg/PointCloud2"),
+        ("/joint_states", "sensor_msgs/msg/JointState"),
+        ("/skin/imu", "sensor_msgs/msg/Imu"),
+        ("/skin/events", "visualization_msgs/msg/MarkerArray"),
+        ("/tf_static", "tf2_msgs/msg/TFMessage"),
+        ("/robot_description", "std_msgs/msg/String"),
+    ];
+    let tokens: Vec<&str> = got["tokens"].as_array().unwrap().iter().map(|t| t.as_str().unwrap()).collect();
+    assert!(tokens.contains(&format!("@ros2_lv/0/{zid}/0/0/NN/%/%/skin").as_str()), "the node's token: {tokens:?}");
+    let mut gids = Vec::new();
+    for (topic, ty) in types {
+        let t = one(topic);
+        assert_eq!(t["type"], ty, "{t}");
+        assert_eq!(t["domain"], "0");
+        assert_eq!(t["hash"], t["rosbags_hash"], "our RIHS01 hash of {ty} is rosbags'");
+        let dds = keys::dds_type_name_of(ty);
+        assert_eq!(t["key"], format!("0{topic}/{dds}/{}", t["hash"].as_str().unwrap()));
+        // The publisher's token names the topic, its type and hash, and its QoS.
+        let token = tokens
+            .iter()
+            .find(|k| {
+                k.starts_with(&format!("@ros2_lv/0/{zid}/0/"))
+                    && k.contains(&format!("/MP/%/%/skin/{}/", topic.replace('/', "%")))
+            })
+            .unwrap_or_else(|| panic!("no publisher token for {topic}: {tokens:?}"));
+        let qos = if latched(topic) { ":1:,1:,:,:,," } else { "::,10:,:,:,," };
+        assert!(token.ends_with(&format!("/{dds}/{}/{qos}", t["hash"].as_str().unwrap())), "{token}");
+        // Attachments: sequence numbers counting up by one, a recent
+        // source time, and the GID rmw_zenoh derives from the token.
+        let attachments = t["attachments"].as_array().unwrap();
+        assert!(!attachments.is_empty() && attachments.iter().all(|a| !a.is_null()), "{topic}: {attachments:?}");
+        let seqs: Vec<i64> = attachments.iter().map(|a| a["seq"].as_i64().unwrap()).collect();
+        assert!(seqs.windows(2).all(|w| w[1] == w[0] + 1), "{topic}: {seqs:?}");
+        let now_ns = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap().as_nanos() as i64;
+        let stamp = attachments[0]["stamp_ns"].as_i64().unwrap();
+        assert!((now_ns - 600_000_000_000..=now_ns).contains(&stamp), "{topic}: source time {stamp}");
+        let gid: String = keys::gid(token).iter().map(|b| format!("{b:02x}")).collect();
+        assert!(attachments.iter().all(|a| a["gid"] == gid.as_str()), "{topic}: {attachments:?} vs {gid}");
+        gids.push(gid);
+    }
+    gids.sort();
+    gids.dedup();
+    assert_eq!(gids.len(), types.len(), "one GID per publisher");
+
+    let v = |topic: &str| &one(topic)["values"];
+    assert_eq!(v("/skin/cells")["points"], 74, "{}", v("/skin/cells"));
+    assert_eq!(v("/joint_states")["joints"], 14);
+    assert_eq!(v("/tf_static")["frames"], 74);
+    assert_eq!(v("/robot_description")["start"], "<?xml version=\"1.0\"?>");
+    assert!(v("/skin/events")["markers"].as_u64().unwrap() > 0);
+    let g = v("/skin/imu")["g"].as_f64().unwrap();
+    assert!((0.5..1.5).contains(&g), "a cell feels about 1 g, not {g} g");
+    // The late joiner got exactly the one cached message of each.
+    for topic in ["/tf_static", "/robot_description"] {
+        assert_eq!(one(topic)["count"], 1, "late joiner on {topic}: {}", got["late"]);
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
