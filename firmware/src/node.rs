@@ -11,7 +11,7 @@ use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use embedded_storage::nor_flash::NorFlash;
-use skin_protocol::app::{CellApp, Delivered, Losses, StoreFailed};
+use skin_protocol::app::{CellApp, Delivered, Losses, StoreFailed, UpdateInput};
 use skin_protocol::cell::{Arrived, Cell};
 use skin_protocol::frame::Frame;
 use skin_protocol::message::{Port, Setting};
@@ -137,11 +137,20 @@ impl<F: NorFlash, S: Slot> Node<F, S> {
         match self.app.receive_frame(Arrived { port, frame, meta: None }, now_us, &mut ())? {
             Delivered::Config(write) => self.app.configure(&write, &mut (), |_, _| {}),
             Delivered::Update(input) => {
-                let (updater, slot) = self.update.as_mut()?;
-                let action = self.app.update(&input, updater, slot, now_us, &mut (), |_, _| {});
-                self.boot_action = action.or(self.boot_action);
+                self.update(&input, now_us);
                 None
             }
+        }
+    }
+
+    /// An update message to the updater. Out of line: the signature check
+    /// behind it needs kilobytes of stack, which the byte path must not
+    /// reserve for every byte.
+    #[inline(never)]
+    fn update(&mut self, input: &UpdateInput, now_us: u64) {
+        if let Some((updater, slot)) = self.update.as_mut() {
+            let action = self.app.update(input, updater, slot, now_us, &mut (), |_, _| {});
+            self.boot_action = action.or(self.boot_action);
         }
     }
 
