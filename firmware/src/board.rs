@@ -90,7 +90,7 @@ impl<B: Board, F: NorFlash> Firmware<B, F> {
         // SAFETY: each field is written once through a pointer into `slot`,
         // and the firmware is only referred to once all are written.
         unsafe {
-            Node::boot(&mut *addr_of_mut!((*firmware).node).cast(), config, store, now_us);
+            Node::<F>::boot(&mut *addr_of_mut!((*firmware).node).cast(), config, store, now_us);
             addr_of_mut!((*firmware).board).write(board);
             addr_of_mut!((*firmware).next_sample_us).write(now_us);
             slot.assume_init_mut()

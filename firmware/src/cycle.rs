@@ -22,7 +22,7 @@ pub type CycleNode<'a> = Node<&'a mut CycleFlash>;
 /// on port 0, with a child on port 1; `None` if it did not take port 0 as
 /// its master.
 pub fn boot<'a>(slot: &'a mut MaybeUninit<CycleNode<'a>>, flash: &'a mut CycleFlash) -> Option<&'a mut CycleNode<'a>> {
-    let mut store = Store::open(flash, 0, 2048).ok()?;
+    let mut store = Store::<_>::open(flash, 0, 2048).ok()?;
     store.store(Address(5));
     store.set_offsets([0; 8]).ok()?;
     let node = Node::boot(slot, Config::default(), store, 0);

@@ -19,9 +19,11 @@
 #![warn(missing_docs)]
 
 pub mod board;
+pub mod boot;
 pub mod cycle;
 pub mod deframer;
 pub mod drivers;
+pub mod flash_slot;
 pub mod node;
 pub mod ring;
 pub mod sensors;

@@ -3,34 +3,62 @@
 //! store, and the byte-level framing of the four ports.
 //!
 //! The board hands it received bytes, raw samples and the time; it hands
-//! back frames to transmit and the settings to apply to the hardware.
+//! back frames to transmit, the settings to apply to the hardware and,
+//! once the board gave it an [`Updater`] and a spare slot
+//! ([`Node::take_updates`]), what its bootloader must do for an update.
 
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use embedded_storage::nor_flash::NorFlash;
-use skin_protocol::app::{CellApp, Delivered, Losses};
+use skin_protocol::app::{CellApp, Delivered, Losses, StoreFailed, UpdateInput};
 use skin_protocol::cell::{Arrived, Cell};
 use skin_protocol::frame::Frame;
 use skin_protocol::message::{Port, Setting};
 use skin_protocol::organize::Config;
 use skin_protocol::processing::Processor;
+use skin_protocol::update::{BootAction, Slot, Updater};
 use skin_protocol::{Address, Sample};
 
 use crate::deframer::Deframer;
 use crate::store::Store;
 
-/// A skin cell's logic.
-#[derive(Debug)]
-pub struct Node<F> {
-    app: CellApp<Store<F>>,
-    rx: [Deframer; 4],
+/// The spare slot of a board without a bootloader: it holds nothing, so
+/// every update offer is refused as too long.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NoSlot;
+
+impl Slot for NoSlot {
+    fn capacity(&self) -> u32 {
+        0
+    }
+
+    fn erase(&mut self) -> Result<(), StoreFailed> {
+        Err(StoreFailed)
+    }
+
+    fn write(&mut self, _: u32, _: &[u8]) -> Result<(), StoreFailed> {
+        Err(StoreFailed)
+    }
+
+    fn read(&self, _: u32, _: &mut [u8]) -> Result<(), StoreFailed> {
+        Err(StoreFailed)
+    }
 }
 
-impl<F: NorFlash> Node<F> {
+/// A skin cell's logic; `S` is the spare image slot.
+#[derive(Debug)]
+pub struct Node<F, S = NoSlot> {
+    app: CellApp<Store<F>>,
+    rx: [Deframer; 4],
+    update: Option<(Updater, S)>,
+    boot_action: Option<BootAction>,
+}
+
+impl<F: NorFlash, S: Slot> Node<F, S> {
     /// Boots with what the store holds: ID, offsets and settings (see
     /// [`skin_protocol::app::App::new`]).
-    pub fn new(config: Config, store: Store<F>, now_us: u64) -> Node<F> {
+    pub fn new(config: Config, store: Store<F>, now_us: u64) -> Node<F, S> {
         let mut slot = MaybeUninit::uninit();
         Node::boot(&mut slot, config, store, now_us);
         // SAFETY: `boot` wrote every field.
@@ -39,13 +67,15 @@ impl<F: NorFlash> Node<F> {
 
     /// [`Node::new`] built in place, in a static: no copy of the state
     /// (kilobytes of queues) passes through the stack at boot.
-    pub fn boot(slot: &mut MaybeUninit<Node<F>>, config: Config, store: Store<F>, now_us: u64) -> &mut Node<F> {
+    pub fn boot(slot: &mut MaybeUninit<Node<F, S>>, config: Config, store: Store<F>, now_us: u64) -> &mut Node<F, S> {
         let node = slot.as_mut_ptr();
         // SAFETY: each field is written once through a pointer into `slot`,
         // and the node is only referred to once all are written.
         unsafe {
             addr_of_mut!((*node).app).write(CellApp::new(config, store, now_us));
             addr_of_mut!((*node).rx).write(Default::default());
+            addr_of_mut!((*node).update).write(None);
+            addr_of_mut!((*node).boot_action).write(None);
             slot.assume_init_mut()
         }
     }
@@ -80,15 +110,47 @@ impl<F: NorFlash> Node<F> {
         self.app.processor().calibrating()
     }
 
+    /// Takes updates from here on: `updater` knows the board, the key and
+    /// the running image; `spare` is the slot not running.
+    pub fn take_updates(&mut self, updater: Updater, spare: S) {
+        self.update = Some((updater, spare));
+    }
+
+    /// The updater and its slot, once given.
+    pub fn updates(&self) -> Option<&(Updater, S)> {
+        self.update.as_ref()
+    }
+
+    /// What the bootloader must do, once (the board keeps the boot record
+    /// and restarts as the action says).
+    pub fn take_boot_action(&mut self) -> Option<BootAction> {
+        self.boot_action.take()
+    }
+
     /// Takes a byte received on `port`. Returns a setting the host wrote and
-    /// the cell accepted, for the board to apply to its hardware.
+    /// the cell accepted, for the board to apply to its hardware. Update
+    /// messages go to the updater (a node without one ignores them, as a
+    /// cell of an older firmware would); a boot action waits in
+    /// [`Node::take_boot_action`].
     pub fn receive(&mut self, port: Port, byte: u8, now_us: u64) -> Option<Setting> {
         let frame = self.rx[port.index()].push(byte)?;
-        // Update messages wait for the bootloader (issue 18): a cell without
-        // a slot ignores them, as a cell of an older firmware would.
         match self.app.receive_frame(Arrived { port, frame, meta: None }, now_us, &mut ())? {
             Delivered::Config(write) => self.app.configure(&write, &mut (), |_, _| {}),
-            Delivered::Update(_) => None,
+            Delivered::Update(input) => {
+                self.update(&input, now_us);
+                None
+            }
+        }
+    }
+
+    /// An update message to the updater. Out of line: the signature check
+    /// behind it needs kilobytes of stack, which the byte path must not
+    /// reserve for every byte.
+    #[inline(never)]
+    fn update(&mut self, input: &UpdateInput, now_us: u64) {
+        if let Some((updater, slot)) = self.update.as_mut() {
+            let action = self.app.update(input, updater, slot, now_us, &mut (), |_, _| {});
+            self.boot_action = action.or(self.boot_action);
         }
     }
 
@@ -97,9 +159,12 @@ impl<F: NorFlash> Node<F> {
         self.app.poll_at()
     }
 
-    /// Lets time pass for the network stack.
+    /// Lets time pass for the network stack and the updater.
     pub fn poll(&mut self, now_us: u64) {
         self.app.poll(now_us, &mut ());
+        if let Some((updater, _)) = self.update.as_mut() {
+            self.app.poll_update(updater, now_us, &mut (), |_, _| {});
+        }
     }
 
     /// The sampling period.
@@ -139,13 +204,19 @@ mod tests {
 
     type Flash = RamFlash<1024, 2>;
 
-    fn node(flash: Flash, now_us: u64) -> Node<Flash> {
+    fn node<S: Slot>(flash: Flash, now_us: u64) -> Node<Flash, S> {
         Node::new(Config::default(), Store::open(flash, 0, 2048).unwrap(), now_us)
     }
 
     /// A node on port 0 of an interface port: every byte each way, on a
     /// virtual clock in 100 us steps; returns what reached the host.
-    fn exchange(node: &mut Node<Flash>, sink: &mut Sink, down: &mut Vec<Frame>, t: &mut u64, until: u64) -> Vec<Frame> {
+    fn exchange<S: Slot>(
+        node: &mut Node<Flash, S>,
+        sink: &mut Sink,
+        down: &mut Vec<Frame>,
+        t: &mut u64,
+        until: u64,
+    ) -> Vec<Frame> {
         let mut up = Vec::new();
         while *t < until {
             if node.poll_at() <= *t {
@@ -173,13 +244,9 @@ mod tests {
         up
     }
 
-    #[test]
-    fn gets_an_id_calibrates_obeys_config_and_keeps_it_all_across_a_reboot() {
-        let mut t = 0;
-        let mut sink = Sink::new(0, Config::default(), 0).unwrap();
-        let mut n = node(Flash::default(), 0);
-        let mut down = Vec::new();
-        let up = exchange(&mut n, &mut sink, &mut down, &mut t, 100_000);
+    /// Lets `node` ask for an ID and gives it 17.
+    fn join<S: Slot>(node: &mut Node<Flash, S>, sink: &mut Sink, down: &mut Vec<Frame>, t: &mut u64) {
+        let up = exchange(node, sink, down, t, *t + 100_000);
         let request = up.iter().find_map(|f| match f.message() {
             Ok(Message::IdRequest(r)) => Some(r),
             _ => None,
@@ -187,6 +254,15 @@ mod tests {
         let r = request.expect("an ID request reached the host");
         let assign = Message::IdAssign(IdAssign { port: r.port, id: Address(17) });
         down.push(Frame::new(Address::HOST, r.parent, &assign));
+    }
+
+    #[test]
+    fn gets_an_id_calibrates_obeys_config_and_keeps_it_all_across_a_reboot() {
+        let mut t = 0;
+        let mut sink = Sink::new(0, Config::default(), 0).unwrap();
+        let mut n: Node<Flash> = node(Flash::default(), 0);
+        let mut down = Vec::new();
+        join(&mut n, &mut sink, &mut down, &mut t);
         let write = Message::ConfigWrite(ConfigWrite { tag: 9, setting: Setting::Traffic(TrafficMode::Event) });
         let up = exchange(&mut n, &mut sink, &mut down, &mut t, 300_000);
         assert_eq!(n.id(), Address(17));
@@ -207,11 +283,13 @@ mod tests {
         assert!(samples_after_ack.count() <= 1, "event traffic: a still sample is sent once at most");
 
         // Reboot: same flash, new RAM.
-        let mut n = node(n.into_store().release(), t);
+        let mut n: Node<Flash> = node(n.into_store().release(), t);
         assert_eq!(n.id(), Address(17));
         assert!(!n.calibrating());
         assert_eq!(n.processor().traffic(), TrafficMode::Event);
         let up = exchange(&mut n, &mut sink, &mut down, &mut t, 700_000);
         assert!(up.iter().all(|f| !matches!(f.message(), Ok(Message::IdRequest(_)))), "no new ID asked for");
     }
+
+    mod update;
 }

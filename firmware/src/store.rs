@@ -1,5 +1,6 @@
 //! Persistent memory of a cell (section 2.1.4): its unique ID, the sensor
-//! offsets measured at its first boot, and the settings the host wrote.
+//! offsets measured at its first boot, and the settings the host wrote;
+//! the same records keep the bootloader's state ([`crate::boot`]).
 //!
 //! The state is one postcard record with a sequence number and a CRC-32,
 //! written to the next free slot of a flash region; the valid record with
@@ -12,6 +13,7 @@
 
 use embedded_storage::nor_flash::{ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash};
 use postcard::experimental::max_size::MaxSize;
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use skin_protocol::app::{SettingsStore, StoreFailed};
 use skin_protocol::message::{Setting, SETTING_SLOTS};
@@ -35,7 +37,13 @@ pub struct Persistent {
     pub settings: [Option<Setting>; SETTING_SLOTS],
 }
 
-const _: () = assert!(Persistent::POSTCARD_MAX_SIZE + OVERHEAD <= SLOT);
+/// A state kept in records: its largest encoding fits a slot.
+pub trait Record: Clone + Default + PartialEq + Serialize + DeserializeOwned + MaxSize {
+    /// Checked when a store of the record is opened (a build-time error).
+    const FITS: () = assert!(Self::POSTCARD_MAX_SIZE + OVERHEAD <= SLOT);
+}
+
+impl Record for Persistent {}
 
 /// Why the store could not be opened or written.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -58,9 +66,9 @@ impl defmt::Format for StoreError {
     }
 }
 
-/// The cell's persistent state on a flash region.
+/// A state on a flash region, by default the cell's [`Persistent`] state.
 #[derive(Debug)]
-pub struct Store<F> {
+pub struct Store<F, T = Persistent> {
     flash: F,
     base: u32,
     half_len: u32,
@@ -70,10 +78,10 @@ pub struct Store<F> {
     next: u32,
     /// Sequence number of the newest record; 0 before the first.
     seq: u32,
-    state: Persistent,
+    state: T,
 }
 
-impl<F> Store<F> {
+impl<F, T> Store<F, T> {
     fn slots(&self) -> u32 {
         self.half_len / SLOT as u32
     }
@@ -83,9 +91,11 @@ impl<F> Store<F> {
     }
 }
 
-impl<F: NorFlash> Store<F> {
+impl<F: NorFlash, T: Record> Store<F, T> {
     /// Opens the region of `len` bytes at `base` and loads the newest record.
-    pub fn open(mut flash: F, base: u32, len: u32) -> Result<Store<F>, StoreError> {
+    pub fn open(mut flash: F, base: u32, len: u32) -> Result<Store<F, T>, StoreError> {
+        #[allow(clippy::let_unit_value)]
+        let () = T::FITS;
         let half_len = len / 2;
         let aligned = |v: u32, to: usize| v as usize % to == 0;
         let layout_ok = half_len as usize >= SLOT
@@ -98,7 +108,7 @@ impl<F: NorFlash> Store<F> {
         if !layout_ok {
             return Err(StoreError::Layout);
         }
-        let mut store = Store { flash: (), base, half_len, active: 0, next: 0, seq: 0, state: Persistent::default() };
+        let mut store = Store { flash: (), base, half_len, active: 0, next: 0, seq: 0, state: T::default() };
         let mut ends = [0; 2];
         let mut buf = [0u8; SLOT];
         for half in 0..2 {
@@ -123,22 +133,8 @@ impl<F: NorFlash> Store<F> {
     }
 
     /// The state as last stored.
-    pub fn state(&self) -> &Persistent {
+    pub fn state(&self) -> &T {
         &self.state
-    }
-
-    /// Keeps the calibrated offsets.
-    pub fn set_offsets(&mut self, offsets: [i32; 8]) -> Result<(), StoreError> {
-        self.update(|p| p.offsets = Some(offsets))
-    }
-
-    /// Keeps an accepted setting, replacing the last one of its kind;
-    /// commands are not kept.
-    pub fn set_setting(&mut self, setting: Setting) -> Result<(), StoreError> {
-        match setting.slot() {
-            Some(slot) => self.update(|p| p.settings[slot] = Some(setting)),
-            None => Ok(()),
-        }
     }
 
     /// Gives the flash back.
@@ -146,9 +142,15 @@ impl<F: NorFlash> Store<F> {
         self.flash
     }
 
+    /// Keeps `state`; an unchanged state costs no write. The state in RAM
+    /// changes even when the write fails.
+    pub fn set(&mut self, state: T) -> Result<(), StoreError> {
+        self.update(|s| *s = state)
+    }
+
     /// Writes the state changed by `change`; an unchanged state costs no
     /// write. The state in RAM changes even when the write fails.
-    fn update(&mut self, change: impl FnOnce(&mut Persistent)) -> Result<(), StoreError> {
+    fn update(&mut self, change: impl FnOnce(&mut T)) -> Result<(), StoreError> {
         let mut next = self.state.clone();
         change(&mut next);
         if next == self.state {
@@ -212,7 +214,7 @@ fn is_erased(slot: &[u8; SLOT]) -> bool {
 
 /// Lays out the record of `state` with sequence number `seq` in `slot`:
 /// length, sequence number, payload, CRC-32 of all three. Returns its length.
-fn encode(state: &Persistent, seq: u32, slot: &mut [u8; SLOT]) -> usize {
+fn encode<T: Serialize>(state: &T, seq: u32, slot: &mut [u8; SLOT]) -> usize {
     // Cannot fail: the record's maximum size fits a slot (checked above).
     let n = postcard::to_slice(state, &mut slot[6..SLOT - 4]).map(|b| b.len()).unwrap_or(0);
     slot[..2].copy_from_slice(&(n as u16).to_le_bytes());
@@ -223,7 +225,7 @@ fn encode(state: &Persistent, seq: u32, slot: &mut [u8; SLOT]) -> usize {
 }
 
 /// The sequence number and state of a slot, if its CRC and payload are valid.
-fn decode(slot: &[u8; SLOT]) -> Option<(u32, Persistent)> {
+fn decode<T: DeserializeOwned>(slot: &[u8; SLOT]) -> Option<(u32, T)> {
     let n = usize::from(u16::from_le_bytes([slot[0], slot[1]]));
     if n + OVERHEAD > SLOT {
         return None;
@@ -234,6 +236,22 @@ fn decode(slot: &[u8; SLOT]) -> Option<(u32, Persistent)> {
     }
     let seq = u32::from_le_bytes([slot[2], slot[3], slot[4], slot[5]]);
     Some((seq, postcard::from_bytes(&slot[6..6 + n]).ok()?))
+}
+
+impl<F: NorFlash> Store<F> {
+    /// Keeps the calibrated offsets.
+    pub fn set_offsets(&mut self, offsets: [i32; 8]) -> Result<(), StoreError> {
+        self.update(|p| p.offsets = Some(offsets))
+    }
+
+    /// Keeps an accepted setting, replacing the last one of its kind;
+    /// commands are not kept.
+    pub fn set_setting(&mut self, setting: Setting) -> Result<(), StoreError> {
+        match setting.slot() {
+            Some(slot) => self.update(|p| p.settings[slot] = Some(setting)),
+            None => Ok(()),
+        }
+    }
 }
 
 /// The ID goes to flash the moment it is assigned. A failed write leaves
@@ -498,9 +516,9 @@ mod tests {
 
     #[test]
     fn bad_layouts_are_refused() {
-        assert_eq!(Store::open(Flash::default(), 0, 1024).unwrap_err(), StoreError::Layout);
-        assert_eq!(Store::open(Flash::default(), 0, 4096).unwrap_err(), StoreError::Layout);
-        assert_eq!(Store::open(RamFlash::<128, 2>::default(), 0, 256).unwrap_err(), StoreError::Layout);
+        assert_eq!(Store::<_>::open(Flash::default(), 0, 1024).unwrap_err(), StoreError::Layout);
+        assert_eq!(Store::<_>::open(Flash::default(), 0, 4096).unwrap_err(), StoreError::Layout);
+        assert_eq!(Store::<_>::open(RamFlash::<128, 2>::default(), 0, 256).unwrap_err(), StoreError::Layout);
     }
 
     #[test]
@@ -571,7 +589,7 @@ mod tests {
         let before = if k == 0 { Persistent::default() } else { states[k - 1].clone() };
         let after = &states[k];
         flash.power_on();
-        let mut s = Store::open(flash, 0, 2048).map_err(|e| format!("{e:?}"))?;
+        let mut s = Store::<_>::open(flash, 0, 2048).map_err(|e| format!("{e:?}"))?;
         if s.state() != &before && s.state() != after {
             return Err(format!("cut at step {cut} (change {k}, tear {tear:#x}): got {:?}", s.state()));
         }

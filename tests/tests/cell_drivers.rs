@@ -97,7 +97,7 @@ impl Wired for Node<RamFlash<1024, 2>> {
 }
 
 fn firmware_node(now_us: u64) -> Node<RamFlash<1024, 2>> {
-    let mut store = Store::open(RamFlash::default(), 0, 2048).unwrap();
+    let mut store = Store::<_>::open(RamFlash::default(), 0, 2048).unwrap();
     let factory = factory();
     store.set_offsets(factory.offsets.unwrap()).unwrap();
     for s in factory.settings.iter().flatten() {

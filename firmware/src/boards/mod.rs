@@ -29,7 +29,7 @@ macro_rules! cell_main {
                 defmt::panic!("firmware state taken twice");
             };
             let (board, flash) = <$board>::take();
-            let store = match $crate::store::Store::open(flash, $store_base, $store_len) {
+            let store = match $crate::store::Store::<_>::open(flash, $store_base, $store_len) {
                 Ok(store) => store,
                 Err(e) => defmt::panic!("persistent store: {}", e),
             };

@@ -25,7 +25,48 @@ pub use distributor::{Distributor, Outcome};
 pub use updater::{BootAction, BootState, Updater, QUIET_US, REPAIR_WINDOW, TRIAL_REPORT_US};
 
 use crate::app::StoreFailed;
+use crate::image::{Board, ImageError, ImageHeader, Verifier, HEADER_LEN, PUBLIC_KEY_LEN};
 use crate::message::{ImageChunk, CHUNK_LEN};
+
+/// Bytes read back from a slot at a time to verify its body.
+const READ_LEN: usize = 64;
+
+/// Why the image in a slot cannot be taken.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SlotImageError {
+    /// The slot could not be read.
+    Slot(StoreFailed),
+    /// The image is not a genuine one for this cell.
+    Image(ImageError),
+}
+
+/// Reads the body `verifier` checks out of `slot` (after the header) and
+/// finishes the check.
+pub fn verify_body(slot: &impl Slot, mut verifier: Verifier) -> Result<ImageHeader, SlotImageError> {
+    let end = HEADER_LEN as u64 + u64::from(verifier.header().body_len);
+    let mut at = HEADER_LEN as u64;
+    let mut buf = [0u8; READ_LEN];
+    while at < end {
+        let n = (end - at).min(READ_LEN as u64) as usize;
+        let offset = u32::try_from(at).map_err(|_| SlotImageError::Slot(StoreFailed))?;
+        slot.read(offset, &mut buf[..n]).map_err(SlotImageError::Slot)?;
+        verifier.absorb(&buf[..n]).map_err(SlotImageError::Image)?;
+        at += n as u64;
+    }
+    verifier.finish().map_err(SlotImageError::Image)
+}
+
+/// The image in `slot` checked whole, header, signature under `key`, board
+/// and body, as a bootloader does before it boots it.
+pub fn verify_slot(slot: &impl Slot, board: Board, key: &[u8; PUBLIC_KEY_LEN]) -> Result<ImageHeader, SlotImageError> {
+    let mut bytes = [0u8; HEADER_LEN];
+    slot.read(0, &mut bytes).map_err(SlotImageError::Slot)?;
+    let header = ImageHeader::parse(&bytes).map_err(SlotImageError::Image)?;
+    let room = slot.capacity().saturating_sub(HEADER_LEN as u32);
+    let verifier = Verifier::new(&header, board, room, key).map_err(SlotImageError::Image)?;
+    verify_body(slot, verifier)
+}
 
 /// An image cut into chunks as they travel (the last one zero padded);
 /// indices wrap past `u16::MAX` chunks, which the sender must refuse first.

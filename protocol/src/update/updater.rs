@@ -1,7 +1,7 @@
 //! The cell's update state machine: messages and time in, reports and boot
 //! actions out, the image into a [`Slot`].
 
-use super::{Bitmap, Slot};
+use super::{verify_body, Bitmap, Slot, SlotImageError};
 use crate::image::{Board, ImageError, ImageHeader, Verifier, HEADER_LEN, PUBLIC_KEY_LEN};
 use crate::message::{
     ImageChunk, Refusal, UpdateAction, UpdateCommand, UpdateOffer, UpdateReport, UpdateState, CHUNK_LEN,
@@ -18,8 +18,6 @@ pub const TRIAL_REPORT_US: u64 = 200_000;
 const WORDS: usize = (64 * 1024 + HEADER_LEN).div_ceil(CHUNK_LEN).div_ceil(32);
 /// Chunks of the header.
 const HEADER_CHUNKS: u16 = HEADER_LEN.div_ceil(CHUNK_LEN) as u16;
-/// Bytes read back from the slot at a time to verify the body.
-const READ_LEN: usize = 64;
 
 /// How the running image was booted, as the bootloader tells the firmware.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -191,17 +189,11 @@ impl Updater {
     /// The whole image read back from the slot and verified.
     fn check_image(&self, slot: &impl Slot) -> Result<ImageHeader, Refusal> {
         let Some((offer, _)) = self.offer else { return Err(Refusal::BadHeader) };
-        let mut verifier = self.verifier(offer, slot)?;
-        let end = HEADER_LEN as u64 + u64::from(verifier.header().body_len);
-        let mut at = HEADER_LEN as u64;
-        let mut buf = [0u8; READ_LEN];
-        while at < end {
-            let n = (end - at).min(READ_LEN as u64) as usize;
-            slot.read(at as u32, &mut buf[..n]).map_err(|_| Refusal::SlotFailed)?;
-            verifier.absorb(&buf[..n]).map_err(refusal)?;
-            at += n as u64;
-        }
-        verifier.finish().map_err(refusal)
+        let verifier = self.verifier(offer, slot)?;
+        verify_body(slot, verifier).map_err(|e| match e {
+            SlotImageError::Slot(_) => Refusal::SlotFailed,
+            SlotImageError::Image(e) => refusal(e),
+        })
     }
 
     /// Lets time pass: a receiving cell that heard no chunk for
