@@ -68,7 +68,7 @@ impl Ingest {
             }
         };
         let header = datagram.header();
-        let port = match self.ports.admit(from, header.interface) {
+        let port = match self.ports.admit(from, header.interface, now_us) {
             Ok(i) => i,
             Err(reason) => {
                 self.reject_datagram(reason, from, &format_args!("claims interface port {}", header.interface), now_us);
@@ -354,6 +354,26 @@ mod tests {
         assert!(i.datagram(addr(2000), &datagram(1, 1, &[frame]), 0, &mut ev));
         assert_eq!(i.counters().frames.rejected(FrameReject::BadAddress), 1);
         assert!(i.take_replies().is_empty());
+    }
+
+    #[test]
+    fn a_restarted_endpoint_is_heard_again_and_its_cells_keep_their_ids() {
+        let mut i = ingest();
+        let mut ev = Vec::new();
+        let request = IdRequest { parent: Address(0xFF01), port: Port::P0 };
+        let frame = Frame::new(Address::UNASSIGNED, Address::HOST, &Message::IdRequest(request));
+        assert!(i.datagram(addr(2000), &datagram(1, 40, &[frame]), 0, &mut ev));
+        let first = i.take_replies();
+        // The endpoint restarts: new source address, sequence from 0.
+        let later = super::super::ports::REBIND_QUIET_US + 1;
+        assert!(i.datagram(addr(2001), &datagram(1, 0, &[frame]), later, &mut ev));
+        let again = i.take_replies();
+        assert_eq!(again.len(), 1);
+        assert_eq!(again[0].1.as_bytes(), first[0].1.as_bytes(), "the same place gets the same ID");
+        assert!(i.datagram(addr(2001), &datagram(1, 1, &[sample(1, 0)]), later, &mut ev));
+        assert_eq!(i.counters().datagrams.rejected(DatagramReject::Spoofed), 0);
+        assert_eq!(i.ports().get(1).stats().rebinds, 1);
+        assert_eq!(i.ports().get(1).stats().restarts, 1, "the new source numbers from 0");
     }
 
     #[test]
