@@ -12,10 +12,7 @@ use super::ReportError;
 /// `dir`'s place. Files already in `dir` that `fill` did not write (a
 /// recording, a calibration written earlier in the run) are kept. On any
 /// error the temporary folder is removed and `dir` is as it was.
-pub fn replace_folder<T>(
-    dir: &Path,
-    fill: impl FnOnce(&Path) -> Result<T, ReportError>,
-) -> Result<T, ReportError> {
+pub fn replace_folder<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T, ReportError>) -> Result<T, ReportError> {
     let staging = sibling(dir, "writing");
     let _ = std::fs::remove_dir_all(&staging);
     std::fs::create_dir_all(&staging).map_err(ReportError::write(&staging))?;
@@ -67,7 +64,8 @@ mod tests {
     use super::*;
 
     fn folder(name: &str) -> PathBuf {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../target/tmp/staging-{name}-{}", std::process::id()));
+        let root =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../target/tmp/staging-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&root);
         std::fs::create_dir_all(root.join("report")).unwrap();
         std::fs::write(root.join("report/report.json"), "old").unwrap();
