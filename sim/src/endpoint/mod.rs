@@ -47,6 +47,10 @@ pub use running::Running;
 /// How long one wait for a request lasts before the stop flag is looked at.
 const STOP_CHECK: Duration = Duration::from_millis(50);
 
+/// How long the host served must be silent before another host may take
+/// the robot (a new `skin run` after the last one ended).
+const HOST_RELEASE: Duration = Duration::from_secs(2);
+
 /// How simulated time advances.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Pacing {
@@ -110,8 +114,9 @@ pub struct Endpoint {
     robot_socket: UdpSocket,
     ports: Vec<UdpSocket>,
     host: SocketAddr,
-    /// The robot-link address of the host served: the first to ask.
-    robot_host: Option<SocketAddr>,
+    /// The robot-link address of the host served (the first to ask) and
+    /// when it last asked.
+    robot_host: Option<(SocketAddr, Instant)>,
     /// Datagrams for the host, by interface port, not sent yet.
     up: Vec<(usize, Vec<u8>)>,
 }
@@ -237,7 +242,9 @@ impl Endpoint {
                 continue;
             };
             let mut out = [0u8; robot_link::MAX_DATAGRAM];
-            if *self.robot_host.get_or_insert(from) != from {
+            let now = Instant::now();
+            let busy = self.robot_host.is_some_and(|(host, last)| host != from && now - last < HOST_RELEASE);
+            if busy {
                 // Another host: told so, counted, and nothing of the
                 // served host's state touched.
                 self.rig.other_host(from);
@@ -246,6 +253,7 @@ impl Endpoint {
                 self.robot_socket.send_to(&out[..len], from)?;
                 continue;
             }
+            self.robot_host = Some((from, now));
             self.take_from_host()?;
             let answer = self.rig.answer(request, from, Instant::now(), &mut self.up)?;
             self.send_up()?;
