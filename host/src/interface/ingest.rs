@@ -278,6 +278,12 @@ mod tests {
         buf[..n].to_vec()
     }
 
+    /// An ID request from a new cell on port P0 of `parent`.
+    fn id_request(parent: u16) -> Frame {
+        let request = IdRequest { parent: Address(parent), port: Port::P0 };
+        Frame::new(Address::UNASSIGNED, Address::HOST, &Message::IdRequest(request))
+    }
+
     fn sample(cell: u16, seq: u8) -> Frame {
         let s = Sample::new(100, [1, 2, 3], [0, 0, 256], 900, seq).unwrap();
         Frame::new(Address(cell), Address::HOST, &Message::Sample(s))
@@ -389,8 +395,7 @@ mod tests {
     fn a_restarted_endpoint_is_heard_again_and_its_cells_keep_their_ids() {
         let mut i = ingest();
         let mut ev = Vec::new();
-        let request = IdRequest { parent: Address(0xFF01), port: Port::P0 };
-        let frame = Frame::new(Address::UNASSIGNED, Address::HOST, &Message::IdRequest(request));
+        let frame = id_request(0xFF01);
         assert!(i.datagram(addr(2000), &datagram(1, 40, &[frame]), 0, &mut ev));
         let first = i.take_replies();
         // The endpoint restarts: new source address, sequence from 0.
@@ -409,19 +414,15 @@ mod tests {
     fn a_flood_of_id_requests_takes_a_bounded_number_of_ids_and_the_skin_still_gets_its_own() {
         let mut i = ingest();
         let mut ev = Vec::new();
-        let request = |parent: u16| {
-            let r = IdRequest { parent: Address(parent), port: Port::P1 };
-            Frame::new(Address::UNASSIGNED, Address::HOST, &Message::IdRequest(r))
-        };
         // The flooder claimed port 1 and sends requests from 70,000 made-up places.
         for seq in 0..70_000u32 {
-            assert!(i.datagram(addr(2000), &datagram(1, seq, &[request(1 + (seq % 60_000) as u16)]), 0, &mut ev));
+            assert!(i.datagram(addr(2000), &datagram(1, seq, &[id_request(1 + (seq % 60_000) as u16)]), 0, &mut ev));
         }
         assert_eq!(i.counters().id_replies as usize, MAX_UNHEARD_IDS);
         assert_eq!(i.counters().ids_flooded as usize, 70_000 - MAX_UNHEARD_IDS);
         assert_eq!(i.counters().ids_exhausted, 0);
         // The real skin on port 0 still gets an ID.
-        assert!(i.datagram(addr(1000), &datagram(0, 0, &[request(0xFF00)]), 0, &mut ev));
+        assert!(i.datagram(addr(1000), &datagram(0, 0, &[id_request(0xFF00)]), 0, &mut ev));
         assert_eq!(i.take_replies().last().map(|r| r.0), Some(0));
         assert_eq!(i.counters().id_replies as usize, MAX_UNHEARD_IDS + 1);
     }

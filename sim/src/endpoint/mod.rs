@@ -331,15 +331,20 @@ mod tests {
         assert!(matches!(robot_link::decode(&buf[..n]), Ok(FromRobot::State { .. })));
     }
 
-    #[test]
-    fn orders_are_carried_out_in_the_next_period_and_answered_before_its_feedback() {
-        let host = UdpSocket::bind("127.0.0.1:0").unwrap();
-        let config = EndpointConfig {
+    /// A lockstep endpoint on loopback sending to `host`.
+    fn lockstep(host: &UdpSocket) -> EndpointConfig {
+        EndpointConfig {
             robot: "127.0.0.1:0".parse().unwrap(),
             host: host.local_addr().unwrap(),
             pacing: Pacing::Lockstep,
             network: NetworkConfig::default(),
-        };
+        }
+    }
+
+    #[test]
+    fn orders_are_carried_out_in_the_next_period_and_answered_before_its_feedback() {
+        let host = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let config = lockstep(&host);
         let link = UdpSocket::bind("127.0.0.1:0").unwrap();
         link.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
 
@@ -368,12 +373,7 @@ mod tests {
     #[test]
     fn a_second_host_is_refused_as_busy_and_the_first_is_served_on() {
         let host = UdpSocket::bind("127.0.0.1:0").unwrap();
-        let config = EndpointConfig {
-            robot: "127.0.0.1:0".parse().unwrap(),
-            host: host.local_addr().unwrap(),
-            pacing: Pacing::Lockstep,
-            network: NetworkConfig::default(),
-        };
+        let config = lockstep(&host);
         let (first, second) = (UdpSocket::bind("127.0.0.1:0").unwrap(), UdpSocket::bind("127.0.0.1:0").unwrap());
         for s in [&first, &second] {
             s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
