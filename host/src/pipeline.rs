@@ -27,7 +27,7 @@ pub enum PipelineError {
     Robot(#[from] RobotError),
     /// The skin did not organize in time.
     #[error(
-        "the skin did not organize within {timeout_s} s of {clock}: {cells} cells heard, {with_tables} with a neighbour table{expected} (check the cables and interface ports; `skin monitor` shows what arrives)"
+        "the skin did not organize within {timeout_s} s of {clock}: {cells} cells heard, {with_tables} with a neighbour table{expected}{suspect} (check the cables and interface ports; `skin monitor` shows what arrives)"
     )]
     NotOrganized {
         /// The limit, s.
@@ -41,6 +41,8 @@ pub enum PipelineError {
         with_tables: usize,
         /// ", N expected" when a count was given.
         expected: String,
+        /// What points at another sender than the skin, if anything.
+        suspect: String,
     },
     /// The cell settings could not be sent.
     #[error("writing the cell settings: {0}")]
@@ -145,6 +147,7 @@ pub fn organize(
             cells: registry.len(),
             with_tables,
             expected: cfg.expected_cells.map_or(String::new(), |n| format!(", {n} expected")),
+            suspect: suspect(remote.interface().counters()),
         });
     }
     Ok(Organized {
@@ -154,6 +157,19 @@ pub fn organize(
         settings_written: 0,
         settings_acknowledged: 0,
     })
+}
+
+/// ", and ..." naming the signs of a sender other than the skin: datagrams
+/// dropped as spoofed, a flood of ID requests; empty when there were none.
+fn suspect(counters: &crate::interface::InterfaceCounters) -> String {
+    let spoofed = counters.datagrams.rejected(crate::interface::DatagramReject::Spoofed);
+    let flooded = counters.ids_flooded;
+    if spoofed == 0 && flooded == 0 {
+        return String::new();
+    }
+    format!(
+        "; {spoofed} datagrams dropped as spoofed and {flooded} ID requests refused as a flood: another sender may be using the interface ports (pin each port's address in the configuration)"
+    )
 }
 
 /// Rounds of writing the settings a cell has not acknowledged yet.
@@ -234,4 +250,21 @@ fn cell_views(remote: &Remote) -> Vec<CellView> {
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::interface::InterfaceCounters;
+
+    #[test]
+    fn a_skin_that_did_not_organize_names_signs_of_another_sender() {
+        assert_eq!(suspect(&InterfaceCounters::default()), "");
+        let flooded = InterfaceCounters { ids_flooded: 3, ..InterfaceCounters::default() };
+        let said = suspect(&flooded);
+        assert!(
+            said.contains("3 ID requests refused as a flood") && said.contains("pin each port's address"),
+            "{said}"
+        );
+    }
 }

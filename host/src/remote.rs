@@ -72,13 +72,26 @@ fn gone(robot: SocketAddr, why: impl std::fmt::Display) -> RobotError {
     RobotError::Disconnected(format!("robot at {robot}: {why}"))
 }
 
+/// The local address on the interface that routes to `robot` (loopback for
+/// a robot on loopback), any port: the link listens nowhere else. Where the
+/// route cannot be asked, every interface.
+fn local_toward(robot: SocketAddr) -> SocketAddr {
+    let any: SocketAddr = if robot.is_ipv4() { ([0, 0, 0, 0], 0).into() } else { ([0u16; 8], 0).into() };
+    // Connecting a UDP socket sends nothing; it only picks the route.
+    let routed = UdpSocket::bind(any).and_then(|probe| probe.connect(robot).and_then(|()| probe.local_addr()));
+    match routed {
+        Ok(local) if !local.ip().is_unspecified() => SocketAddr::new(local.ip(), 0),
+        _ => any,
+    }
+}
+
 impl RobotLink {
     /// Opens the link: asks the robot for its DoFs and their names, and
     /// reads its first feedback with a zero command. `timeout` bounds each
     /// wait for an answer.
     pub fn connect(robot: SocketAddr, timeout: Duration) -> Result<RobotLink, RobotError> {
-        let local: SocketAddr = if robot.is_ipv4() { ([0, 0, 0, 0], 0).into() } else { ([0u16; 8], 0).into() };
-        let socket = UdpSocket::bind(local).map_err(|e| gone(robot, e))?;
+        let local = local_toward(robot);
+        let socket = UdpSocket::bind(local).map_err(|e| RobotError::Bind { local, robot, message: e.to_string() })?;
         let mut link = RobotLink {
             socket,
             robot,
@@ -208,6 +221,9 @@ impl RobotLink {
                 };
                 match robot_link::decode::<FromRobot>(&buf[..n]) {
                     Ok(answer) if from == self.robot && wanted(&answer) => return Ok(answer),
+                    Ok(FromRobot::Refused { reason: robot_link::Refusal::Busy, .. }) if from == self.robot => {
+                        return Err(RobotError::Busy(self.robot))
+                    }
                     Err(e) if from == self.robot => {
                         unreadable = Some(e);
                         self.counters.ignored += 1;
@@ -488,6 +504,28 @@ mod tests {
             ),
             "{e}"
         );
+    }
+
+    #[test]
+    fn the_link_binds_the_interface_that_routes_to_the_robot() {
+        assert!(local_toward("127.0.0.1:9".parse().unwrap()).ip().is_loopback());
+        assert!(local_toward("[::1]:9".parse().unwrap()).ip().is_ipv6());
+    }
+
+    #[test]
+    fn a_robot_serving_another_host_is_named_at_once() {
+        let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let robot = socket.local_addr().unwrap();
+        std::thread::spawn(move || {
+            let mut buf = [0u8; robot_link::MAX_DATAGRAM];
+            let (_, from) = socket.recv_from(&mut buf).unwrap();
+            let busy = FromRobot::Refused { seq: 0, reason: robot_link::Refusal::Busy };
+            let n = robot_link::encode(&busy, &mut buf).unwrap();
+            socket.send_to(&buf[..n], from).unwrap();
+        });
+        let e = RobotLink::connect(robot, Duration::from_secs(5)).unwrap_err();
+        assert_eq!(e, RobotError::Busy(robot));
+        assert!(e.to_string().contains(&robot.to_string()), "{e}");
     }
 
     #[test]

@@ -25,6 +25,22 @@ pub enum RobotError {
     /// A NaN or infinite command.
     #[error("the command for DoF {0} is not finite")]
     NotFinite(usize),
+    /// The robot obeys another host (a second `skin run` against one
+    /// endpoint).
+    #[error(
+        "the robot at {0} serves another host and refuses this one: stop the other host or restart the robot endpoint"
+    )]
+    Busy(std::net::SocketAddr),
+    /// The host's robot-link socket could not be bound.
+    #[error("cannot bind {local} for the link to the robot at {robot}: {message}")]
+    Bind {
+        /// The local address tried.
+        local: std::net::SocketAddr,
+        /// The robot.
+        robot: std::net::SocketAddr,
+        /// What the system said.
+        message: String,
+    },
     /// Position feedback that is NaN or infinite: a broken encoder or driver.
     #[error(
         "the robot reports a position for DoF {0} that is not finite (NaN or infinite): check its encoder and driver"

@@ -137,6 +137,9 @@ pub enum Refusal {
     NotFinite,
     /// A DoF index the robot does not have.
     NoSuchDof,
+    /// The robot serves another host: it obeys only the first that spoke
+    /// to it.
+    Busy,
 }
 
 /// Why bytes are not a robot-link datagram.
@@ -226,6 +229,7 @@ mod tests {
         roundtrip(&FromRobot::DofName { index: 255, name });
         roundtrip(&FromRobot::Info { dofs: 64, period_us: u32::MAX, lockstep: true });
         roundtrip(&FromRobot::Refused { seq: 7, reason: Refusal::NoSuchDof });
+        roundtrip(&FromRobot::Refused { seq: 0, reason: Refusal::Busy });
         roundtrip(&ToRobot::Hello);
         roundtrip(&ToRobot::DofKind { index: 255 });
         roundtrip(&FromRobot::DofKind { index: 255, kind: DofKind::Prismatic });

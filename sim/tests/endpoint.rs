@@ -149,10 +149,13 @@ fn any_bytes_on_the_robot_link_are_counted_and_change_nothing() {
             robot.send_to(&bytes, running.robot).unwrap();
         }
     }
-    // A host that starts over on a new socket is served too.
+    // Another host is refused while the first one is talking; a host that
+    // starts over on a new socket once the first fell silent is served.
     let again = UdpSocket::bind("127.0.0.1:0").unwrap();
     again.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    assert!(matches!(ask(&again, running.robot, &ToRobot::Hello), FromRobot::Refused { reason: Refusal::Busy, .. }));
+    std::thread::sleep(Duration::from_millis(2100));
     assert!(matches!(ask(&again, running.robot, &ToRobot::Hello), FromRobot::Info { dofs: 14, .. }));
     let truth = running.stop().unwrap();
-    assert_eq!((truth.served.rejected, truth.served.ticks), (garbage, 0));
+    assert_eq!((truth.served.rejected, truth.served.ticks, truth.served.other_hosts), (garbage, 0, 1));
 }

@@ -87,8 +87,8 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     }
     let served = endpoint.stop()?.served;
     eprintln!(
-        "served {} control periods, {} datagrams up; refused {} commands, rejected {} datagrams",
-        served.ticks, served.datagrams_up, served.refused, served.rejected
+        "served {} control periods, {} datagrams up; refused {} commands, rejected {} datagrams, refused {} requests from other hosts",
+        served.ticks, served.datagrams_up, served.refused, served.rejected, served.other_hosts
     );
     Ok(ExitCode::SUCCESS)
 }

@@ -130,6 +130,10 @@ pub struct InterfaceCounters {
     pub id_replies: u64,
     /// ID requests left unanswered: every cell ID is taken.
     pub ids_exhausted: u64,
+    /// ID requests left unanswered because their port already holds
+    /// [`MAX_UNHEARD_IDS`](super::ingest::MAX_UNHEARD_IDS) IDs no cell has
+    /// used: a flood of requests, not a skin organizing.
+    pub ids_flooded: u64,
     /// Datagrams sent down to the skin.
     pub sent_datagrams: u64,
     /// Frames sent down to the skin.

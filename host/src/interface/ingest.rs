@@ -16,6 +16,12 @@ use super::ratelog::RateLimit;
 use crate::config::PortConfig;
 use crate::registry::{Registry, Seen};
 
+/// IDs a port may hold that no cell has used yet. A skin organizes from
+/// the interface outward, each cell asking only once its master has an ID,
+/// so a real tree holds a few at a time; a sender flooding ID requests to
+/// take every cell ID stops here, and the other ports' skin is not starved.
+pub const MAX_UNHEARD_IDS: usize = 256;
+
 /// The checks, the counters and the registry of the interface.
 #[derive(Debug)]
 pub struct Ingest {
@@ -25,6 +31,9 @@ pub struct Ingest {
     datagram_log: [RateLimit; DatagramReject::ALL.len()],
     frame_log: [RateLimit; FrameReject::ALL.len()],
     exhausted_log: RateLimit,
+    /// IDs handed out down each port (by port index) that no cell has used
+    /// yet.
+    unheard: Vec<Vec<Address>>,
     /// ID replies not yet sent: (port index, frame).
     replies: Vec<(usize, Frame)>,
 }
@@ -47,6 +56,7 @@ impl Ingest {
             datagram_log: Default::default(),
             frame_log: Default::default(),
             exhausted_log: RateLimit::default(),
+            unheard: vec![Vec::new(); ports.len()],
             replies: Vec::new(),
         }
     }
@@ -68,7 +78,7 @@ impl Ingest {
             }
         };
         let header = datagram.header();
-        let port = match self.ports.admit(from, header.interface) {
+        let port = match self.ports.admit(from, header.interface, now_us) {
             Ok(i) => i,
             Err(reason) => {
                 self.reject_datagram(reason, from, &format_args!("claims interface port {}", header.interface), now_us);
@@ -151,10 +161,29 @@ impl Ingest {
         let event = |cell, kind| Event { interface: origin.interface, timestamp_us: origin.timestamp_us, cell, kind };
 
         if let Message::IdRequest(request) = message {
+            let unheard = &mut self.unheard[origin.port];
+            if unheard.len() >= MAX_UNHEARD_IDS {
+                let registry = &self.registry;
+                unheard.retain(|id| registry.get(*id).is_none());
+            }
+            if unheard.len() >= MAX_UNHEARD_IDS {
+                self.counters.ids_flooded += 1;
+                if let Some(suppressed) = self.exhausted_log.allow(now_us) {
+                    tracing::error!(
+                        suppressed, port = origin.interface,
+                        "ID request from {} left unanswered: the port holds {MAX_UNHEARD_IDS} IDs no cell has used, a flood of ID requests (someone else sending from the port's address? pin it in the configuration)",
+                        request.parent
+                    );
+                }
+                return Ok(());
+            }
             match self.registry.assign(request) {
                 Some(reply) => {
                     self.counters.id_replies += 1;
                     if let Ok(Message::IdAssign(a)) = reply.message() {
+                        if !unheard.contains(&a.id) {
+                            unheard.push(a.id);
+                        }
                         events.push(event(a.id, EventKind::IdAssigned { parent: request.parent, port: request.port }));
                     }
                     self.replies.push((origin.port, reply));
@@ -247,6 +276,12 @@ mod tests {
         let mut buf = [0u8; MAX_DATAGRAM];
         let n = encode(DatagramHeader { interface, seq, timestamp_us: 7 }, frames, &mut buf).unwrap();
         buf[..n].to_vec()
+    }
+
+    /// An ID request from a new cell on port P0 of `parent`.
+    fn id_request(parent: u16) -> Frame {
+        let request = IdRequest { parent: Address(parent), port: Port::P0 };
+        Frame::new(Address::UNASSIGNED, Address::HOST, &Message::IdRequest(request))
     }
 
     fn sample(cell: u16, seq: u8) -> Frame {
@@ -354,6 +389,42 @@ mod tests {
         assert!(i.datagram(addr(2000), &datagram(1, 1, &[frame]), 0, &mut ev));
         assert_eq!(i.counters().frames.rejected(FrameReject::BadAddress), 1);
         assert!(i.take_replies().is_empty());
+    }
+
+    #[test]
+    fn a_restarted_endpoint_is_heard_again_and_its_cells_keep_their_ids() {
+        let mut i = ingest();
+        let mut ev = Vec::new();
+        let frame = id_request(0xFF01);
+        assert!(i.datagram(addr(2000), &datagram(1, 40, &[frame]), 0, &mut ev));
+        let first = i.take_replies();
+        // The endpoint restarts: new source address, sequence from 0.
+        let later = super::super::ports::REBIND_QUIET_US + 1;
+        assert!(i.datagram(addr(2001), &datagram(1, 0, &[frame]), later, &mut ev));
+        let again = i.take_replies();
+        assert_eq!(again.len(), 1);
+        assert_eq!(again[0].1.as_bytes(), first[0].1.as_bytes(), "the same place gets the same ID");
+        assert!(i.datagram(addr(2001), &datagram(1, 1, &[sample(1, 0)]), later, &mut ev));
+        assert_eq!(i.counters().datagrams.rejected(DatagramReject::Spoofed), 0);
+        assert_eq!(i.ports().get(1).stats().rebinds, 1);
+        assert_eq!(i.ports().get(1).stats().restarts, 1, "the new source numbers from 0");
+    }
+
+    #[test]
+    fn a_flood_of_id_requests_takes_a_bounded_number_of_ids_and_the_skin_still_gets_its_own() {
+        let mut i = ingest();
+        let mut ev = Vec::new();
+        // The flooder claimed port 1 and sends requests from 70,000 made-up places.
+        for seq in 0..70_000u32 {
+            assert!(i.datagram(addr(2000), &datagram(1, seq, &[id_request(1 + (seq % 60_000) as u16)]), 0, &mut ev));
+        }
+        assert_eq!(i.counters().id_replies as usize, MAX_UNHEARD_IDS);
+        assert_eq!(i.counters().ids_flooded as usize, 70_000 - MAX_UNHEARD_IDS);
+        assert_eq!(i.counters().ids_exhausted, 0);
+        // The real skin on port 0 still gets an ID.
+        assert!(i.datagram(addr(1000), &datagram(0, 0, &[id_request(0xFF00)]), 0, &mut ev));
+        assert_eq!(i.take_replies().last().map(|r| r.0), Some(0));
+        assert_eq!(i.counters().id_replies as usize, MAX_UNHEARD_IDS + 1);
     }
 
     #[test]

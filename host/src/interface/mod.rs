@@ -38,8 +38,8 @@ use skin_protocol::{Address, Frame, Message};
 
 pub use counters::{DatagramCounters, DatagramReject, FrameCounters, FrameReject, InterfaceCounters};
 pub use event::{Event, EventKind};
-pub use ingest::Ingest;
-pub use ports::{Port, PortStats, Ports};
+pub use ingest::{Ingest, MAX_UNHEARD_IDS};
+pub use ports::{Port, PortStats, Ports, REBIND_QUIET_US};
 
 use crate::config::InterfaceConfig;
 use crate::registry::Registry;

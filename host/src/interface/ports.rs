@@ -5,7 +5,12 @@
 //! that port. A port configured with an address is bound from the start; a
 //! port configured without one is bound to the first source that claims it
 //! (convenient on loopback, where a simulator's ports have ephemeral
-//! addresses) and keeps that binding for the life of the interface.
+//! addresses). A claimed port whose source has been silent for
+//! [`REBIND_QUIET_US`] goes to the next source that claims it, with a log
+//! line: a skin endpoint that restarts comes back from new addresses, and
+//! its cells re-organize under the IDs their places in the tree had (the
+//! allocator answers the same request with the same ID). A port configured
+//! with an address never moves: pin addresses where spoofing matters.
 
 use std::net::SocketAddr;
 
@@ -36,13 +41,24 @@ pub struct PortStats {
     pub restarts: u64,
     /// Host clock at the last accepted datagram, in microseconds.
     pub last_rx_us: Option<u64>,
+    /// Times the port went to a new source after its old one fell silent.
+    pub rebinds: u64,
 }
+
+/// How long a claimed port's source must be silent before another source
+/// may claim the port: 2 s, ten times the longest quiet a running skin
+/// keeps (its slowest neighbour report period).
+pub const REBIND_QUIET_US: u64 = 2_000_000;
 
 /// One interface port as the host sees it.
 #[derive(Clone, Debug)]
 pub struct Port {
     number: u8,
     address: Option<SocketAddr>,
+    /// True when the address came from the configuration, not a claim.
+    pinned: bool,
+    /// Host clock when the bound source was last admitted.
+    heard_us: u64,
     window: SeqWindow,
     down_seq: u32,
     stats: PortStats,
@@ -133,6 +149,8 @@ impl Ports {
                 Port {
                     number: c.number,
                     address: c.address,
+                    pinned: c.address.is_some(),
+                    heard_us: 0,
                     window: SeqWindow::default(),
                     down_seq: 0,
                     stats: PortStats::default(),
@@ -142,20 +160,38 @@ impl Ports {
         Ports { ports, by_number }
     }
 
-    /// The index of the port a datagram from `from` claiming port `number`
-    /// belongs to, binding an unbound port to its first source.
-    pub fn admit(&mut self, from: SocketAddr, number: u8) -> Result<usize, DatagramReject> {
+    /// The index of the port a datagram from `from` received at host time
+    /// `now_us` claiming port `number` belongs to, binding an unbound port to
+    /// its first source and a claimed port whose source fell silent to the
+    /// new one.
+    pub fn admit(&mut self, from: SocketAddr, number: u8, now_us: u64) -> Result<usize, DatagramReject> {
         let i = self.by_number[usize::from(number)].ok_or(DatagramReject::UnknownPort)?;
-        match self.ports[i].address {
-            Some(a) if a == from => Ok(i),
-            Some(_) => Err(DatagramReject::Spoofed),
-            None if self.ports.iter().any(|p| p.address == Some(from)) => Err(DatagramReject::Spoofed),
-            None => {
-                tracing::info!(port = number, %from, "interface port bound to its first source");
-                self.ports[i].address = Some(from);
-                Ok(i)
-            }
+        let port = &self.ports[i];
+        if port.address == Some(from) {
+            self.ports[i].heard_us = now_us;
+            return Ok(i);
         }
+        if port.pinned || self.ports.iter().any(|p| p.address == Some(from)) {
+            return Err(DatagramReject::Spoofed);
+        }
+        let port = &mut self.ports[i];
+        match port.address {
+            None => tracing::info!(port = number, %from, "interface port bound to its first source"),
+            Some(old) if now_us.saturating_sub(port.heard_us) >= REBIND_QUIET_US => {
+                tracing::warn!(
+                    port = number, %old, new = %from,
+                    "interface port rebound: its source was silent {:.1} s and a new one claims it (the skin endpoint restarted?)",
+                    now_us.saturating_sub(port.heard_us) as f64 / 1e6
+                );
+                port.stats.rebinds += 1;
+                // The new source numbers its datagrams from the start.
+                port.window = SeqWindow::default();
+            }
+            Some(_) => return Err(DatagramReject::Spoofed),
+        }
+        port.address = Some(from);
+        port.heard_us = now_us;
+        Ok(i)
     }
 
     /// The port at `index`.
@@ -200,15 +236,33 @@ mod tests {
     fn bound_unbound_unknown_and_spoofed() {
         let mut ports =
             Ports::new(&[PortConfig { number: 0, address: Some(addr(100)) }, PortConfig { number: 3, address: None }]);
-        assert_eq!(ports.admit(addr(100), 0), Ok(0));
-        assert_eq!(ports.admit(addr(101), 0), Err(DatagramReject::Spoofed));
-        assert_eq!(ports.admit(addr(100), 7), Err(DatagramReject::UnknownPort));
+        assert_eq!(ports.admit(addr(100), 0, 0), Ok(0));
+        assert_eq!(ports.admit(addr(101), 0, 0), Err(DatagramReject::Spoofed));
+        assert_eq!(ports.admit(addr(100), 7, 0), Err(DatagramReject::UnknownPort));
         // Port 0's source may not take over port 3 ...
-        assert_eq!(ports.admit(addr(100), 3), Err(DatagramReject::Spoofed));
+        assert_eq!(ports.admit(addr(100), 3, 0), Err(DatagramReject::Spoofed));
         // ... a new source binds it, and then owns it.
-        assert_eq!(ports.admit(addr(200), 3), Ok(1));
+        assert_eq!(ports.admit(addr(200), 3, 0), Ok(1));
         assert_eq!(ports.get(1).address(), Some(addr(200)));
-        assert_eq!(ports.admit(addr(201), 3), Err(DatagramReject::Spoofed));
-        assert_eq!(ports.admit(addr(200), 0), Err(DatagramReject::Spoofed));
+        assert_eq!(ports.admit(addr(201), 3, 0), Err(DatagramReject::Spoofed));
+        assert_eq!(ports.admit(addr(200), 0, 0), Err(DatagramReject::Spoofed));
+    }
+
+    #[test]
+    fn a_claimed_port_goes_to_a_new_source_only_after_the_old_one_fell_silent() {
+        let mut ports =
+            Ports::new(&[PortConfig { number: 0, address: Some(addr(100)) }, PortConfig { number: 3, address: None }]);
+        assert_eq!(ports.admit(addr(200), 3, 0), Ok(1));
+        assert_eq!(ports.admit(addr(200), 3, 1_000_000), Ok(1));
+        // Still talking: a newcomer is a spoofer.
+        assert_eq!(ports.admit(addr(300), 3, 1_000_000 + REBIND_QUIET_US - 1), Err(DatagramReject::Spoofed));
+        // Silent for the quiet time: the restarted endpoint takes the port.
+        assert_eq!(ports.admit(addr(300), 3, 1_000_000 + REBIND_QUIET_US), Ok(1));
+        assert_eq!(ports.get(1).address(), Some(addr(300)));
+        assert_eq!(ports.get(1).stats().rebinds, 1);
+        assert_eq!(ports.admit(addr(200), 3, 1_000_000 + REBIND_QUIET_US), Err(DatagramReject::Spoofed));
+        // A port pinned by the configuration never moves.
+        assert_eq!(ports.admit(addr(100), 0, 0), Ok(0));
+        assert_eq!(ports.admit(addr(101), 0, 100 * REBIND_QUIET_US), Err(DatagramReject::Spoofed));
     }
 }

@@ -6,11 +6,13 @@
 //! - `render`: the figures drawn from it.
 //! - [`traces`]: the grasps' force and proximity traces (Figure 18), CSV and SVG.
 //! - [`figures`]: the kinds of figure (grids, trees, histograms).
+//! - `staging`: the folder written beside its place and renamed into it.
 
 pub mod figures;
 mod html;
 mod render;
 mod schema;
+mod staging;
 pub mod traces;
 
 use std::path::{Path, PathBuf};
@@ -61,19 +63,23 @@ pub fn check_folder(dir: &Path) -> Result<(), ReportError> {
 }
 
 impl Report {
-    /// Draws every figure into `dir` (created if missing), then writes
-    /// `report.json` and `index.html`; returns the files written.
+    /// Draws every figure, then writes `report.json` and `index.html`, into a
+    /// temporary folder beside `dir` that then takes `dir`'s place (files
+    /// already in `dir` that the report does not write are kept); on an
+    /// error the old `dir` is left whole. Returns the files written.
     pub fn write(&mut self, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
-        std::fs::create_dir_all(dir).map_err(ReportError::write(dir))?;
-        let mut renderer = render::Renderer { report: self, dir, figures: Vec::new() };
-        renderer.draw_all()?;
-        self.figures = renderer.figures;
-        let mut written: Vec<PathBuf> = self.figures.iter().map(|f| dir.join(&f.file)).collect();
-        let json = dir.join("report.json");
-        std::fs::write(&json, serde_json::to_string_pretty(self)?).map_err(ReportError::write(&json))?;
-        let index = dir.join("index.html");
-        std::fs::write(&index, html::page(self)).map_err(ReportError::write(&index))?;
-        written.extend([json, index]);
+        let files = staging::replace_folder(dir, |staging| {
+            let mut renderer = render::Renderer { report: self, dir: staging, figures: Vec::new() };
+            renderer.draw_all()?;
+            self.figures = renderer.figures;
+            let json = staging.join("report.json");
+            std::fs::write(&json, serde_json::to_string_pretty(self)?).map_err(ReportError::write(&json))?;
+            let index = staging.join("index.html");
+            std::fs::write(&index, html::page(self)).map_err(ReportError::write(&index))?;
+            Ok(self.figures.iter().map(|f| f.file.clone()).collect::<Vec<_>>())
+        })?;
+        let mut written: Vec<PathBuf> = files.iter().map(|f| dir.join(f)).collect();
+        written.extend([dir.join("report.json"), dir.join("index.html")]);
         Ok(written)
     }
 }

@@ -32,7 +32,7 @@ use std::time::{Duration, Instant};
 
 use skin_protocol::interface::MAX_DATAGRAM;
 use skin_protocol::message::Neighbour;
-use skin_protocol::robot_link::{self, ToRobot, MAX_DOFS};
+use skin_protocol::robot_link::{self, FromRobot, Refusal, ToRobot, MAX_DOFS};
 use skin_protocol::Address;
 
 use crate::network::{Network, NetworkConfig, NetworkError, Topology};
@@ -46,6 +46,10 @@ pub use running::Running;
 
 /// How long one wait for a request lasts before the stop flag is looked at.
 const STOP_CHECK: Duration = Duration::from_millis(50);
+
+/// How long the host served must be silent before another host may take
+/// the robot (a new `skin run` after the last one ended).
+const HOST_RELEASE: Duration = Duration::from_secs(2);
 
 /// How simulated time advances.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -76,6 +80,9 @@ pub struct Served {
     pub ticks: u64,
     /// Robot-link datagrams that were not requests.
     pub rejected: u64,
+    /// Robot-link requests from hosts other than the first, refused as
+    /// busy: the endpoint obeys one host.
+    pub other_hosts: u64,
     /// Commands refused (wrong length, not finite).
     pub refused: u64,
     /// Datagrams sent to the host's interface socket.
@@ -107,6 +114,9 @@ pub struct Endpoint {
     robot_socket: UdpSocket,
     ports: Vec<UdpSocket>,
     host: SocketAddr,
+    /// The robot-link address of the host served (the first to ask) and
+    /// when it last asked.
+    robot_host: Option<(SocketAddr, Instant)>,
     /// Datagrams for the host, by interface port, not sent yet.
     up: Vec<(usize, Vec<u8>)>,
 }
@@ -184,6 +194,7 @@ impl Endpoint {
             robot_socket,
             ports,
             host: config.host,
+            robot_host: None,
             up: Vec::new(),
         })
     }
@@ -230,10 +241,22 @@ impl Endpoint {
                 self.rig.rejected();
                 continue;
             };
+            let mut out = [0u8; robot_link::MAX_DATAGRAM];
+            let now = Instant::now();
+            let busy = self.robot_host.is_some_and(|(host, last)| host != from && now - last < HOST_RELEASE);
+            if busy {
+                // Another host: told so, counted, and nothing of the
+                // served host's state touched.
+                self.rig.other_host(from);
+                let len = robot_link::encode(&FromRobot::Refused { seq: 0, reason: Refusal::Busy }, &mut out)
+                    .expect("a refusal fits a robot-link datagram");
+                self.robot_socket.send_to(&out[..len], from)?;
+                continue;
+            }
+            self.robot_host = Some((from, now));
             self.take_from_host()?;
             let answer = self.rig.answer(request, from, Instant::now(), &mut self.up)?;
             self.send_up()?;
-            let mut out = [0u8; robot_link::MAX_DATAGRAM];
             let len = robot_link::encode(&answer, &mut out).expect("answers fit a robot-link datagram");
             self.robot_socket.send_to(&out[..len], from)?;
         }
@@ -297,7 +320,6 @@ mod tests {
     use crate::scene::object::Object;
     use crate::scene::operator::{Note, Order};
     use crate::scene::placement::{ObjectAt, Placement};
-    use skin_protocol::robot_link::FromRobot;
 
     /// One period with the robot held still, as a bare host asks for it.
     fn period(link: &UdpSocket, robot: SocketAddr, seq: u32) {
@@ -309,15 +331,20 @@ mod tests {
         assert!(matches!(robot_link::decode(&buf[..n]), Ok(FromRobot::State { .. })));
     }
 
-    #[test]
-    fn orders_are_carried_out_in_the_next_period_and_answered_before_its_feedback() {
-        let host = UdpSocket::bind("127.0.0.1:0").unwrap();
-        let config = EndpointConfig {
+    /// A lockstep endpoint on loopback sending to `host`.
+    fn lockstep(host: &UdpSocket) -> EndpointConfig {
+        EndpointConfig {
             robot: "127.0.0.1:0".parse().unwrap(),
             host: host.local_addr().unwrap(),
             pacing: Pacing::Lockstep,
             network: NetworkConfig::default(),
-        };
+        }
+    }
+
+    #[test]
+    fn orders_are_carried_out_in_the_next_period_and_answered_before_its_feedback() {
+        let host = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let config = lockstep(&host);
         let link = UdpSocket::bind("127.0.0.1:0").unwrap();
         link.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
 
@@ -341,5 +368,26 @@ mod tests {
         let notes: Vec<Note> = running.notes().collect();
         assert!(matches!(&notes[..], [Note::Refused(why)] if why.contains("nobody")), "{notes:?}");
         running.stop().unwrap();
+    }
+
+    #[test]
+    fn a_second_host_is_refused_as_busy_and_the_first_is_served_on() {
+        let host = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let config = lockstep(&host);
+        let (first, second) = (UdpSocket::bind("127.0.0.1:0").unwrap(), UdpSocket::bind("127.0.0.1:0").unwrap());
+        for s in [&first, &second] {
+            s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        }
+        let running = Running::spawn(move || Endpoint::hrp2(5, config)).unwrap();
+        period(&first, running.robot, 1);
+        let mut buf = [0u8; robot_link::MAX_DATAGRAM];
+        let n = robot_link::encode(&ToRobot::Command { seq: 9, velocities: [0.0; 14].into_iter().collect() }, &mut buf)
+            .unwrap();
+        second.send_to(&buf[..n], running.robot).unwrap();
+        let (n, _) = second.recv_from(&mut buf).expect("the second host is told");
+        assert_eq!(robot_link::decode(&buf[..n]), Ok(FromRobot::Refused { seq: 0, reason: Refusal::Busy }));
+        period(&first, running.robot, 2);
+        let truth = running.stop().unwrap();
+        assert_eq!((truth.served.ticks, truth.served.other_hosts), (2, 1));
     }
 }

@@ -106,6 +106,14 @@ impl Rig {
         self.served.rejected += 1;
     }
 
+    /// Counts a request from a host other than the one served.
+    pub fn other_host(&mut self, from: SocketAddr) {
+        if self.served.other_hosts == 0 {
+            tracing::warn!(%from, "a second host asks the robot; it is refused: the endpoint serves the first host only");
+        }
+        self.served.other_hosts += 1;
+    }
+
     /// Answers a robot-link request from `from` at wall time `now`; a
     /// command in lockstep first runs a control period, whose datagrams for
     /// the host go to `up`.
