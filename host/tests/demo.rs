@@ -221,8 +221,11 @@ fn skin_run_drives_the_simulated_robot_served_by_another_process() {
     let urdf = dir.with_extension("urdf");
     std::fs::write(&urdf, skin_sim::robot::hrp2::urdf()).unwrap();
     let calibrated = dir.join("first.mcap");
+    let first = run(&dirs[0], &["--urdf".as_ref(), urdf.as_os_str(), "--record".as_ref(), calibrated.as_os_str()]);
+    // The endpoint serves one host at a time and lets it go after 2 s of silence.
+    std::thread::sleep(std::time::Duration::from_millis(2500));
     let results = [
-        run(&dirs[0], &["--urdf".as_ref(), urdf.as_os_str(), "--record".as_ref(), calibrated.as_os_str()]),
+        first,
         run(
             &dirs[1],
             &["--config".as_ref(), config.as_os_str(), "--imu".as_ref(), "--record".as_ref(), recording.as_os_str()],
