@@ -10,10 +10,11 @@ use std::process::ExitCode;
 
 use skin_host::calibrate::export::skin_toml;
 use skin_host::calibrate::{calibrate, CalibrateConfig};
-use skin_host::explore::{explore, ExploreConfig};
+use skin_host::explore::{explore, Exploration, ExploreConfig};
 use skin_host::recording::{Record, Recording};
 use skin_host::replay::Replay;
 use skin_host::report::ExplorationSection;
+use skin_protocol::message::AccelRange;
 use skin_sim::robot::Robot;
 
 /// Arguments of `skin replay`.
@@ -48,10 +49,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let recording = Recording::open(&args.file)?;
     let text = if let Some(urdf) = &args.calibrate {
         let model = Robot::from_urdf_file(urdf)?;
-        let mut replay = Replay::explore(recording)?;
-        let start = replay.start().clone();
-        let range = start.accel_range().ok_or(Error::Range(start.accel_range_g))?;
-        let exploration = explore(&mut replay, &ExploreConfig { range, ..ExploreConfig::default() }, &mut |_| {})?;
+        let (mut replay, range, exploration) = explore_again(recording)?;
         let cfg = CalibrateConfig { range, ..CalibrateConfig::default() };
         let c = calibrate(&mut replay, &model, &exploration, &cfg, &mut |_| {})?;
         if args.json {
@@ -60,10 +58,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
             skin_toml(&model, &c)
         }
     } else if args.explore {
-        let mut replay = Replay::explore(recording)?;
-        let start = replay.start().clone();
-        let range = start.accel_range().ok_or(Error::Range(start.accel_range_g))?;
-        let exploration = explore(&mut replay, &ExploreConfig { range, ..ExploreConfig::default() }, &mut |_| {})?;
+        let (replay, _, exploration) = explore_again(recording)?;
         let section = ExplorationSection::new(&exploration);
         if args.json {
             serde_json::to_string_pretty(&section)?
@@ -98,4 +93,14 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         other => other?,
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The recorded exploration run again: the replay (to go on with), the
+/// accelerometer range it was recorded in, and what it learned.
+fn explore_again(recording: Recording) -> Result<(Replay, AccelRange, Exploration), Box<dyn std::error::Error>> {
+    let mut replay = Replay::explore(recording)?;
+    let start = replay.start().clone();
+    let range = start.accel_range().ok_or(Error::Range(start.accel_range_g))?;
+    let exploration = explore(&mut replay, &ExploreConfig { range, ..ExploreConfig::default() }, &mut |_| {})?;
+    Ok((replay, range, exploration))
 }
