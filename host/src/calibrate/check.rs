@@ -14,6 +14,11 @@ use skin_sim::world::World;
 
 use super::Calibration;
 
+/// A position error beyond this many claimed standard deviations (plus the
+/// floor, m) is a confident wrong answer.
+const OVERCONFIDENT_SIGMAS: f64 = 5.0;
+const OVERCONFIDENT_FLOOR_M: f64 = 0.001;
+
 /// Error statistics over the cells that were checked.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Spread {
@@ -52,6 +57,9 @@ pub struct CalibrationTruth {
     pub orientation_unobservable: usize,
     /// Cells put on a link they are not on.
     pub wrong_link: usize,
+    /// Cells whose position error exceeds five times the spread the
+    /// calibration claimed for it (plus 1 mm): confidently wrong.
+    pub overconfident: usize,
     /// Cells the simulator does not know (none, unless IDs went wrong).
     pub unknown_cells: usize,
     /// Largest offset error over the cells with an observable frame, m/s^2
@@ -81,6 +89,8 @@ pub fn check(calibration: &Calibration, world: &World) -> CalibrationTruth {
             e -= n * n.dot(&e);
         }
         if c.unobservable.len() < 3 {
+            let claimed: f64 = c.position_sigma_m.iter().filter(|s| s.is_finite()).map(|s| s * s).sum::<f64>().sqrt();
+            truth.overconfident += usize::from(e.norm() > OVERCONFIDENT_SIGMAS * claimed + OVERCONFIDENT_FLOOR_M);
             positions.push(e.norm());
         } else {
             truth.position_unobservable += 1;

@@ -54,6 +54,9 @@ pub struct GravityFit {
     pub offset: Vector3<f64>,
     /// Standard deviation of the frame's worst-known turn, rad.
     pub orientation_sigma_rad: f64,
+    /// How firmly the postures hold the frame's turn (link axes), the
+    /// gains and the offsets: the fit's information matrix.
+    pub information: Mat9,
     /// Root mean square of the normalized residuals (about 1 when the
     /// model and the noise estimate hold).
     pub rms_residual: f64,
@@ -64,7 +67,8 @@ pub struct GravityFit {
 const TURN_PRIOR_RAD: f64 = 1.0;
 const ITERATIONS: usize = 30;
 
-type Mat9 = SMatrix<f64, 9, 9>;
+/// Frame turn, gain and offset, in that order.
+pub type Mat9 = SMatrix<f64, 9, 9>;
 type Vec9 = SVector<f64, 9>;
 
 /// Fits frame, gain and offset to `stills`; `None` without at least one
@@ -91,13 +95,17 @@ pub fn fit(stills: &[Still], prior: &SensorPrior) -> Option<GravityFit> {
     let cov = info.cholesky()?.inverse();
     let turn = cov.fixed_view::<3, 3>(0, 0).into_owned();
     let orientation_sigma_rad = turn.symmetric_eigenvalues().max().max(0.0).sqrt();
+    // The fit turns the frame in its own axes; the link sees them turned by it.
+    let mut to_link = Mat9::identity();
+    to_link.fixed_view_mut::<3, 3>(0, 0).copy_from(frame.matrix());
+    let information = to_link * info * to_link.transpose();
     let chi2: f64 = stills
         .iter()
         .map(|s| (s.mean - model(&frame, &gain, &offset, &s.up)).component_div(&s.sigma).norm_squared())
         .sum();
     let rms_residual = (chi2 / (3 * stills.len()) as f64).sqrt();
     let ok = orientation_sigma_rad.is_finite() && is_finite(gain) && is_finite(offset);
-    ok.then_some(GravityFit { frame, gain, offset, orientation_sigma_rad, rms_residual })
+    ok.then_some(GravityFit { frame, gain, offset, orientation_sigma_rad, information, rms_residual })
 }
 
 /// The reading of a still cell whose link sees `up` as upward.

@@ -408,6 +408,9 @@ const INCONSISTENT_FLOOR_MPS2: f64 = 0.05;
 /// Two bodies whose motion explains a cell within this ratio of
 /// residuals cannot be told apart.
 const AMBIGUOUS_RATIO: f64 = 1.2;
+/// The motion corrects the still fit's frame by at most this turn, rad:
+/// within it the fit's linearization errs less than the noise.
+const MAX_TURN_RAD: f64 = 0.05;
 
 fn pose_of(model: &Model, id: Address, candidates: &[Candidate], noise: f64, cfg: &CalibrateConfig) -> CellPose {
     let motion = |c: &Candidate| c.lever.residual_rms().unwrap_or(f64::INFINITY);
@@ -424,26 +427,33 @@ fn pose_of(model: &Model, id: Address, candidates: &[Candidate], noise: f64, cfg
         .map(|c| model.bodies()[c.body].name.clone())
         .collect();
     let inconsistent = residual.is_finite() && residual > INCONSISTENT_NOISE * noise + INCONSISTENT_FLOOR_MPS2;
-    let (frame, gain, offset_mps2, orientation_sigma_rad) = match best.and_then(|c| c.gravity) {
+    let unknown = || (Vector3::zeros(), Vector3::repeat(f64::INFINITY), vec![Vector3::x(), Vector3::y(), Vector3::z()]);
+    let still = best.and_then(|c| c.gravity);
+    let (mut frame, mut gain, mut offset_mps2, mut orientation_sigma_rad) = match still {
         Some(f) => (f.frame, f.gain, f.offset, f.orientation_sigma_rad),
         None => (Rotation3::identity(), Vector3::repeat(1.0), Vector3::zeros(), f64::INFINITY),
     };
-    let unknown = || (Vector3::zeros(), Vector3::repeat(f64::INFINITY), vec![Vector3::x(), Vector3::y(), Vector3::z()]);
-    let solved = best.and_then(|c| c.lever.solve(cfg.observable_sigma_m));
+    let solved = best.zip(still).and_then(|(c, f)| c.lever.solve(cfg.observable_sigma_m, &f.information));
     let (position, position_sigma_m, unobservable) = match solved {
         // Nothing is claimed for a cell whose body is in doubt.
         _ if inconsistent || !ambiguous_with.is_empty() => unknown(),
-        // The motion is read through the frame: a frame turned by d puts the
-        // cell about as far off as d times its distance from the link origin
-        // (on the joint axis). A link that only turns about a vertical axis
-        // shows neither its cells' azimuth nor their frames' turn about it:
-        // the two turn together and every reading stays the same.
+        // Position and sensor were fitted together: the motion sharpens the
+        // sensor, and what it leaves loose widens the position.
+        // Beyond a small turn the linear fit's corrections and directions
+        // mean nothing: the still fit had no hold on the frame there.
+        Some(l) if l.turn.norm() > MAX_TURN_RAD => unknown(),
         Some(l) => {
-            let from_frame = orientation_sigma_rad * l.position.norm();
-            if from_frame > cfg.observable_sigma_m {
+            frame = Rotation3::from_scaled_axis(l.turn) * frame;
+            gain += l.gain;
+            offset_mps2 += l.offset;
+            orientation_sigma_rad = l.turn_sigma_rad;
+            // A link that only turns about a vertical axis shows neither its
+            // cells' azimuth nor their frames' turn about it: the two turn
+            // together and every reading stays the same.
+            if orientation_sigma_rad > cfg.observable_sigma_rad {
                 unknown()
             } else {
-                (l.position, l.sigma_m.map(|s| s.hypot(from_frame)), l.unobservable)
+                (l.position, l.sigma_m, l.unobservable)
             }
         }
         None => unknown(),

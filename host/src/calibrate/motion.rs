@@ -9,13 +9,13 @@
 //! found first, on the cells that show the motion best, by the residual of
 //! their fit, and the motion is then read at that delay for every cell.
 
-use nalgebra::{Isometry3, Matrix3, Vector3};
+use nalgebra::{Isometry3, Vector3};
 use skin_protocol::message::G0;
 use skin_protocol::sample::ACCEL_MAX;
 use skin_sim::robot::kinematics::{self, BodyState, DofMotion};
 use skin_sim::robot::Robot as Model;
 
-use super::lever::Lever;
+use super::lever::{Lever, LinkMotion};
 use super::Candidate;
 use crate::explore::session::Trace;
 
@@ -59,7 +59,7 @@ impl Record<'_> {
         let chosen: Vec<(usize, Candidate)> = spread
             .iter()
             .take(DELAY_CELLS)
-            .map(|&(_, u)| (u, Candidate { lever: Lever::default(), ..cells[u][0].clone() }))
+            .map(|&(_, u)| (u, Candidate { lever: Lever::position_only(), ..cells[u][0].clone() }))
             .collect();
         let steps = (max_ticks / DELAY_STEP_TICKS).floor() as i64;
         let mut best = (f64::INFINITY, 0.0);
@@ -106,8 +106,13 @@ impl Record<'_> {
                 let (Some(fit), Some(s)) = (c.gravity, self.sample(k, *u, cells)) else { continue };
                 let state = &states[c.body];
                 let in_link = fit.frame * (s - fit.offset).component_div(&fit.gain);
-                let rotation: Matrix3<f64> = *state.pose.rotation.to_rotation_matrix().matrix();
-                c.lever.add(&rotation, &state.omega, &state.alpha, &state.accel, &(rotation * in_link), &up);
+                let link = LinkMotion {
+                    rotation: *state.pose.rotation.to_rotation_matrix().matrix(),
+                    omega: state.omega,
+                    alpha: state.alpha,
+                    origin_force: state.accel + up,
+                };
+                c.lever.add(&link, &fit, &(link.rotation * in_link));
             }
         }
         for (_, c) in targets.iter_mut() {

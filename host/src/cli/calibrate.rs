@@ -210,7 +210,7 @@ fn summary(name: &str, c: &Calibration, t: &CalibrationTruth, exploration_s: f64
         s += &format!("warning: {w}\n");
     }
     s += &format!(
-        "truth: position error mean {:.2} mm, p95 {:.2} mm, max {:.2} mm over {} cells; frame error mean {:.2} deg, p95 {:.2} deg, max {:.2} deg over {} cells; {} on a wrong link",
+        "truth: position error mean {:.2} mm, p95 {:.2} mm, max {:.2} mm over {} cells; frame error mean {:.2} deg, p95 {:.2} deg, max {:.2} deg over {} cells; {} on a wrong link, {} confidently wrong",
         t.position_m.mean * 1e3,
         t.position_m.p95 * 1e3,
         t.position_m.max * 1e3,
@@ -219,7 +219,8 @@ fn summary(name: &str, c: &Calibration, t: &CalibrationTruth, exploration_s: f64
         t.orientation_deg.p95,
         t.orientation_deg.max,
         t.orientation_deg.cells,
-        t.wrong_link
+        t.wrong_link,
+        t.overconfident
     );
     s
 }
