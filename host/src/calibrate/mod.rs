@@ -46,7 +46,7 @@ const STILL_FLOOR_MPS2: f64 = 0.01;
 pub struct CalibrateConfig {
     /// The accelerometer range the cells are set to.
     pub range: AccelRange,
-    /// Still postures, the start included.
+    /// Still postures, the start and the exploration's own included.
     pub postures: usize,
     /// Farthest a still posture takes a revolute DoF from the start, rad
     /// (a tenth of it in m for a prismatic one).
@@ -214,8 +214,10 @@ impl CellPose {
 pub struct Calibration {
     /// One entry per cell, in exploration order.
     pub cells: Vec<CellPose>,
-    /// The still postures (interface DoF order), the start first.
+    /// The still postures this calibration moved to (interface DoF order).
     pub postures: Vec<Vec<f64>>,
+    /// Still windows of the exploration's that the gravity fit reused.
+    pub reused_stills: usize,
     /// The start posture in the description's DoF order (for pictures of it).
     pub description_start: Vec<f64>,
     /// DoFs excited for positions.
@@ -243,12 +245,16 @@ pub fn calibrate<R: Robot + SampleSource>(
     let matching = matching::matching(found, model)?;
     let start = rig.positions();
     let mut session = Session::with_cells(rig, found.cells.clone(), cfg.range);
-    let postures = plan::still_postures(model, &matching.urdf_dof, &start, cfg);
+    // The exploration's still windows already show gravity in each of its
+    // postures (the start among them): only the rest are planned.
+    let fresh = cfg.postures.saturating_sub(found.postures.len()) + 1;
+    let postures: Vec<Vec<f64>> =
+        plan::still_postures(model, &matching.urdf_dof, &start, fresh, cfg).into_iter().skip(1).collect();
     let excitations = plan::excitations(model, &matching, &start, cfg);
     let total = postures.len() + excitations.planned.len();
 
     // 1. Still postures: gravity in many directions.
-    let mut stills: Vec<(Vec<f64>, Window)> = Vec::with_capacity(postures.len());
+    let mut stills: Vec<(Vec<f64>, Window)> = found.stills.clone();
     for (k, pose) in postures.iter().enumerate() {
         session.move_to(pose, cfg.move_speed_rad_s, 2e-3, 60.0)?;
         session.hold(cfg.settle_s)?;
@@ -305,7 +311,8 @@ pub fn calibrate<R: Robot + SampleSource>(
     Ok(Calibration {
         cells,
         description_start,
-        postures: stills.into_iter().map(|(q, _)| q).collect(),
+        reused_stills: found.stills.len(),
+        postures,
         excited: excitations.planned.iter().map(|e| found.dof_names[e.dof].clone()).collect(),
         skipped: excitations.skipped.into_iter().map(|(d, why)| (found.dof_names[d].clone(), why)).collect(),
         delays_ms,

@@ -36,11 +36,17 @@ pub struct Excitations {
     pub skipped: Vec<(usize, String)>,
 }
 
-/// The start, then seeded postures spread around it, inside the limits.
-pub fn still_postures(model: &Model, urdf_dof: &[usize], start: &[f64], cfg: &CalibrateConfig) -> Vec<Vec<f64>> {
+/// `count` postures: the start, then seeded ones spread around it, inside the limits.
+pub fn still_postures(
+    model: &Model,
+    urdf_dof: &[usize],
+    start: &[f64],
+    count: usize,
+    cfg: &CalibrateConfig,
+) -> Vec<Vec<f64>> {
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed ^ 0xca1b);
     let mut postures = vec![start.to_vec()];
-    for _ in 1..cfg.postures {
+    for _ in 1..count {
         let pose = urdf_dof
             .iter()
             .zip(start)

@@ -87,6 +87,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     // The host's own copy of the description, as on a real robot.
     let model = args.sim.robot()?;
     let world = args.sim.world()?;
+    super::world::warn_clearance(&world, args.axis_clearance);
     let name = world.robot().name().to_owned();
     let mut rig = SimRobot::new(world);
 
@@ -166,6 +167,7 @@ fn report(name: &str, c: &Calibration, truth: &CalibrationTruth, exploration_s: 
         "robot": name,
         "cells": cells,
         "postures": c.postures,
+        "reused_stills": c.reused_stills,
         "excited": c.excited,
         "delays_ms": c.delays_ms,
         "skipped": c.skipped.iter().map(|(d, why)| json!({"dof": d, "reason": why})).collect::<Vec<_>>(),
@@ -181,8 +183,9 @@ fn summary(name: &str, c: &Calibration, t: &CalibrationTruth, exploration_s: f64
     let none = c.cells.iter().filter(|p| p.unobservable.len() == 3).count();
     let mut s = format!("robot {name}: {} cells calibrated on its description\n", c.cells.len());
     s += &format!(
-        "  moves: {} still postures, excitations of {}\n",
+        "  moves: {} still postures (and {} still windows of the exploration reused), excitations of {}\n",
         c.postures.len(),
+        c.reused_stills,
         if c.excited.is_empty() { "no DoF".to_owned() } else { c.excited.join(", ") }
     );
     for (dof, why) in &c.skipped {

@@ -70,6 +70,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     }
     let budget_s = seconds::positive("--time-budget", args.time_budget)?;
     let world = args.sim.world()?;
+    super::world::warn_clearance(&world, args.axis_clearance);
     let name = world.robot().name().to_owned();
     let mut rig = SimRobot::new(world);
     let evaluation = match args.smm {

@@ -113,3 +113,17 @@ impl SimArgs {
         ))
     }
 }
+
+/// Warns when the declared mounting clearance (m) is more than the
+/// simulated skin keeps: the exploration takes the declaration at its word,
+/// so cells closer to an axis may be merged into the wrong body part.
+pub fn warn_clearance(world: &World, declared_m: f64) {
+    let close: Vec<f64> = world.skin().cells().iter().map(|c| c.axis_clearance_m).filter(|&c| c < declared_m).collect();
+    if let Some(closest) = close.iter().copied().min_by(f64::total_cmp) {
+        eprintln!(
+            "warning: --axis-clearance {declared_m} m is more than the simulated skin keeps: {} cells sit closer to a joint axis (the closest {:.1} mm); the exploration trusts the declaration and may put them on the wrong body part",
+            close.len(),
+            closest * 1e3
+        );
+    }
+}

@@ -139,6 +139,9 @@ pub struct Exploration {
     pub smm_time_s: f64,
     /// Things the user should know, e.g. DoFs whose axis stayed vertical.
     pub warnings: Vec<String>,
+    /// The structural exploration's still windows with their postures:
+    /// the calibration's gravity fit starts from them.
+    pub(crate) stills: Vec<(Vec<f64>, session::Window)>,
 }
 
 impl Exploration {
@@ -184,7 +187,7 @@ pub fn explore<R: Robot + SampleSource>(
     if !undecided.is_empty() {
         return Err(ExploreError::Undecided(undecided));
     }
-    let structure::Outcome { activity, postures, .. } = outcome;
+    let structure::Outcome { activity, postures, stills, .. } = outcome;
     let merged = merge::merge(&activity.rows());
     let tree = KinematicTree::new(&merged, &cells, &dof_names)?;
     let warnings = (0..dofs)
@@ -218,6 +221,7 @@ pub fn explore<R: Robot + SampleSource>(
         structure_time_s,
         smm_time_s,
         warnings,
+        stills,
     })
 }
 

@@ -159,6 +159,9 @@ pub(crate) struct Outcome {
     pub measurements: usize,
     /// Per DoF: repeats of its blind step pooled for the lever.
     pub repeats: Vec<u32>,
+    /// Every still window with the DoF positions it was taken at: gravity
+    /// seen from each link in as many postures, for the calibration.
+    pub stills: Vec<(Vec<f64>, Window)>,
 }
 
 /// Steps every DoF, then again the DoFs with undecided entries, until all
@@ -175,6 +178,7 @@ pub(crate) fn explore<R: Robot + SampleSource>(
     let pre = session.window(cfg.average_s)?;
     let deadline_s = session.elapsed_s() + cfg.budget_s;
     let postures = vec![session.positions()];
+    let stills = vec![(session.positions(), pre.clone())];
     let mut x = Explorer {
         s: session,
         cfg,
@@ -183,6 +187,7 @@ pub(crate) fn explore<R: Robot + SampleSource>(
         pre_s: cfg.average_s,
         deadline_s,
         postures,
+        stills,
         posture: 0,
         effort: vec![0; dofs],
         repeats: vec![0; dofs],
@@ -239,6 +244,7 @@ pub(crate) fn explore<R: Robot + SampleSource>(
         longest_average_s: x.longest_average_s,
         measurements: x.done,
         repeats: x.repeats,
+        stills: x.stills,
     })
 }
 
@@ -254,6 +260,8 @@ struct Explorer<'x, 'r, R> {
     /// Postures measured in; `posture` is the current one.
     postures: Vec<Vec<f64>>,
     posture: usize,
+    /// Still windows taken, with where.
+    stills: Vec<(Vec<f64>, Window)>,
     /// Doublings of averaging (and growth of the step) per DoF.
     effort: Vec<u32>,
     /// Repeats of each DoF's blind step.
@@ -539,12 +547,19 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
         Ok(turned)
     }
 
+    /// A still window of `average_s`, kept with the posture it was taken in.
+    fn still(&mut self, average_s: f64) -> Result<Window, ExploreError> {
+        let window = self.s.window(average_s)?;
+        self.stills.push((self.s.positions(), window.clone()));
+        Ok(window)
+    }
+
     /// One step of DoF `d` by `delta`: the motion, settling, and a still
     /// window of `average_s` that is also the next step's "before".
     fn step(&mut self, d: usize, delta: f64, average_s: f64) -> Result<Step, ExploreError> {
         // The "before" must be as long as the "after", or its noise rules.
         if self.pre_s < average_s {
-            self.pre = self.s.window(average_s)?;
+            self.pre = self.still(average_s)?;
             self.pre_s = average_s;
         }
         let base = match self.kinds[d] {
@@ -554,7 +569,7 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
         let move_s = self.cfg.move_s * (delta.abs() / base).sqrt().max(1.0);
         self.step_before = self.last_step.replace(d);
         let trace = self.s.trace(d, move_s + self.cfg.settle_s, |t| raised_cosine(delta, move_s, t))?;
-        let post = self.s.window(average_s)?;
+        let post = self.still(average_s)?;
         let step = Step::measure(&self.pre, &post, &trace, self.s.tick_s(), self.s.lsb_mps2());
         self.pre = post;
         self.pre_s = average_s;
