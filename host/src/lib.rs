@@ -3,7 +3,14 @@
 //! The host knows nothing of robot models: it talks to the robot only
 //! through the [`robot::Robot`] trait (DoF count, velocity commands,
 //! position feedback) and to the skin only through its samples, and learns
-//! the rest from them.
+//! the rest from them. Only calibration reads the robot's own description
+//! (URDF, with `skin_sim::robot`'s reader and kinematics).
+//!
+//! The `sim` feature (on by default) adds the glue to the simulator: the
+//! simulated robot, checks against its ground truth, the grasping
+//! experiment with its simulated person and objects, and the report's
+//! sections only a simulation can fill. Without it the library's API holds
+//! no simulator type.
 //!
 //! - [`robot`]: the robot and sample-stream traits, and the simulated robot behind them.
 //! - [`explore`]: kinematic self-exploration: activity matrix, kinematic tree, sensory-motor map.
@@ -11,7 +18,7 @@
 //! - [`registry`]: the cells heard: IDs, neighbours, patches, health; the ID authority.
 //! - [`config`]: the TOML configuration of the `skin` program.
 //! - [`control`]: whole-body tactile reactions, events, touch areas, key poses and the grasp.
-//! - [`grasping`]: the grasping experiment on an explored robot: teaching by proximity, grasps of Figure 16 objects.
+//! - `grasping` (the `sim` feature): the grasping experiment on an explored robot: teaching by proximity, grasps of Figure 16 objects.
 //! - [`remote`]: a robot and its skin over UDP: the robot link and the interface as one rig.
 //! - [`pipeline`]: the main job's steps: wait for the skin to organize, write the cell settings.
 //! - [`update`]: firmware updates: update keys, signed images.
@@ -28,6 +35,7 @@ pub mod calibrate;
 pub mod config;
 pub mod control;
 pub mod explore;
+#[cfg(feature = "sim")]
 pub mod grasping;
 pub mod interface;
 pub mod pipeline;

@@ -3,12 +3,14 @@
 //! The control approach needs only three things from a robot: the number of
 //! revolute DoFs, velocity commands and position feedback ([`Robot`]); and
 //! from the skin only its samples, tick by tick ([`SampleSource`]). Nothing
-//! else about the body is known: no model, no cell placement. [`SimRobot`]
-//! puts the simulated world behind both traits, so a simulated and a real
-//! robot are driven by the very same code.
+//! else about the body is known: no model, no cell placement. With the `sim`
+//! feature, `SimRobot` puts the simulated world behind both traits, so a
+//! simulated and a real robot are driven by the very same code.
+
+#[cfg(feature = "sim")]
+mod sim;
 
 use skin_protocol::{Address, Sample};
-use skin_sim::world::{World, WorldError};
 
 /// Why the robot or skin did not do what the host asked.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -70,16 +72,8 @@ pub enum RobotError {
     Disconnected(String),
 }
 
-impl From<WorldError> for RobotError {
-    fn from(e: WorldError) -> Self {
-        match e {
-            WorldError::WrongLength { expected, got } => RobotError::WrongLength { expected, got },
-            WorldError::NotFinite(d) => RobotError::NotFinite(d),
-            other => RobotError::Disconnected(other.to_string()),
-        }
-    }
-}
-
+#[cfg(feature = "sim")]
+pub use sim::SimRobot;
 pub use skin_protocol::robot_link::DofKind;
 
 /// A robot with DoFs under velocity control.
@@ -113,50 +107,4 @@ pub trait SampleSource {
     /// Waits for the next tick (a real skin: the next sampling period; the
     /// simulator: advances its clock) and appends the samples that arrived.
     fn next_tick(&mut self, out: &mut Vec<(Address, Sample)>) -> Result<(), RobotError>;
-}
-
-/// The simulated world as a robot and a skin.
-pub struct SimRobot {
-    world: World,
-}
-
-impl SimRobot {
-    /// Wraps a world.
-    pub fn new(world: World) -> SimRobot {
-        SimRobot { world }
-    }
-
-    /// The world, for ground truth when checking results.
-    pub fn world(&self) -> &World {
-        &self.world
-    }
-}
-
-impl Robot for SimRobot {
-    fn dof_names(&self) -> Vec<String> {
-        self.world.robot().dofs().iter().map(|d| d.name.clone()).collect()
-    }
-
-    fn dof_kinds(&self) -> Vec<DofKind> {
-        self.world.robot().dofs().iter().map(|d| d.kind).collect()
-    }
-
-    fn command_velocities(&mut self, omega_rad_s: &[f64]) -> Result<(), RobotError> {
-        Ok(self.world.command(omega_rad_s)?)
-    }
-
-    fn positions(&self) -> Vec<f64> {
-        self.world.positions().to_vec()
-    }
-}
-
-impl SampleSource for SimRobot {
-    fn tick_s(&self) -> f64 {
-        self.world.config().tick_s
-    }
-
-    fn next_tick(&mut self, out: &mut Vec<(Address, Sample)>) -> Result<(), RobotError> {
-        self.world.step(out);
-        Ok(())
-    }
 }

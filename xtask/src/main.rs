@@ -54,6 +54,10 @@ fn ci_steps() -> Vec<Step> {
             "clippy -p skin-host --all-targets --features ros2 -- -D warnings",
         ),
         cargo(
+            "clippy (skin-host without the simulator glue)",
+            "clippy -p skin-host --no-default-features -- -D warnings",
+        ),
+        cargo(
             "clippy (skin-protocol, thumb)",
             "clippy -p skin-protocol --target thumbv7em-none-eabihf --no-default-features --features defmt -- -D warnings",
         ),

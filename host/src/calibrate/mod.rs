@@ -14,8 +14,10 @@
 //! What the motion cannot show (the position along the axis of a link's
 //! only joint, anything on the fixed base, the turn about gravity of a link
 //! that never tilts) is reported as unobservable with its direction, not
-//! filled with a guess.
+//! filled with a guess. With the `sim` feature, `check` judges a
+//! calibration against the simulator's truth.
 
+#[cfg(feature = "sim")]
 pub mod check;
 pub mod export;
 pub mod gravity;

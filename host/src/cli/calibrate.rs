@@ -23,6 +23,7 @@ use skin_sim::robot::kinematics::{self, BodyState, DofMotion};
 use skin_sim::robot::Robot as Model;
 use skin_sim::world::World;
 
+use super::cells_json::cells_json;
 use super::seconds;
 use super::world::{Base, SimArgs};
 
@@ -124,41 +125,6 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     };
     println!("{text}");
     Ok(ExitCode::SUCCESS)
-}
-
-fn finite_or_null(x: f64) -> Value {
-    if x.is_finite() {
-        json!(x)
-    } else {
-        Value::Null
-    }
-}
-
-/// Every cell's calibrated pose and sensor, as JSON.
-pub(super) fn cells_json(c: &Calibration) -> Vec<Value> {
-    c.cells
-        .iter()
-        .map(|p| {
-            let observable: Vec<&str> =
-                ["x", "y", "z"].into_iter().zip(p.observable()).filter(|(_, o)| *o).map(|(a, _)| a).collect();
-            json!({
-                "id": p.id.0,
-                "link": p.link,
-                "xyz": p.position.as_slice(),
-                "rpy": p.rpy(),
-                "observable": observable,
-                "unobservable_directions": p.unobservable.iter().map(|v| v.as_slice().to_vec()).collect::<Vec<_>>(),
-                "position_sigma_m": p.position_sigma_m.iter().map(|&s| finite_or_null(s)).collect::<Vec<_>>(),
-                "orientation_observable": p.orientation_observable,
-                "orientation_sigma_deg": finite_or_null(p.orientation_sigma_rad.to_degrees()),
-                "gain": p.gain.as_slice(),
-                "offset_mps2": p.offset_mps2.as_slice(),
-                "motion_residual_mps2": finite_or_null(p.motion_residual_mps2),
-                "inconsistent": p.inconsistent,
-                "ambiguous_with": p.ambiguous_with,
-            })
-        })
-        .collect()
 }
 
 fn report(name: &str, c: &Calibration, truth: &CalibrationTruth, exploration_s: f64, wall_time_s: f64) -> Value {

@@ -114,9 +114,12 @@ pub fn report(remote: &Remote, source: String, found: Found) -> Report {
         interface: *remote.interface().counters(),
         link: LinkSection { retries: link.retries, ignored: link.ignored },
         exploration: ExplorationSection::new(&found.exploration),
+        #[cfg(feature = "sim")]
         latency: None,
         calibration: None,
+        #[cfg(feature = "sim")]
         grasps: None,
+        #[cfg(feature = "sim")]
         truth: None,
         figures: Vec::new(),
     }
@@ -142,27 +145,8 @@ pub fn summary(r: &Report, written: &[PathBuf]) -> String {
         t.structure_robot_s,
         t.smm_robot_s
     );
-    if let Some(l) = &r.latency {
-        s += &format!(
-            "network latency: median {} us, 99% {} us, max {} us over {} sensor frames\n",
-            l.p50_us, l.p99_us, l.max_us, l.frames
-        );
-    }
-    if let Some(g) = &r.grasps {
-        let held = g.runs.iter().filter(|r| r.succeeded).count();
-        let names: Vec<String> =
-            g.runs.iter().map(|r| format!("{} {}", r.object, r.reason.map_or("held", |why| why.name()))).collect();
-        s += &format!("grasps: {held} of {} held ({})\n", g.runs.len(), names.join(", "));
-    }
-    if let Some(truth) = &r.truth {
-        s += &format!(
-            "checked against the simulator: {} of {} cells with unique IDs, neighbour tables {}, tree {}\n",
-            if truth.ids_unique { truth.cells_with_id } else { 0 },
-            truth.cells_in_skin,
-            if truth.neighbours_correct { "true" } else { "WRONG" },
-            if truth.tree_correct { "true" } else { "WRONG" }
-        );
-    }
+    #[cfg(feature = "sim")]
+    s.push_str(&super::demo::summary(r));
     for w in &e.warnings {
         s += &format!("warning: {w}\n");
     }
@@ -170,7 +154,7 @@ pub fn summary(r: &Report, written: &[PathBuf]) -> String {
         "wall time {:.1} s (organize {:.1} s, explore {:.1} s",
         t.total_wall_s, t.organize_wall_s, t.explore_wall_s
     );
-    s += &if r.grasps.is_some() { format!(", teach and grasp {:.1} s)\n", t.grasp_wall_s) } else { ")\n".to_owned() };
+    s += &if t.grasp_wall_s > 0.0 { format!(", teach and grasp {:.1} s)\n", t.grasp_wall_s) } else { ")\n".to_owned() };
     if let Some(index) = written.iter().find(|p| p.ends_with("index.html")) {
         s += &format!("report: {} ({} files)", index.display(), written.len());
     }

@@ -1,22 +1,32 @@
 //! The `skin` command line: one module per subcommand, dispatched here.
+//! The subcommands that build or serve the simulator need the `sim`
+//! feature.
 
+#[cfg(feature = "sim")]
 mod calibrate;
+mod cells_json;
 mod config;
+#[cfg(feature = "sim")]
 mod demo;
+#[cfg(feature = "sim")]
 mod explore;
 mod flash;
+#[cfg(feature = "sim")]
 mod grasp;
 mod job;
 mod keygen;
 mod live;
 mod loadgen;
 mod monitor;
+#[cfg(feature = "sim")]
 mod objects;
 mod replay;
 mod run;
 mod seconds;
 mod sign;
+#[cfg(feature = "sim")]
 mod sim_endpoint;
+#[cfg(feature = "sim")]
 mod world;
 
 use std::process::ExitCode;
@@ -34,12 +44,16 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// The main job on the built-in simulated robot and skin: organize, explore, teach, grasp, report.
+    #[cfg(feature = "sim")]
     Demo(demo::Args),
     /// Learn the robot's kinematic tree and sensory-motor map from its skin (section 4).
+    #[cfg(feature = "sim")]
     Explore(explore::Args),
     /// Calibrate every skin cell's pose on the robot's own URDF, in simulation: explore, then fit.
+    #[cfg(feature = "sim")]
     Calibrate(calibrate::Args),
     /// Teach key poses by touch and grasp the objects of Figure 16 in simulation (sections 5 and 6).
+    #[cfg(feature = "sim")]
     Grasp(grasp::Args),
     /// Watch the skin live: cells, rates, tactile events, drops.
     Monitor(monitor::Args),
@@ -50,6 +64,7 @@ enum Command {
     /// Feed a recording (`skin run --record`, `skin demo`) to the host instead of the network.
     Replay(replay::Args),
     /// Serve the built-in simulated robot and skin on loopback UDP, for `skin run` in another terminal.
+    #[cfg(feature = "sim")]
     SimEndpoint(sim_endpoint::Args),
     /// Simulate a skin that sends interface datagrams to a host (for measuring and watching without hardware).
     Loadgen(loadgen::Args),
@@ -69,15 +84,20 @@ pub fn main() -> ExitCode {
         .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()))
         .init();
     let result = match Cli::parse().command {
+        #[cfg(feature = "sim")]
         Command::Demo(args) => demo::run(args),
+        #[cfg(feature = "sim")]
         Command::Explore(args) => explore::run(args),
+        #[cfg(feature = "sim")]
         Command::Calibrate(args) => calibrate::run(args),
+        #[cfg(feature = "sim")]
         Command::Grasp(args) => grasp::run(args),
         Command::Monitor(args) => monitor::run(args),
         Command::Config(args) => config::run(args),
         Command::Loadgen(args) => loadgen::run(args),
         Command::Run(args) => run::run(args),
         Command::Replay(args) => replay::run(args),
+        #[cfg(feature = "sim")]
         Command::SimEndpoint(args) => sim_endpoint::run(args),
         Command::Keygen(args) => keygen::run(args),
         Command::Sign(args) => sign::run(args),

@@ -53,7 +53,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         let cfg = CalibrateConfig { range, ..CalibrateConfig::default() };
         let c = calibrate(&mut replay, &model, &exploration, &cfg, &mut |_| {})?;
         if args.json {
-            serde_json::to_string_pretty(&super::calibrate::cells_json(&c))?
+            serde_json::to_string_pretty(&super::cells_json::cells_json(&c))?
         } else {
             skin_toml(&model, &c)
         }

@@ -6,10 +6,12 @@
 //! merges cells into body parts and DoFs into joints ([`merge`]), finds the
 //! kinematic tree ([`tree`]) and then explores how each DoF moves each cell
 //! along its normal ([`smm`]). Everything goes through the [`Robot`] and
-//! [`SampleSource`] traits; [`check`] compares a result with the
-//! simulator's ground truth and is never used by the exploration itself.
+//! [`SampleSource`] traits; `check` (the `sim` feature) compares a result
+//! with the simulator's ground truth and is never used by the exploration
+//! itself.
 
 pub mod activity;
+#[cfg(feature = "sim")]
 pub mod check;
 mod fit;
 pub mod lowpass;

@@ -5,11 +5,11 @@ use std::fmt::Write;
 use super::Report;
 
 /// Text made safe inside HTML.
-fn escape(s: &str) -> String {
+pub(super) fn escape(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
-fn row(out: &mut String, key: &str, value: &str) {
+pub(super) fn row(out: &mut String, key: &str, value: &str) {
     let _ = writeln!(out, "<tr><th>{}</th><td>{}</td></tr>", escape(key), escape(value));
 }
 
@@ -76,45 +76,11 @@ pub fn page(r: &Report) -> String {
             i.frames.rejected_total()
         ),
     );
-    if let Some(l) = &r.latency {
-        row(&mut s, "network latency", &format!("median {} us, 99% {} us, max {} us", l.p50_us, l.p99_us, l.max_us));
-    }
-    if let Some(truth) = &r.truth {
-        let mark = |ok: bool| if ok { "<span class=\"ok\">yes</span>" } else { "<span class=\"bad\">NO</span>" };
-        let _ = writeln!(
-            s,
-            "<tr><th>checked against the simulator</th><td>IDs unique: {}; neighbour tables true: {}; kinematic tree true: {} ({} wrong activity entries); sensory-motor map mean |w - w<sub>true</sub>| {:.3}</td></tr>",
-            mark(truth.ids_unique && truth.cells_with_id == truth.cells_in_skin),
-            mark(truth.neighbours_correct),
-            mark(truth.tree_correct),
-            truth.wrong_activity_entries,
-            truth.smm_mean_abs_error
-        );
-    }
+    #[cfg(feature = "sim")]
+    super::sim::html::summary_rows(&mut s, r);
     s += "</table>\n";
-    if let Some(g) = &r.grasps {
-        s += "<h2>Teaching and grasping</h2>\n";
-        let _ = writeln!(s, "<p>{}</p>", escape(&g.how));
-        s += "<table>\n<tr><th>key pose</th><th>taught in (robot time)</th></tr>\n";
-        for l in &g.lessons {
-            let _ = writeln!(s, "<tr><td>{}</td><td>{:.1} s</td></tr>", escape(&l.pose), l.time_s);
-        }
-        s += "</table>\n<table>\n<tr><th>object</th><th>verdict (the truth's)</th><th>controller ended in</th><th>time</th><th>grip force (object only)</th><th>pats (the person)</th></tr>\n";
-        for run in &g.runs {
-            let _ = writeln!(
-                s,
-                "<tr><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{:.1} s</td><td>{:.2} N</td><td>{:.2} N</td></tr>",
-                escape(&run.object),
-                if run.succeeded { "ok" } else { "bad" },
-                run.reason.map_or("held".to_owned(), |why| format!("not held: {}", why.name())),
-                run.controller_state.name(),
-                run.time_s,
-                run.grip_force_max_n,
-                run.hand_force_max_n
-            );
-        }
-        s += "</table>\n";
-    }
+    #[cfg(feature = "sim")]
+    super::sim::html::grasps(&mut s, r);
     for w in &e.warnings {
         let _ = writeln!(s, "<p class=\"bad\">warning: {}</p>", escape(w));
     }

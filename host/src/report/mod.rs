@@ -4,7 +4,9 @@
 //!
 //! - `schema`: what `report.json` holds ([`Report`] and its sections).
 //! - `render`: the figures drawn from it.
-//! - [`traces`]: the grasps' force and proximity traces (Figure 18), CSV and SVG.
+//! - `sim` (the `sim` feature): the sections only a simulation can fill
+//!   (network latency, grasps, checks against the truth), with their figures.
+//! - `traces` (the `sim` feature): the grasps' force and proximity traces (Figure 18), CSV and SVG.
 //! - [`figures`]: the kinds of figure (grids, trees, histograms).
 //! - `staging`: the folder written beside its place and renamed into it.
 
@@ -12,12 +14,17 @@ pub mod figures;
 mod html;
 mod render;
 mod schema;
+#[cfg(feature = "sim")]
+mod sim;
 mod staging;
+#[cfg(feature = "sim")]
 pub mod traces;
 
 use std::path::{Path, PathBuf};
 
 pub use schema::*;
+#[cfg(feature = "sim")]
+pub use sim::{GraspSection, LatencySection, TruthSection};
 
 /// Why the report could not be written.
 #[derive(Debug, thiserror::Error)]

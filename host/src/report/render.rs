@@ -4,7 +4,7 @@ use std::path::Path;
 
 use super::figures::{self, tree_colour, DrawnNode, Grid};
 use super::schema::{Figure, Report};
-use super::{traces, ReportError};
+use super::ReportError;
 
 /// Draws figures from a report into a folder, and lists them.
 pub(super) struct Renderer<'a> {
@@ -21,9 +21,12 @@ impl<'a> Renderer<'a> {
         self.draw_tree()?;
         self.draw_smm()?;
         self.draw_topology()?;
+        #[cfg(feature = "sim")]
         self.draw_latency()?;
         self.draw_calibration()?;
-        self.draw_grasps()
+        #[cfg(feature = "sim")]
+        self.draw_grasps()?;
+        Ok(())
     }
 
     fn draw_calibration(&mut self) -> Result<(), ReportError> {
@@ -50,7 +53,7 @@ impl<'a> Renderer<'a> {
         )
     }
 
-    fn figure(
+    pub(super) fn figure(
         &mut self,
         file: &str,
         title: &str,
@@ -213,54 +216,5 @@ impl<'a> Renderer<'a> {
         self.figure("topology.svg", "Skin topology", caption, |path| {
             figures::forest(path, "skin topology: interface trees and links", &nodes, &extra, &legend)
         })
-    }
-
-    fn draw_latency(&mut self) -> Result<(), ReportError> {
-        let Some(l) = &self.report.latency else { return Ok(()) };
-        // The bulk up to half again the 99th percentile, in about 60 bins.
-        let x_max = (l.p99_us.max(1) as f64 * 1.5).ceil();
-        let width_us = (x_max / 60.0).ceil().max(1.0);
-        let mut bins: Vec<(f64, u64)> = Vec::new();
-        for &(us, n) in &l.bins_us {
-            let lo = (us as f64 / width_us).floor() * width_us;
-            match bins.last_mut() {
-                Some(b) if b.0 == lo => b.1 += n,
-                _ => bins.push((lo, n)),
-            }
-        }
-        let caption = format!(
-            "{} sensor frames from sampling to the host's socket: median {} us, 99% within {} us, longest {} us ({} frames beyond {x_max} us not drawn); {} lost.",
-            l.frames,
-            l.p50_us,
-            l.p99_us,
-            l.max_us,
-            l.bins_us.iter().filter(|b| b.0 as f64 >= x_max).map(|b| b.1).sum::<u64>(),
-            l.sensor_frames_lost
-        );
-        self.figure("latency.svg", "Network latency", caption, |path| {
-            figures::histogram(path, "skin network: latency of sensor frames", "latency (us)", &bins, width_us, x_max)
-        })
-    }
-
-    fn draw_grasps(&mut self) -> Result<(), ReportError> {
-        let Some(g) = &self.report.grasps else { return Ok(()) };
-        let written = traces::write_traces(self.dir, &g.runs)?;
-        for (run, svg) in g.runs.iter().zip(written.iter().filter(|p| p.extension().is_some_and(|e| e == "svg"))) {
-            let file = svg.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
-            self.figures.push(Figure {
-                title: format!("Grasp: {}", run.object),
-                caption: format!(
-                    "{} in {:.1} s, the controller ending in {}; largest grip force on one cell {:.2} N (the person's pats {:.2} N). Joint positions, summed force and highest proximity per touch area against time after the launching pat; grey lines mark state changes (Figure 18). Data: {}.",
-                    run.reason.map_or("Held".to_owned(), |why| format!("NOT held ({})", why.name())),
-                    run.time_s,
-                    run.controller_state.name(),
-                    run.grip_force_max_n,
-                    run.hand_force_max_n,
-                    file.replace(".svg", ".csv")
-                ),
-                file,
-            });
-        }
-        Ok(())
     }
 }
