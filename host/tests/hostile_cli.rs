@@ -2,9 +2,11 @@
 //! with a non-zero exit code and one line naming the flag and its range,
 //! never a panic or a process left serving nothing.
 
+use std::io::{BufRead, BufReader, Read};
 use std::net::{SocketAddr, UdpSocket};
-use std::process::{Command, Output};
-use std::time::Duration;
+use std::path::PathBuf;
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 use skin_protocol::robot_link::{self, FromRobot, Refusal, ToRobot};
 
@@ -52,21 +54,29 @@ fn sim_endpoint_stops_after_its_duration_and_says_what_it_served() {
     assert!(err.starts_with("served "), "{err}");
 }
 
-/// A lockstep robot of one DoF on loopback whose clock reads `clock(seq)`
-/// at the command numbered `seq`; it serves until nobody asks for 5 s.
-fn robot(clock: fn(u32) -> u64) -> SocketAddr {
+/// A robot of four DoFs on loopback that integrates its velocity
+/// commands; its clock reads `clock(seq, since)` at the command numbered
+/// `seq`, `since` after the robot started. It serves until nobody asks for 5 s.
+fn robot(lockstep: bool, clock: fn(u32, Duration) -> u64) -> SocketAddr {
     let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
     socket.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
     let addr = socket.local_addr().unwrap();
     std::thread::spawn(move || {
         let (mut buf, mut out) = ([0u8; robot_link::MAX_DATAGRAM], [0u8; robot_link::MAX_DATAGRAM]);
+        let (start, mut positions) = (Instant::now(), [0.0; 4]);
         while let Ok((n, from)) = socket.recv_from(&mut buf) {
             let answer = match robot_link::decode::<ToRobot>(&buf[..n]) {
-                Ok(ToRobot::Hello) => FromRobot::Info { dofs: 1, period_us: 4000, lockstep: true },
-                Ok(ToRobot::DofName { index }) => FromRobot::DofName { index, name: "j".chars().collect() },
+                Ok(ToRobot::Hello) => FromRobot::Info { dofs: 4, period_us: 4000, lockstep },
+                Ok(ToRobot::DofName { index }) => {
+                    FromRobot::DofName { index, name: format!("j{index}").chars().collect() }
+                }
                 Ok(ToRobot::DofKind { .. }) => FromRobot::Refused { seq: 0, reason: Refusal::NoSuchDof },
-                Ok(ToRobot::Command { seq, .. }) => {
-                    FromRobot::State { seq, time_us: clock(seq), positions: [0.0].into_iter().collect() }
+                Ok(ToRobot::Command { seq, velocities }) => {
+                    for (q, w) in positions.iter_mut().zip(&velocities) {
+                        *q += w * 0.004;
+                    }
+                    let time_us = clock(seq, start.elapsed());
+                    FromRobot::State { seq, time_us, positions: positions.into_iter().collect() }
                 }
                 Err(_) => continue,
             };
@@ -75,6 +85,16 @@ fn robot(clock: fn(u32) -> u64) -> SocketAddr {
         }
     });
     addr
+}
+
+/// Reads `child`'s stderr until a line containing `line`; the lines read.
+fn stderr_until(child: &mut Child, line: &str) -> String {
+    let mut reader = BufReader::new(child.stderr.as_mut().unwrap());
+    let mut read = String::new();
+    while !read.lines().last().is_some_and(|l| l.contains(line)) {
+        assert!(reader.read_line(&mut read).unwrap() > 0, "no `{line}` in {read}");
+    }
+    read
 }
 
 /// `skin run` against `robot` with no skin, and `more` flags: its exit code and stderr.
@@ -92,7 +112,7 @@ fn run_against(robot: SocketAddr, more: &[&str]) -> (Option<i32>, String) {
 #[test]
 fn a_robot_clock_that_freezes_ends_skin_run_on_the_wall_clock() {
     // It stops at 40 ms, long before the 30 s organization timeout.
-    let (code, err) = run_against(robot(|seq| 4000 * u64::from(seq.min(10))), &[]);
+    let (code, err) = run_against(robot(true, |seq, _| 4000 * u64::from(seq.min(10))), &[]);
     assert_eq!(code, Some(1), "{err}");
     assert!(err.starts_with("error: the robot's clock stood still at 0.04"), "{err}");
     assert!(err.contains("s for 2.0 s of wall-clock time while it answered commands"), "{err}");
@@ -100,7 +120,7 @@ fn a_robot_clock_that_freezes_ends_skin_run_on_the_wall_clock() {
 
 #[test]
 fn a_robot_clock_that_runs_backwards_ends_skin_run_at_once() {
-    let (code, err) = run_against(robot(|seq| 4000 * u64::from(1000u32.saturating_sub(seq))), &[]);
+    let (code, err) = run_against(robot(true, |seq, _| 4000 * u64::from(1000u32.saturating_sub(seq))), &[]);
     assert_eq!(code, Some(1), "{err}");
     assert_eq!(
         err.trim_end(),
@@ -111,7 +131,7 @@ fn a_robot_clock_that_runs_backwards_ends_skin_run_at_once() {
 #[test]
 fn a_robot_clock_that_crawls_ends_organizing_on_the_wall_clock() {
     // 1 us per 4 ms command: the 1 s timeout would take 250,000 commands of robot time.
-    let (code, err) = run_against(robot(u64::from), &["--organize-timeout", "1"]);
+    let (code, err) = run_against(robot(true, |seq, _| u64::from(seq)), &["--organize-timeout", "1"]);
     assert_eq!(code, Some(1), "{err}");
     assert!(err.starts_with("error: the skin did not organize within 1 s of wall-clock time: 0 cells heard"), "{err}");
 }
@@ -144,4 +164,107 @@ fn sim_endpoint_refuses_port_0_for_the_host_and_names_an_address_in_use() {
             "cannot bind {robot}: Address already in use (os error 98) (is another endpoint running there? choose another port)"
         ),
     );
+}
+
+/// `skin loadgen` of 8 cells on interface ports 0 and 1 sending to `to`
+/// for `seconds`, with their neighbour tables every 0.2 s.
+fn loadgen(to: &str, seconds: &str) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_skin"));
+    command
+        .args(["loadgen", "--json", "--cells", "8", "--ports", "2", "--report-period", "0.2", "--to", to])
+        .args(["--duration", seconds])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null());
+    command
+}
+
+/// Logged by `skin run` when it starts exploring.
+const EXPLORING: &str = "the skin organized; exploring the body";
+
+/// `skin run` for `cells` cells heard on `interface`, against `robot`,
+/// logging at info level on a piped stderr; and its report folder.
+fn exploring_run(interface: &str, robot: &str, cells: &str, name: &str) -> (Child, PathBuf) {
+    let out_dir = std::env::temp_dir().join(format!("skin-hostile-cli-{}-{name}", std::process::id()));
+    let run = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(["run", "--cells", cells, "--interface", interface, "--robot", robot, "--out"])
+        .arg(&out_dir)
+        .env("RUST_LOG", "info")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    (run, out_dir)
+}
+
+/// Waits for `run` to end: its exit code, and `read` with the rest of its stderr.
+fn run_end(mut run: Child, mut read: String) -> (Option<i32>, String) {
+    run.stderr.take().unwrap().read_to_string(&mut read).unwrap();
+    (run.wait().unwrap().code(), read)
+}
+
+#[test]
+fn a_skin_that_stops_sending_mid_run_ends_skin_run_naming_its_ports() {
+    // A real-time robot and its skin; once the run explores, another
+    // sender claims the skin's ports from new addresses (as a restarted
+    // endpoint would) and the skin stops. The run must not go on with gaps
+    // and report.
+    let robot = robot(false, |_, since| since.as_micros() as u64);
+    let interface = free_addr();
+    let (mut run, out_dir) = exploring_run(&interface, &robot.to_string(), "8", "silent");
+    let mut skin = loadgen(&interface, "60").spawn().unwrap();
+    let stderr = stderr_until(&mut run, EXPLORING);
+    let mut other = loadgen(&interface, "60").spawn().unwrap();
+    std::thread::sleep(Duration::from_millis(200));
+    skin.kill().unwrap();
+    skin.wait().unwrap();
+    let stopped = Instant::now();
+    let (code, stderr) = run_end(run, stderr);
+    let took = stopped.elapsed();
+    other.kill().unwrap();
+    other.wait().unwrap();
+    assert_eq!(code, Some(1), "{stderr}");
+    // Above it, the warnings that named the other sender as it came.
+    let err = stderr.trim_end().lines().last().unwrap_or_default();
+    assert!(stderr.contains("dropped datagram: spoofed port") && !stderr.contains("panicked"), "{stderr}");
+    let says = "error: the skin stopped sending: interface ports 0, 1 sent nothing for 0.05 s of robot time while the robot answered; ";
+    assert!(err.starts_with(says), "{err}");
+    assert!(err.contains(" datagrams from other addresses were dropped as spoofed (a skin endpoint that restarts sends from new ones)"), "{err}");
+    assert!(err.ends_with("then start the run again: its measurements would have gaps)"), "{err}");
+    assert!(took < Duration::from_secs(1), "ended {took:?} after the skin stopped");
+    assert!(!out_dir.join("report.json").exists(), "no report of a run whose data stopped");
+}
+
+#[test]
+fn a_sim_endpoint_restarted_mid_run_ends_skin_run_naming_the_restart() {
+    let (host, robot) = (free_addr(), free_addr());
+    let endpoint = || {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_skin"))
+            .args(["sim-endpoint", "--duration", "60", "--host", &host, "--robot", &robot])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let mut announced = String::new();
+        BufReader::new(child.stdout.take().unwrap()).read_line(&mut announced).unwrap();
+        assert!(announced.starts_with(&format!("serving the simulated robot on {robot}")), "{announced}");
+        child
+    };
+    let mut first = endpoint();
+    let (mut run, out_dir) = exploring_run(&host, &robot, "74", "restart");
+    // Killed while the host explores (in lockstep, the robot waits for
+    // it), and started again on the same ports: the robot, its clock and
+    // the skin start over.
+    let stderr = stderr_until(&mut run, EXPLORING);
+    first.kill().unwrap();
+    first.wait().unwrap();
+    let mut again = endpoint();
+    let (code, stderr) = run_end(run, stderr);
+    again.kill().unwrap();
+    again.wait().unwrap();
+    assert_eq!(code, Some(1), "{stderr}");
+    let err = stderr.trim_end().lines().last().unwrap_or_default();
+    assert!(err.starts_with("error: the robot's clock ran backwards, from "), "{stderr}");
+    assert!(err.ends_with(" s (was the robot restarted?)"), "{err}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!out_dir.join("report.json").exists(), "no report of a run whose robot restarted");
 }

@@ -27,6 +27,7 @@ pub mod loadgen;
 mod ports;
 mod ratelog;
 mod sequence;
+mod silence;
 mod socket;
 
 use std::net::SocketAddr;
@@ -40,6 +41,7 @@ pub use counters::{DatagramCounters, DatagramReject, FrameCounters, FrameReject,
 pub use event::{Event, EventKind};
 pub use ingest::{Ingest, MAX_UNHEARD_IDS};
 pub use ports::{Port, PortStats, Ports, REBIND_QUIET_US};
+pub use silence::{silence_bound_s, SilenceWatch, Silent};
 
 use crate::config::InterfaceConfig;
 use crate::registry::Registry;
