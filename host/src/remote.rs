@@ -166,6 +166,10 @@ impl RobotLink {
         })?;
         match answer {
             FromRobot::State { time_us, positions, .. } if positions.len() == self.command.len() => {
+                // A broken encoder or driver is refused at once, in every step.
+                if let Some(d) = positions.iter().position(|q| !q.is_finite()) {
+                    return Err(RobotError::FeedbackNotFinite(d));
+                }
                 self.clock(time_us)?;
                 self.positions.clear();
                 self.positions.extend_from_slice(&positions);

@@ -55,9 +55,10 @@ fn sim_endpoint_stops_after_its_duration_and_says_what_it_served() {
 }
 
 /// A robot of four DoFs on loopback that integrates its velocity
-/// commands; its clock reads `clock(seq, since)` at the command numbered
-/// `seq`, `since` after the robot started. It serves until nobody asks for 5 s.
-fn robot(lockstep: bool, clock: fn(u32, Duration) -> u64) -> SocketAddr {
+/// commands and reports the positions times `gain`; its clock reads
+/// `clock(seq, since)` at the command numbered `seq`, `since` after the
+/// robot started. It serves until nobody asks for 5 s.
+fn robot(lockstep: bool, clock: fn(u32, Duration) -> u64, gain: f64) -> SocketAddr {
     let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
     socket.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
     let addr = socket.local_addr().unwrap();
@@ -76,7 +77,7 @@ fn robot(lockstep: bool, clock: fn(u32, Duration) -> u64) -> SocketAddr {
                         *q += w * 0.004;
                     }
                     let time_us = clock(seq, start.elapsed());
-                    FromRobot::State { seq, time_us, positions: positions.into_iter().collect() }
+                    FromRobot::State { seq, time_us, positions: positions.iter().map(|q| q * gain).collect() }
                 }
                 Err(_) => continue,
             };
@@ -112,7 +113,7 @@ fn run_against(robot: SocketAddr, more: &[&str]) -> (Option<i32>, String) {
 #[test]
 fn a_robot_clock_that_freezes_ends_skin_run_on_the_wall_clock() {
     // It stops at 40 ms, long before the 30 s organization timeout.
-    let (code, err) = run_against(robot(true, |seq, _| 4000 * u64::from(seq.min(10))), &[]);
+    let (code, err) = run_against(robot(true, |seq, _| 4000 * u64::from(seq.min(10)), 1.0), &[]);
     assert_eq!(code, Some(1), "{err}");
     assert!(err.starts_with("error: the robot's clock stood still at 0.04"), "{err}");
     assert!(err.contains("s for 2.0 s of wall-clock time while it answered commands"), "{err}");
@@ -120,7 +121,7 @@ fn a_robot_clock_that_freezes_ends_skin_run_on_the_wall_clock() {
 
 #[test]
 fn a_robot_clock_that_runs_backwards_ends_skin_run_at_once() {
-    let (code, err) = run_against(robot(true, |seq, _| 4000 * u64::from(1000u32.saturating_sub(seq))), &[]);
+    let (code, err) = run_against(robot(true, |seq, _| 4000 * u64::from(1000u32.saturating_sub(seq)), 1.0), &[]);
     assert_eq!(code, Some(1), "{err}");
     assert_eq!(
         err.trim_end(),
@@ -131,9 +132,69 @@ fn a_robot_clock_that_runs_backwards_ends_skin_run_at_once() {
 #[test]
 fn a_robot_clock_that_crawls_ends_organizing_on_the_wall_clock() {
     // 1 us per 4 ms command: the 1 s timeout would take 250,000 commands of robot time.
-    let (code, err) = run_against(robot(true, |seq, _| u64::from(seq)), &["--organize-timeout", "1"]);
+    let (code, err) = run_against(robot(true, |seq, _| u64::from(seq), 1.0), &["--organize-timeout", "1"]);
     assert_eq!(code, Some(1), "{err}");
     assert!(err.starts_with("error: the skin did not organize within 1 s of wall-clock time: 0 cells heard"), "{err}");
+}
+
+#[test]
+fn a_robot_reporting_non_finite_positions_ends_skin_run_at_once() {
+    let (code, err) = run_against(robot(true, |seq, _| 4000 * u64::from(seq), f64::NAN), &[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert_eq!(
+        err.trim_end(),
+        "error: the robot reports a position for DoF 0 that is not finite (NaN or infinite): check its encoder and driver"
+    );
+}
+
+#[test]
+fn a_robot_description_no_robot_has_is_refused_before_the_robot_is_asked() {
+    let robot = free_addr();
+    let one_link = |geometry: &str, mass: &str, origin: &str| {
+        format!(
+            r#"<robot name="r"><link name="base"/><link name="l"><inertial><mass value="{mass}"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial><visual><geometry>{geometry}</geometry></visual></link><joint name="j" type="revolute"><parent link="base"/><child link="l"/><origin xyz="{origin}"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"#
+        )
+    };
+    let cube = r#"<box size="0.1 0.1 0.1"/>"#;
+    let deep = format!("<robot name=\"r\">{}{}</robot>", "<a>".repeat(20_000), "</a>".repeat(20_000));
+    for (name, urdf, says) in [
+        ("deep", deep, "the URDF has more than 64 levels of element nesting, the most the simulator accepts"),
+        (
+            "box",
+            one_link(r#"<box size="1e300 1e300 1e300"/>"#, "1", "0 0 0"),
+            r#"link "l" <visual> <box> size = 1e300 is out of range: from 0 to 1000 m"#,
+        ),
+        (
+            "cylinder",
+            one_link(r#"<cylinder radius="1e200" length="1"/>"#, "1", "0 0 0"),
+            r#"link "l" <visual> <cylinder> radius = 1e200 is out of range: from 0 to 1000 m"#,
+        ),
+        (
+            "mass",
+            one_link(cube, "1e300", "0 0 0"),
+            r#"link "l" <mass> value = 1e300 is out of range: from 0 to 1e6 kg"#,
+        ),
+        (
+            "origin",
+            one_link(cube, "1", "1e300 0 0"),
+            r#"joint "j" <origin> xyz = 1e300 is out of range: from -1000 to 1000 m"#,
+        ),
+        (
+            "negative",
+            one_link(r#"<box size="-0.1 0.1 0.1"/>"#, "1", "0 0 0"),
+            r#"link "l" <visual> <box> size = -0.1 is out of range: from 0 to 1000 m"#,
+        ),
+    ] {
+        let file = std::env::temp_dir().join(format!("skin-hostile-cli-{}-{name}.urdf", std::process::id()));
+        std::fs::write(&file, urdf).unwrap();
+        let path = file.to_str().unwrap();
+        let out = std::env::temp_dir().join(format!("skin-hostile-cli-{}-urdf", std::process::id()));
+        refused(
+            &["run", "--robot", &robot, "--urdf", path, "--out", out.to_str().unwrap()],
+            &format!("{path}: {says}"),
+        );
+        std::fs::remove_file(&file).unwrap();
+    }
 }
 
 #[test]
@@ -178,6 +239,21 @@ fn loadgen(to: &str, seconds: &str) -> Command {
     command
 }
 
+/// `skin sim-endpoint` serving its robot on `robot` and its skin to `host`
+/// for at most 60 s, once it said so.
+fn sim_endpoint(host: &str, robot: &str) -> Child {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(["sim-endpoint", "--duration", "60", "--host", host, "--robot", robot])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut announced = String::new();
+    BufReader::new(child.stdout.take().unwrap()).read_line(&mut announced).unwrap();
+    assert!(announced.starts_with(&format!("serving the simulated robot on {robot}")), "{announced}");
+    child
+}
+
 /// Logged by `skin run` when it starts exploring.
 const EXPLORING: &str = "the skin organized; exploring the body";
 
@@ -208,13 +284,13 @@ fn a_skin_that_stops_sending_mid_run_ends_skin_run_naming_its_ports() {
     // sender claims the skin's ports from new addresses (as a restarted
     // endpoint would) and the skin stops. The run must not go on with gaps
     // and report.
-    let robot = robot(false, |_, since| since.as_micros() as u64);
+    let robot = robot(false, |_, since| since.as_micros() as u64, 1.0);
     let interface = free_addr();
     let (mut run, out_dir) = exploring_run(&interface, &robot.to_string(), "8", "silent");
     let mut skin = loadgen(&interface, "60").spawn().unwrap();
-    let stderr = stderr_until(&mut run, EXPLORING);
+    let mut stderr = stderr_until(&mut run, EXPLORING);
     let mut other = loadgen(&interface, "60").spawn().unwrap();
-    std::thread::sleep(Duration::from_millis(200));
+    stderr += &stderr_until(&mut run, "dropped datagram: spoofed port");
     skin.kill().unwrap();
     skin.wait().unwrap();
     let stopped = Instant::now();
@@ -225,7 +301,7 @@ fn a_skin_that_stops_sending_mid_run_ends_skin_run_naming_its_ports() {
     assert_eq!(code, Some(1), "{stderr}");
     // Above it, the warnings that named the other sender as it came.
     let err = stderr.trim_end().lines().last().unwrap_or_default();
-    assert!(stderr.contains("dropped datagram: spoofed port") && !stderr.contains("panicked"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
     let says = "error: the skin stopped sending: interface ports 0, 1 sent nothing for 0.05 s of robot time while the robot answered; ";
     assert!(err.starts_with(says), "{err}");
     assert!(err.contains(" datagrams from other addresses were dropped as spoofed (a skin endpoint that restarts sends from new ones)"), "{err}");
@@ -237,18 +313,7 @@ fn a_skin_that_stops_sending_mid_run_ends_skin_run_naming_its_ports() {
 #[test]
 fn a_sim_endpoint_restarted_mid_run_ends_skin_run_naming_the_restart() {
     let (host, robot) = (free_addr(), free_addr());
-    let endpoint = || {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_skin"))
-            .args(["sim-endpoint", "--duration", "60", "--host", &host, "--robot", &robot])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap();
-        let mut announced = String::new();
-        BufReader::new(child.stdout.take().unwrap()).read_line(&mut announced).unwrap();
-        assert!(announced.starts_with(&format!("serving the simulated robot on {robot}")), "{announced}");
-        child
-    };
+    let endpoint = || sim_endpoint(&host, &robot);
     let mut first = endpoint();
     let (mut run, out_dir) = exploring_run(&host, &robot, "74", "restart");
     // Killed while the host explores (in lockstep, the robot waits for
@@ -267,4 +332,24 @@ fn a_sim_endpoint_restarted_mid_run_ends_skin_run_naming_the_restart() {
     assert!(err.ends_with(" s (was the robot restarted?)"), "{err}");
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(!out_dir.join("report.json").exists(), "no report of a run whose robot restarted");
+}
+
+#[test]
+fn a_second_skin_run_against_a_served_robot_is_told_it_serves_another_host() {
+    let (host, robot) = (free_addr(), free_addr());
+    let mut endpoint = sim_endpoint(&host, &robot);
+    let (mut first, _) = exploring_run(&host, &robot, "74", "first-host");
+    stderr_until(&mut first, EXPLORING);
+    let (second, out_dir) = exploring_run(&free_addr(), &robot, "74", "second-host");
+    let (code, stderr) = run_end(second, String::new());
+    for child in [&mut first, &mut endpoint] {
+        child.kill().unwrap();
+        child.wait().unwrap();
+    }
+    assert_eq!(code, Some(1), "{stderr}");
+    assert_eq!(
+        stderr.trim_end(),
+        format!("error: the robot at {robot} serves another host and refuses this one: stop the other host or restart the robot endpoint")
+    );
+    assert!(!out_dir.join("report.json").exists());
 }
