@@ -8,7 +8,10 @@ use std::path::PathBuf;
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use skin_protocol::interface::{encode, DatagramHeader, MAX_DATAGRAM};
+use skin_protocol::message::{IdRequest, Port};
 use skin_protocol::robot_link::{self, FromRobot, Refusal, ToRobot};
+use skin_protocol::{Address, Frame, Message};
 
 fn skin(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_skin")).args(args).output().expect("the skin binary runs")
@@ -258,12 +261,14 @@ fn sim_endpoint(host: &str, robot: &str) -> Child {
 const EXPLORING: &str = "the skin organized; exploring the body";
 
 /// `skin run` for `cells` cells heard on `interface`, against `robot`,
-/// logging at info level on a piped stderr; and its report folder.
-fn exploring_run(interface: &str, robot: &str, cells: &str, name: &str) -> (Child, PathBuf) {
+/// with `more` flags, logging at info level on a piped stderr; and its
+/// report folder.
+fn exploring_run(interface: &str, robot: &str, cells: &str, more: &[&str], name: &str) -> (Child, PathBuf) {
     let out_dir = std::env::temp_dir().join(format!("skin-hostile-cli-{}-{name}", std::process::id()));
     let run = Command::new(env!("CARGO_BIN_EXE_skin"))
         .args(["run", "--cells", cells, "--interface", interface, "--robot", robot, "--out"])
         .arg(&out_dir)
+        .args(more)
         .env("RUST_LOG", "info")
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -286,7 +291,7 @@ fn a_skin_that_stops_sending_mid_run_ends_skin_run_naming_its_ports() {
     // and report.
     let robot = robot(false, |_, since| since.as_micros() as u64, 1.0);
     let interface = free_addr();
-    let (mut run, out_dir) = exploring_run(&interface, &robot.to_string(), "8", "silent");
+    let (mut run, out_dir) = exploring_run(&interface, &robot.to_string(), "8", &[], "silent");
     let mut skin = loadgen(&interface, "60").spawn().unwrap();
     let mut stderr = stderr_until(&mut run, EXPLORING);
     let mut other = loadgen(&interface, "60").spawn().unwrap();
@@ -315,7 +320,7 @@ fn a_sim_endpoint_restarted_mid_run_ends_skin_run_naming_the_restart() {
     let (host, robot) = (free_addr(), free_addr());
     let endpoint = || sim_endpoint(&host, &robot);
     let mut first = endpoint();
-    let (mut run, out_dir) = exploring_run(&host, &robot, "74", "restart");
+    let (mut run, out_dir) = exploring_run(&host, &robot, "74", &[], "restart");
     // Killed while the host explores (in lockstep, the robot waits for
     // it), and started again on the same ports: the robot, its clock and
     // the skin start over.
@@ -338,9 +343,9 @@ fn a_sim_endpoint_restarted_mid_run_ends_skin_run_naming_the_restart() {
 fn a_second_skin_run_against_a_served_robot_is_told_it_serves_another_host() {
     let (host, robot) = (free_addr(), free_addr());
     let mut endpoint = sim_endpoint(&host, &robot);
-    let (mut first, _) = exploring_run(&host, &robot, "74", "first-host");
+    let (mut first, _) = exploring_run(&host, &robot, "74", &[], "first-host");
     stderr_until(&mut first, EXPLORING);
-    let (second, out_dir) = exploring_run(&free_addr(), &robot, "74", "second-host");
+    let (second, out_dir) = exploring_run(&free_addr(), &robot, "74", &[], "second-host");
     let (code, stderr) = run_end(second, String::new());
     for child in [&mut first, &mut endpoint] {
         child.kill().unwrap();
@@ -351,5 +356,54 @@ fn a_second_skin_run_against_a_served_robot_is_told_it_serves_another_host() {
         stderr.trim_end(),
         format!("error: the robot at {robot} serves another host and refuses this one: stop the other host or restart the robot endpoint")
     );
+    assert!(!out_dir.join("report.json").exists());
+}
+
+#[test]
+fn a_flood_of_id_requests_on_an_unpinned_port_is_named_when_the_skin_cannot_organize() {
+    // Another sender claims interface port 0 first and floods it with ID
+    // requests from made-up places; the skin's own port 0 is then dropped
+    // as spoofed, and only its port 1 organizes.
+    let robot = robot(false, |_, since| since.as_micros() as u64, 1.0);
+    let interface = free_addr();
+    let (mut run, out_dir) = exploring_run(&interface, &robot.to_string(), "8", &["--organize-timeout", "3"], "flood");
+    let flooder = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let flood = |seq: u32| {
+        let frames: Vec<Frame> = (0..72u16)
+            .map(|k| {
+                let parent = Address(1 + ((seq * 72 + u32::from(k)) % 60_000) as u16);
+                let request = IdRequest { parent, port: Port::P0 };
+                Frame::new(Address::UNASSIGNED, Address::HOST, &Message::IdRequest(request))
+            })
+            .collect();
+        let mut buf = [0u8; MAX_DATAGRAM];
+        let n = encode(DatagramHeader { interface: 0, seq, timestamp_us: 0 }, &frames, &mut buf).unwrap();
+        flooder.send_to(&buf[..n], &interface).unwrap();
+    };
+    flood(0);
+    std::thread::sleep(Duration::from_millis(100));
+    let mut skin = loadgen(&interface, "60").spawn().unwrap();
+    // 72 requests every 10 ms until the run gives up.
+    let mut seq = 1;
+    while run.try_wait().unwrap().is_none() {
+        flood(seq);
+        seq += 1;
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let (code, stderr) = run_end(run, String::new());
+    skin.kill().unwrap();
+    skin.wait().unwrap();
+    assert_eq!(code, Some(1), "{stderr}");
+    let err = stderr.trim_end().lines().last().unwrap_or_default();
+    // Robot and wall-clock time run alike here; either may end it.
+    assert!(err.starts_with("error: the skin did not organize within 3 s of "), "{err}");
+    assert!(err.contains(" time: 4 cells heard, 4 with a neighbour table, 8 expected; "), "{err}");
+    let count = |before: &str| -> u64 {
+        let at = err.find(before).unwrap_or_else(|| panic!("no `{before}` in {err}"));
+        err[..at].rsplit(' ').next().and_then(|n| n.parse().ok()).unwrap_or_else(|| panic!("{err}"))
+    };
+    assert!(count(" datagrams dropped as spoofed") > 0, "{err}");
+    assert!(count(" ID requests refused as a flood") > 1_000, "{err}");
+    assert!(err.ends_with("another sender may be using the interface ports (pin each port's address in the configuration) (check the cables and interface ports; `skin monitor` shows what arrives)"), "{err}");
     assert!(!out_dir.join("report.json").exists());
 }
