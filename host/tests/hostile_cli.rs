@@ -277,6 +277,20 @@ fn exploring_run(interface: &str, robot: &str, cells: &str, more: &[&str], name:
     (run, out_dir)
 }
 
+/// Kills a helper process and reaps it.
+fn stop(child: &mut Child) {
+    child.kill().unwrap();
+    child.wait().unwrap();
+}
+
+/// The last line of a failed run's `stderr` (the error; log lines may
+/// stand above it), once its exit `code` is 1 and nothing panicked.
+fn failure(code: Option<i32>, stderr: &str) -> &str {
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    stderr.trim_end().lines().last().unwrap_or_default()
+}
+
 /// Waits for `run` to end: its exit code, and `read` with the rest of its stderr.
 fn run_end(mut run: Child, mut read: String) -> (Option<i32>, String) {
     run.stderr.take().unwrap().read_to_string(&mut read).unwrap();
@@ -296,17 +310,13 @@ fn a_skin_that_stops_sending_mid_run_ends_skin_run_naming_its_ports() {
     let mut stderr = stderr_until(&mut run, EXPLORING);
     let mut other = loadgen(&interface, "60").spawn().unwrap();
     stderr += &stderr_until(&mut run, "dropped datagram: spoofed port");
-    skin.kill().unwrap();
-    skin.wait().unwrap();
+    stop(&mut skin);
     let stopped = Instant::now();
     let (code, stderr) = run_end(run, stderr);
     let took = stopped.elapsed();
-    other.kill().unwrap();
-    other.wait().unwrap();
-    assert_eq!(code, Some(1), "{stderr}");
+    stop(&mut other);
     // Above it, the warnings that named the other sender as it came.
-    let err = stderr.trim_end().lines().last().unwrap_or_default();
-    assert!(!stderr.contains("panicked"), "{stderr}");
+    let err = failure(code, &stderr);
     let says = "error: the skin stopped sending: interface ports 0, 1 sent nothing for 0.05 s of robot time while the robot answered; ";
     assert!(err.starts_with(says), "{err}");
     assert!(err.contains(" datagrams from other addresses were dropped as spoofed (a skin endpoint that restarts sends from new ones)"), "{err}");
@@ -325,17 +335,13 @@ fn a_sim_endpoint_restarted_mid_run_ends_skin_run_naming_the_restart() {
     // it), and started again on the same ports: the robot, its clock and
     // the skin start over.
     let stderr = stderr_until(&mut run, EXPLORING);
-    first.kill().unwrap();
-    first.wait().unwrap();
+    stop(&mut first);
     let mut again = endpoint();
     let (code, stderr) = run_end(run, stderr);
-    again.kill().unwrap();
-    again.wait().unwrap();
-    assert_eq!(code, Some(1), "{stderr}");
-    let err = stderr.trim_end().lines().last().unwrap_or_default();
+    stop(&mut again);
+    let err = failure(code, &stderr);
     assert!(err.starts_with("error: the robot's clock ran backwards, from "), "{stderr}");
     assert!(err.ends_with(" s (was the robot restarted?)"), "{err}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(!out_dir.join("report.json").exists(), "no report of a run whose robot restarted");
 }
 
@@ -347,10 +353,8 @@ fn a_second_skin_run_against_a_served_robot_is_told_it_serves_another_host() {
     stderr_until(&mut first, EXPLORING);
     let (second, out_dir) = exploring_run(&free_addr(), &robot, "74", &[], "second-host");
     let (code, stderr) = run_end(second, String::new());
-    for child in [&mut first, &mut endpoint] {
-        child.kill().unwrap();
-        child.wait().unwrap();
-    }
+    stop(&mut first);
+    stop(&mut endpoint);
     assert_eq!(code, Some(1), "{stderr}");
     assert_eq!(
         stderr.trim_end(),
@@ -391,10 +395,8 @@ fn a_flood_of_id_requests_on_an_unpinned_port_is_named_when_the_skin_cannot_orga
         std::thread::sleep(Duration::from_millis(10));
     }
     let (code, stderr) = run_end(run, String::new());
-    skin.kill().unwrap();
-    skin.wait().unwrap();
-    assert_eq!(code, Some(1), "{stderr}");
-    let err = stderr.trim_end().lines().last().unwrap_or_default();
+    stop(&mut skin);
+    let err = failure(code, &stderr);
     // Robot and wall-clock time run alike here; either may end it.
     assert!(err.starts_with("error: the skin did not organize within 3 s of "), "{err}");
     assert!(err.contains(" time: 4 cells heard, 4 with a neighbour table, 8 expected; "), "{err}");
