@@ -1,18 +1,7 @@
-//! Any text as each TOML file a user writes: the host configuration, the
-//! grasp parameters, a skin file and a topology file.
+//! Any text as each file a user writes: the host configuration, the
+//! grasp parameters, a skin file and a topology file or spec.
 #![no_main]
 
-use libfuzzer_sys::fuzz_target;
-use skin_host::config::Config;
-use skin_host::control::params::Params;
-use skin_sim::network::Topology;
-use skin_sim::robot::hrp2;
-use skin_sim::skin::Skin;
-
-fuzz_target!(|text: &str| {
-    let _ = Config::from_toml(text, "fuzz");
-    let _ = Params::from_toml_str(text);
-    let _ = Skin::from_toml_str(&hrp2::robot(), text);
-    let _ = Topology::from_text(text, false);
-    let _ = Topology::parse(text);
+libfuzzer_sys::fuzz_target!(|bytes: &[u8]| {
+    skin_fuzz_targets::config(bytes);
 });

@@ -1,8 +1,6 @@
 //! Any text as a robot description: a robot or a typed error.
 #![no_main]
 
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|text: &str| {
-    let _ = skin_sim::robot::Robot::from_urdf_str(text);
+libfuzzer_sys::fuzz_target!(|bytes: &[u8]| {
+    skin_fuzz_targets::urdf(bytes);
 });

@@ -10,11 +10,11 @@
 use std::time::Instant;
 
 use serde::Serialize;
-use skin_protocol::message::Setting;
+use skin_protocol::message::{Setting, TrafficMode};
 use skin_protocol::Address;
 
 use crate::explore::ExploreError;
-use crate::interface::EventKind;
+use crate::interface::{silence_bound_s, EventKind};
 use crate::remote::Remote;
 use crate::robot::{Robot, RobotError};
 
@@ -172,6 +172,22 @@ fn suspect(counters: &crate::interface::InterfaceCounters) -> String {
     )
 }
 
+/// How long an interface port may fall silent once `settings` are written
+/// ([`Remote::watch_silence`]): [`silence_bound_s`] of their sample rate
+/// when every cell sends every sample; `None` for event-driven traffic,
+/// where a resting skin is quiet.
+pub fn silence_bound(settings: &[Setting]) -> Option<f64> {
+    let mut rate_hz = skin_protocol::processing::DEFAULT_RATE_HZ;
+    for s in settings {
+        match *s {
+            Setting::Traffic(TrafficMode::Event) => return None,
+            Setting::SampleRateHz(r) => rate_hz = r,
+            _ => {}
+        }
+    }
+    Some(silence_bound_s(f64::from(rate_hz)))
+}
+
 /// Rounds of writing the settings a cell has not acknowledged yet.
 const SETTING_ROUNDS: usize = 20;
 /// Configuration writes sent down one interface port per round: every
@@ -256,6 +272,17 @@ fn cell_views(remote: &Remote) -> Vec<CellView> {
 mod tests {
     use super::*;
     use crate::interface::InterfaceCounters;
+
+    #[test]
+    fn ports_are_watched_for_silence_only_when_every_sample_is_sent() {
+        use crate::config::{CellSettings, Traffic};
+        assert_eq!(silence_bound(&CellSettings::default().settings()), Some(0.05));
+        assert_eq!(silence_bound(&[]), Some(0.05), "the cells' default rate");
+        let slow = CellSettings { sample_rate_hz: 2.0, filter_cutoff_hz: 1.0, ..CellSettings::default() };
+        assert_eq!(silence_bound(&slow.settings()), Some(5.0));
+        let event = CellSettings { traffic: Traffic::Event, ..CellSettings::default() };
+        assert_eq!(silence_bound(&event.settings()), None);
+    }
 
     #[test]
     fn a_skin_that_did_not_organize_names_signs_of_another_sender() {

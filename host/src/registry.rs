@@ -250,6 +250,12 @@ impl Registry {
         self.allocator.request(request)
     }
 
+    /// Takes back an ID handed out that no cell has used (see
+    /// [`Allocator::release`]); false when it was heard or not pending.
+    pub(crate) fn release(&mut self, id: Address) -> bool {
+        self.allocator.release(id)
+    }
+
     /// The record of cell `id`.
     pub fn get(&self, id: Address) -> Option<&CellRecord> {
         self.cells.get(usize::from(id.0)).and_then(Option::as_ref)

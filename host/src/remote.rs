@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 use skin_protocol::robot_link::{self, FromRobot, ToRobot, MAX_DOFS, MAX_NAME};
 use skin_protocol::{Address, Sample};
 
-use crate::interface::{Event, EventKind, Interface};
+use crate::interface::{DatagramReject, Event, EventKind, Interface, SilenceWatch};
 use crate::recording::{RecordError, Session};
 use crate::robot::{DofKind, Robot, RobotError, SampleSource};
 
@@ -166,6 +166,10 @@ impl RobotLink {
         })?;
         match answer {
             FromRobot::State { time_us, positions, .. } if positions.len() == self.command.len() => {
+                // A broken encoder or driver is refused at once, in every step.
+                if let Some(d) = positions.iter().position(|q| !q.is_finite()) {
+                    return Err(RobotError::FeedbackNotFinite(d));
+                }
                 self.clock(time_us)?;
                 self.positions.clear();
                 self.positions.extend_from_slice(&positions);
@@ -284,12 +288,14 @@ pub struct Remote {
     next_due: Option<Instant>,
     /// The recording being written, if any.
     recording: Option<Session>,
+    /// The watch on ports that stop delivering, when on.
+    silence: Option<SilenceWatch>,
 }
 
 impl Remote {
     /// Joins an open robot link and a bound interface.
     pub fn new(link: RobotLink, interface: Interface) -> Remote {
-        Remote { link, interface, events: Vec::new(), next_due: None, recording: None }
+        Remote { link, interface, events: Vec::new(), next_due: None, recording: None, silence: None }
     }
 
     /// Records every tick from now on into `session`.
@@ -305,6 +311,14 @@ impl Remote {
     /// Stops recording and publishing and closes the file; `None` when no file was recorded.
     pub fn finish_recording(&mut self) -> Option<Result<std::path::PathBuf, RecordError>> {
         self.recording.take().map(Session::finish)?.transpose()
+    }
+
+    /// From now on a tick fails with [`RobotError::SkinSilent`] when an
+    /// interface port that delivered sends nothing for `bound_s` of robot
+    /// time (see [`SilenceWatch`]); `None` stops watching. For the steps
+    /// where every cell sends every sample.
+    pub fn watch_silence(&mut self, bound_s: Option<f64>) {
+        self.silence = bound_s.map(SilenceWatch::new);
     }
 
     /// The robot link.
@@ -369,6 +383,13 @@ impl Remote {
         }
         if let Some(session) = &mut self.recording {
             session.events(&self.events, self.link.time_s());
+        }
+        if let Some(watch) = &mut self.silence {
+            watch.check(self.interface.ports(), self.link.time_s()).map_err(|s| RobotError::SkinSilent {
+                ports: s.ports,
+                silent_s: s.silent_s,
+                spoofed: self.interface.counters().datagrams.rejected(DatagramReject::Spoofed),
+            })?;
         }
         Ok(())
     }

@@ -2,11 +2,16 @@
 //! with a non-zero exit code and one line naming the flag and its range,
 //! never a panic or a process left serving nothing.
 
+use std::io::{BufRead, BufReader, Read};
 use std::net::{SocketAddr, UdpSocket};
-use std::process::{Command, Output};
-use std::time::Duration;
+use std::path::PathBuf;
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
+use skin_protocol::interface::{encode, DatagramHeader, MAX_DATAGRAM};
+use skin_protocol::message::{IdRequest, Port};
 use skin_protocol::robot_link::{self, FromRobot, Refusal, ToRobot};
+use skin_protocol::{Address, Frame, Message};
 
 fn skin(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_skin")).args(args).output().expect("the skin binary runs")
@@ -52,21 +57,30 @@ fn sim_endpoint_stops_after_its_duration_and_says_what_it_served() {
     assert!(err.starts_with("served "), "{err}");
 }
 
-/// A lockstep robot of one DoF on loopback whose clock reads `clock(seq)`
-/// at the command numbered `seq`; it serves until nobody asks for 5 s.
-fn robot(clock: fn(u32) -> u64) -> SocketAddr {
+/// A robot of four DoFs on loopback that integrates its velocity
+/// commands and reports the positions times `gain`; its clock reads
+/// `clock(seq, since)` at the command numbered `seq`, `since` after the
+/// robot started. It serves until nobody asks for 5 s.
+fn robot(lockstep: bool, clock: fn(u32, Duration) -> u64, gain: f64) -> SocketAddr {
     let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
     socket.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
     let addr = socket.local_addr().unwrap();
     std::thread::spawn(move || {
         let (mut buf, mut out) = ([0u8; robot_link::MAX_DATAGRAM], [0u8; robot_link::MAX_DATAGRAM]);
+        let (start, mut positions) = (Instant::now(), [0.0; 4]);
         while let Ok((n, from)) = socket.recv_from(&mut buf) {
             let answer = match robot_link::decode::<ToRobot>(&buf[..n]) {
-                Ok(ToRobot::Hello) => FromRobot::Info { dofs: 1, period_us: 4000, lockstep: true },
-                Ok(ToRobot::DofName { index }) => FromRobot::DofName { index, name: "j".chars().collect() },
+                Ok(ToRobot::Hello) => FromRobot::Info { dofs: 4, period_us: 4000, lockstep },
+                Ok(ToRobot::DofName { index }) => {
+                    FromRobot::DofName { index, name: format!("j{index}").chars().collect() }
+                }
                 Ok(ToRobot::DofKind { .. }) => FromRobot::Refused { seq: 0, reason: Refusal::NoSuchDof },
-                Ok(ToRobot::Command { seq, .. }) => {
-                    FromRobot::State { seq, time_us: clock(seq), positions: [0.0].into_iter().collect() }
+                Ok(ToRobot::Command { seq, velocities }) => {
+                    for (q, w) in positions.iter_mut().zip(&velocities) {
+                        *q += w * 0.004;
+                    }
+                    let time_us = clock(seq, start.elapsed());
+                    FromRobot::State { seq, time_us, positions: positions.iter().map(|q| q * gain).collect() }
                 }
                 Err(_) => continue,
             };
@@ -75,6 +89,16 @@ fn robot(clock: fn(u32) -> u64) -> SocketAddr {
         }
     });
     addr
+}
+
+/// Reads `child`'s stderr until a line containing `line`; the lines read.
+fn stderr_until(child: &mut Child, line: &str) -> String {
+    let mut reader = BufReader::new(child.stderr.as_mut().unwrap());
+    let mut read = String::new();
+    while !read.lines().last().is_some_and(|l| l.contains(line)) {
+        assert!(reader.read_line(&mut read).unwrap() > 0, "no `{line}` in {read}");
+    }
+    read
 }
 
 /// `skin run` against `robot` with no skin, and `more` flags: its exit code and stderr.
@@ -92,7 +116,7 @@ fn run_against(robot: SocketAddr, more: &[&str]) -> (Option<i32>, String) {
 #[test]
 fn a_robot_clock_that_freezes_ends_skin_run_on_the_wall_clock() {
     // It stops at 40 ms, long before the 30 s organization timeout.
-    let (code, err) = run_against(robot(|seq| 4000 * u64::from(seq.min(10))), &[]);
+    let (code, err) = run_against(robot(true, |seq, _| 4000 * u64::from(seq.min(10)), 1.0), &[]);
     assert_eq!(code, Some(1), "{err}");
     assert!(err.starts_with("error: the robot's clock stood still at 0.04"), "{err}");
     assert!(err.contains("s for 2.0 s of wall-clock time while it answered commands"), "{err}");
@@ -100,7 +124,7 @@ fn a_robot_clock_that_freezes_ends_skin_run_on_the_wall_clock() {
 
 #[test]
 fn a_robot_clock_that_runs_backwards_ends_skin_run_at_once() {
-    let (code, err) = run_against(robot(|seq| 4000 * u64::from(1000u32.saturating_sub(seq))), &[]);
+    let (code, err) = run_against(robot(true, |seq, _| 4000 * u64::from(1000u32.saturating_sub(seq)), 1.0), &[]);
     assert_eq!(code, Some(1), "{err}");
     assert_eq!(
         err.trim_end(),
@@ -111,9 +135,69 @@ fn a_robot_clock_that_runs_backwards_ends_skin_run_at_once() {
 #[test]
 fn a_robot_clock_that_crawls_ends_organizing_on_the_wall_clock() {
     // 1 us per 4 ms command: the 1 s timeout would take 250,000 commands of robot time.
-    let (code, err) = run_against(robot(u64::from), &["--organize-timeout", "1"]);
+    let (code, err) = run_against(robot(true, |seq, _| u64::from(seq), 1.0), &["--organize-timeout", "1"]);
     assert_eq!(code, Some(1), "{err}");
     assert!(err.starts_with("error: the skin did not organize within 1 s of wall-clock time: 0 cells heard"), "{err}");
+}
+
+#[test]
+fn a_robot_reporting_non_finite_positions_ends_skin_run_at_once() {
+    let (code, err) = run_against(robot(true, |seq, _| 4000 * u64::from(seq), f64::NAN), &[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert_eq!(
+        err.trim_end(),
+        "error: the robot reports a position for DoF 0 that is not finite (NaN or infinite): check its encoder and driver"
+    );
+}
+
+#[test]
+fn a_robot_description_no_robot_has_is_refused_before_the_robot_is_asked() {
+    let robot = free_addr();
+    let one_link = |geometry: &str, mass: &str, origin: &str| {
+        format!(
+            r#"<robot name="r"><link name="base"/><link name="l"><inertial><mass value="{mass}"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial><visual><geometry>{geometry}</geometry></visual></link><joint name="j" type="revolute"><parent link="base"/><child link="l"/><origin xyz="{origin}"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"#
+        )
+    };
+    let cube = r#"<box size="0.1 0.1 0.1"/>"#;
+    let deep = format!("<robot name=\"r\">{}{}</robot>", "<a>".repeat(20_000), "</a>".repeat(20_000));
+    for (name, urdf, says) in [
+        ("deep", deep, "the URDF has more than 64 levels of element nesting, the most the simulator accepts"),
+        (
+            "box",
+            one_link(r#"<box size="1e300 1e300 1e300"/>"#, "1", "0 0 0"),
+            r#"link "l" <visual> <box> size = 1e300 is out of range: from 0 to 1000 m"#,
+        ),
+        (
+            "cylinder",
+            one_link(r#"<cylinder radius="1e200" length="1"/>"#, "1", "0 0 0"),
+            r#"link "l" <visual> <cylinder> radius = 1e200 is out of range: from 0 to 1000 m"#,
+        ),
+        (
+            "mass",
+            one_link(cube, "1e300", "0 0 0"),
+            r#"link "l" <mass> value = 1e300 is out of range: from 0 to 1e6 kg"#,
+        ),
+        (
+            "origin",
+            one_link(cube, "1", "1e300 0 0"),
+            r#"joint "j" <origin> xyz = 1e300 is out of range: from -1000 to 1000 m"#,
+        ),
+        (
+            "negative",
+            one_link(r#"<box size="-0.1 0.1 0.1"/>"#, "1", "0 0 0"),
+            r#"link "l" <visual> <box> size = -0.1 is out of range: from 0 to 1000 m"#,
+        ),
+    ] {
+        let file = std::env::temp_dir().join(format!("skin-hostile-cli-{}-{name}.urdf", std::process::id()));
+        std::fs::write(&file, urdf).unwrap();
+        let path = file.to_str().unwrap();
+        let out = std::env::temp_dir().join(format!("skin-hostile-cli-{}-urdf", std::process::id()));
+        refused(
+            &["run", "--robot", &robot, "--urdf", path, "--out", out.to_str().unwrap()],
+            &format!("{path}: {says}"),
+        );
+        std::fs::remove_file(&file).unwrap();
+    }
 }
 
 #[test]
@@ -144,4 +228,184 @@ fn sim_endpoint_refuses_port_0_for_the_host_and_names_an_address_in_use() {
             "cannot bind {robot}: Address already in use (os error 98) (is another endpoint running there? choose another port)"
         ),
     );
+}
+
+/// `skin loadgen` of 8 cells on interface ports 0 and 1 sending to `to`
+/// for `seconds`, with their neighbour tables every 0.2 s.
+fn loadgen(to: &str, seconds: &str) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_skin"));
+    command
+        .args(["loadgen", "--json", "--cells", "8", "--ports", "2", "--report-period", "0.2", "--to", to])
+        .args(["--duration", seconds])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null());
+    command
+}
+
+/// `skin sim-endpoint` serving its robot on `robot` and its skin to `host`
+/// for at most 60 s, once it said so.
+fn sim_endpoint(host: &str, robot: &str) -> Child {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(["sim-endpoint", "--duration", "60", "--host", host, "--robot", robot])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut announced = String::new();
+    BufReader::new(child.stdout.take().unwrap()).read_line(&mut announced).unwrap();
+    assert!(announced.starts_with(&format!("serving the simulated robot on {robot}")), "{announced}");
+    child
+}
+
+/// Logged by `skin run` when it starts exploring.
+const EXPLORING: &str = "the skin organized; exploring the body";
+
+/// `skin run` for `cells` cells heard on `interface`, against `robot`,
+/// with `more` flags, logging at info level on a piped stderr; and its
+/// report folder.
+fn exploring_run(interface: &str, robot: &str, cells: &str, more: &[&str], name: &str) -> (Child, PathBuf) {
+    let out_dir = std::env::temp_dir().join(format!("skin-hostile-cli-{}-{name}", std::process::id()));
+    let run = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(["run", "--cells", cells, "--interface", interface, "--robot", robot, "--out"])
+        .arg(&out_dir)
+        .args(more)
+        .env("RUST_LOG", "info")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    (run, out_dir)
+}
+
+/// Kills a helper process and reaps it.
+fn stop(child: &mut Child) {
+    child.kill().unwrap();
+    child.wait().unwrap();
+}
+
+/// The last line of a failed run's `stderr` (the error; log lines may
+/// stand above it), once its exit `code` is 1 and nothing panicked.
+fn failure(code: Option<i32>, stderr: &str) -> &str {
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    stderr.trim_end().lines().last().unwrap_or_default()
+}
+
+/// Waits for `run` to end: its exit code, and `read` with the rest of its stderr.
+fn run_end(mut run: Child, mut read: String) -> (Option<i32>, String) {
+    run.stderr.take().unwrap().read_to_string(&mut read).unwrap();
+    (run.wait().unwrap().code(), read)
+}
+
+#[test]
+fn a_skin_that_stops_sending_mid_run_ends_skin_run_naming_its_ports() {
+    // A real-time robot and its skin; once the run explores, another
+    // sender claims the skin's ports from new addresses (as a restarted
+    // endpoint would) and the skin stops. The run must not go on with gaps
+    // and report.
+    let robot = robot(false, |_, since| since.as_micros() as u64, 1.0);
+    let interface = free_addr();
+    let (mut run, out_dir) = exploring_run(&interface, &robot.to_string(), "8", &[], "silent");
+    let mut skin = loadgen(&interface, "60").spawn().unwrap();
+    let mut stderr = stderr_until(&mut run, EXPLORING);
+    let mut other = loadgen(&interface, "60").spawn().unwrap();
+    stderr += &stderr_until(&mut run, "dropped datagram: spoofed port");
+    stop(&mut skin);
+    let stopped = Instant::now();
+    let (code, stderr) = run_end(run, stderr);
+    let took = stopped.elapsed();
+    stop(&mut other);
+    // Above it, the warnings that named the other sender as it came.
+    let err = failure(code, &stderr);
+    let says = "error: the skin stopped sending: interface ports 0, 1 sent nothing for 0.05 s of robot time while the robot answered; ";
+    assert!(err.starts_with(says), "{err}");
+    assert!(err.contains(" datagrams from other addresses were dropped as spoofed (a skin endpoint that restarts sends from new ones)"), "{err}");
+    assert!(err.ends_with("then start the run again: its measurements would have gaps)"), "{err}");
+    assert!(took < Duration::from_secs(1), "ended {took:?} after the skin stopped");
+    assert!(!out_dir.join("report.json").exists(), "no report of a run whose data stopped");
+}
+
+#[test]
+fn a_sim_endpoint_restarted_mid_run_ends_skin_run_naming_the_restart() {
+    let (host, robot) = (free_addr(), free_addr());
+    let endpoint = || sim_endpoint(&host, &robot);
+    let mut first = endpoint();
+    let (mut run, out_dir) = exploring_run(&host, &robot, "74", &[], "restart");
+    // Killed while the host explores (in lockstep, the robot waits for
+    // it), and started again on the same ports: the robot, its clock and
+    // the skin start over.
+    let stderr = stderr_until(&mut run, EXPLORING);
+    stop(&mut first);
+    let mut again = endpoint();
+    let (code, stderr) = run_end(run, stderr);
+    stop(&mut again);
+    let err = failure(code, &stderr);
+    assert!(err.starts_with("error: the robot's clock ran backwards, from "), "{stderr}");
+    assert!(err.ends_with(" s (was the robot restarted?)"), "{err}");
+    assert!(!out_dir.join("report.json").exists(), "no report of a run whose robot restarted");
+}
+
+#[test]
+fn a_second_skin_run_against_a_served_robot_is_told_it_serves_another_host() {
+    let (host, robot) = (free_addr(), free_addr());
+    let mut endpoint = sim_endpoint(&host, &robot);
+    let (mut first, _) = exploring_run(&host, &robot, "74", &[], "first-host");
+    stderr_until(&mut first, EXPLORING);
+    let (second, out_dir) = exploring_run(&free_addr(), &robot, "74", &[], "second-host");
+    let (code, stderr) = run_end(second, String::new());
+    stop(&mut first);
+    stop(&mut endpoint);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert_eq!(
+        stderr.trim_end(),
+        format!("error: the robot at {robot} serves another host and refuses this one: stop the other host or restart the robot endpoint")
+    );
+    assert!(!out_dir.join("report.json").exists());
+}
+
+#[test]
+fn a_flood_of_id_requests_on_an_unpinned_port_is_named_when_the_skin_cannot_organize() {
+    // Another sender claims interface port 0 first and floods it with ID
+    // requests from made-up places; the skin's own port 0 is then dropped
+    // as spoofed, and only its port 1 organizes.
+    let robot = robot(false, |_, since| since.as_micros() as u64, 1.0);
+    let interface = free_addr();
+    let (mut run, out_dir) = exploring_run(&interface, &robot.to_string(), "8", &["--organize-timeout", "3"], "flood");
+    let flooder = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let flood = |seq: u32| {
+        let frames: Vec<Frame> = (0..72u16)
+            .map(|k| {
+                let parent = Address(1 + ((seq * 72 + u32::from(k)) % 60_000) as u16);
+                let request = IdRequest { parent, port: Port::P0 };
+                Frame::new(Address::UNASSIGNED, Address::HOST, &Message::IdRequest(request))
+            })
+            .collect();
+        let mut buf = [0u8; MAX_DATAGRAM];
+        let n = encode(DatagramHeader { interface: 0, seq, timestamp_us: 0 }, &frames, &mut buf).unwrap();
+        flooder.send_to(&buf[..n], &interface).unwrap();
+    };
+    flood(0);
+    std::thread::sleep(Duration::from_millis(100));
+    let mut skin = loadgen(&interface, "60").spawn().unwrap();
+    // 72 requests every 10 ms until the run gives up.
+    let mut seq = 1;
+    while run.try_wait().unwrap().is_none() {
+        flood(seq);
+        seq += 1;
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let (code, stderr) = run_end(run, String::new());
+    stop(&mut skin);
+    let err = failure(code, &stderr);
+    // Robot and wall-clock time run alike here; either may end it.
+    assert!(err.starts_with("error: the skin did not organize within 3 s of "), "{err}");
+    assert!(err.contains(" time: 4 cells heard, 4 with a neighbour table, 8 expected; "), "{err}");
+    let count = |before: &str| -> u64 {
+        let at = err.find(before).unwrap_or_else(|| panic!("no `{before}` in {err}"));
+        err[..at].rsplit(' ').next().and_then(|n| n.parse().ok()).unwrap_or_else(|| panic!("{err}"))
+    };
+    assert!(count(" datagrams dropped as spoofed") > 0, "{err}");
+    assert!(count(" ID requests refused as a flood") > 1_000, "{err}");
+    assert!(err.ends_with("another sender may be using the interface ports (pin each port's address in the configuration) (check the cables and interface ports; `skin monitor` shows what arrives)"), "{err}");
+    assert!(!out_dir.join("report.json").exists());
 }

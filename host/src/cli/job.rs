@@ -8,7 +8,7 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressStyle};
 use skin_host::config::PortConfig;
 use skin_host::explore::{explore, Exploration, ExploreConfig};
-use skin_host::pipeline::{organize, write_settings, OrganizeConfig, Organized, PipelineError};
+use skin_host::pipeline::{organize, silence_bound, write_settings, OrganizeConfig, Organized, PipelineError};
 use skin_host::recording::{ExploreStart, RecordError, Session};
 use skin_host::remote::Remote;
 use skin_host::report::{ExplorationSection, LinkSection, Report, RobotSection, Timing};
@@ -68,6 +68,9 @@ pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
     organized.settings_written = organized.cells.len() * steps.settings.len();
     organized.settings_acknowledged = write_settings(remote, &steps.settings, ACK_WAIT_S)?;
     organizing.finish_and_clear();
+    // From here every cell sends every sample: a port falling silent ends
+    // the run instead of leaving gaps in the measurements.
+    remote.watch_silence(silence_bound(&steps.settings));
     timing.organize_wall_s = wall.elapsed().as_secs_f64();
     timing.organize_robot_s = organized.time_s;
 
@@ -82,6 +85,7 @@ pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
             ports: steps.ports.clone(),
         });
     }
+    tracing::info!(cells = organized.cells.len(), "the skin organized; exploring the body");
     let exploring = bar("{msg:24} [{bar:30}] {pos}/{len} DoF measurements");
     exploring.set_message("self-exploration");
     let exploration = explore(remote, &steps.explore, &mut |p| {

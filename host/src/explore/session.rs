@@ -17,6 +17,10 @@ use crate::robot::{Robot, RobotError, SampleSource};
 /// Proportional gain of position corrections, 1/s.
 const POSITION_GAIN: f64 = 8.0;
 
+/// Ticks a session waits for the first samples: a skin on its own clock
+/// (not in lockstep with the robot) can leave a tick without a datagram.
+const DISCOVER_TICKS: usize = 25;
+
 /// Mean and spread of every cell's acceleration over a still window.
 #[derive(Clone, Debug)]
 pub(crate) struct Window {
@@ -78,10 +82,16 @@ pub(crate) struct Session<'r, R> {
 }
 
 impl<'r, R: Robot + SampleSource> Session<'r, R> {
-    /// Opens a session on the cells that report in the first tick.
+    /// Opens a session on the cells that report in the first tick that
+    /// brings samples, within [`DISCOVER_TICKS`].
     pub fn discover(rig: &'r mut R, range: AccelRange) -> Result<Session<'r, R>, ExploreError> {
         let mut s = Session::with_cells(rig, Vec::new(), range);
-        s.tick()?;
+        for _ in 0..DISCOVER_TICKS {
+            s.tick()?;
+            if !s.samples.is_empty() {
+                break;
+            }
+        }
         let mut cells: Vec<Address> = s.samples.iter().map(|(a, _)| *a).collect();
         cells.sort_unstable();
         cells.dedup();

@@ -134,6 +134,10 @@ pub struct InterfaceCounters {
     /// [`MAX_UNHEARD_IDS`](super::ingest::MAX_UNHEARD_IDS) IDs no cell has
     /// used: a flood of requests, not a skin organizing.
     pub ids_flooded: u64,
+    /// IDs handed out that no cell used within
+    /// [`RECLAIM_UNHEARD_US`](super::ingest::RECLAIM_UNHEARD_US), taken
+    /// back so their port can answer requests again.
+    pub ids_reclaimed: u64,
     /// Datagrams sent down to the skin.
     pub sent_datagrams: u64,
     /// Frames sent down to the skin.

@@ -22,6 +22,13 @@ use crate::registry::{Registry, Seen};
 /// take every cell ID stops here, and the other ports' skin is not starved.
 pub const MAX_UNHEARD_IDS: usize = 256;
 
+/// Host time after which an ID handed out that no cell has used is taken
+/// back, when its port is at [`MAX_UNHEARD_IDS`]: 10 s, over twice the
+/// longest a cell that got its ID stays quiet (its 4 s neighbour report).
+/// Without it a flood of made-up requests would hold a port's share for
+/// good, and the real skin there would get no IDs after a rebind.
+pub const RECLAIM_UNHEARD_US: u64 = 10_000_000;
+
 /// The checks, the counters and the registry of the interface.
 #[derive(Debug)]
 pub struct Ingest {
@@ -32,8 +39,8 @@ pub struct Ingest {
     frame_log: [RateLimit; FrameReject::ALL.len()],
     exhausted_log: RateLimit,
     /// IDs handed out down each port (by port index) that no cell has used
-    /// yet.
-    unheard: Vec<Vec<Address>>,
+    /// yet, with the host time each was last asked for.
+    unheard: Vec<Vec<(Address, u64)>>,
     /// ID replies not yet sent: (port index, frame).
     replies: Vec<(usize, Frame)>,
 }
@@ -163,8 +170,26 @@ impl Ingest {
         if let Message::IdRequest(request) = message {
             let unheard = &mut self.unheard[origin.port];
             if unheard.len() >= MAX_UNHEARD_IDS {
-                let registry = &self.registry;
-                unheard.retain(|id| registry.get(*id).is_none());
+                let registry = &mut self.registry;
+                let before = self.counters.ids_reclaimed;
+                let reclaimed = &mut self.counters.ids_reclaimed;
+                unheard.retain(|&(id, asked_us)| {
+                    if registry.get(id).is_some() {
+                        return false;
+                    }
+                    let expired = now_us.saturating_sub(asked_us) >= RECLAIM_UNHEARD_US;
+                    let taken_back = expired && registry.release(id);
+                    *reclaimed += u64::from(taken_back);
+                    !taken_back
+                });
+                if self.counters.ids_reclaimed > before {
+                    tracing::warn!(
+                        port = origin.interface,
+                        "took back {} IDs handed out down this port that no cell used within {} s (made-up ID requests?)",
+                        self.counters.ids_reclaimed - before,
+                        RECLAIM_UNHEARD_US / 1_000_000
+                    );
+                }
             }
             if unheard.len() >= MAX_UNHEARD_IDS {
                 self.counters.ids_flooded += 1;
@@ -181,8 +206,10 @@ impl Ingest {
                 Some(reply) => {
                     self.counters.id_replies += 1;
                     if let Ok(Message::IdAssign(a)) = reply.message() {
-                        if !unheard.contains(&a.id) {
-                            unheard.push(a.id);
+                        // A repeated request (the cell retried) is a sign of life.
+                        match unheard.iter_mut().find(|(id, _)| *id == a.id) {
+                            Some(entry) => entry.1 = now_us,
+                            None => unheard.push((a.id, now_us)),
                         }
                         events.push(event(a.id, EventKind::IdAssigned { parent: request.parent, port: request.port }));
                     }
@@ -425,6 +452,34 @@ mod tests {
         assert!(i.datagram(addr(1000), &datagram(0, 0, &[id_request(0xFF00)]), 0, &mut ev));
         assert_eq!(i.take_replies().last().map(|r| r.0), Some(0));
         assert_eq!(i.counters().id_replies as usize, MAX_UNHEARD_IDS + 1);
+    }
+
+    #[test]
+    fn ids_no_cell_used_are_taken_back_and_the_port_answers_again() {
+        let mut i = ingest();
+        let mut ev = Vec::new();
+        // A sender made up requests until port 1 held its share, then fell silent.
+        for seq in 0..MAX_UNHEARD_IDS as u32 + 10 {
+            assert!(i.datagram(addr(2000), &datagram(1, seq, &[id_request(1 + seq as u16)]), 0, &mut ev));
+        }
+        let given = i.take_replies().len();
+        assert_eq!((given, i.counters().ids_flooded), (MAX_UNHEARD_IDS, 10));
+        // The skin's cell behind the port is answered once they expire, not before.
+        let cell = |seq| datagram(1, seq, &[id_request(0xFF01)]);
+        assert!(i.datagram(addr(2000), &cell(1000), RECLAIM_UNHEARD_US - 1, &mut ev));
+        assert!(i.take_replies().is_empty());
+        assert_eq!(i.counters().ids_reclaimed, 0);
+        assert!(i.datagram(addr(2000), &cell(1001), RECLAIM_UNHEARD_US, &mut ev));
+        let replies = i.take_replies();
+        assert_eq!(i.counters().ids_reclaimed as usize, MAX_UNHEARD_IDS);
+        // The taken-back IDs come after every fresh one.
+        let Ok(Message::IdAssign(a)) = replies[0].1.message() else { panic!("{replies:?}") };
+        assert_eq!(a.id, Address(MAX_UNHEARD_IDS as u16 + 1));
+        // The made-up place asking again gets a new ID: its old one went back.
+        assert!(i.datagram(addr(2000), &datagram(1, 1002, &[id_request(1)]), RECLAIM_UNHEARD_US, &mut ev));
+        let replies = i.take_replies();
+        let Ok(Message::IdAssign(b)) = replies[0].1.message() else { panic!("{replies:?}") };
+        assert_eq!(b.id, Address(MAX_UNHEARD_IDS as u16 + 2));
     }
 
     #[test]

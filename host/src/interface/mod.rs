@@ -27,6 +27,7 @@ pub mod loadgen;
 mod ports;
 mod ratelog;
 mod sequence;
+mod silence;
 mod socket;
 
 use std::net::SocketAddr;
@@ -38,8 +39,9 @@ use skin_protocol::{Address, Frame, Message};
 
 pub use counters::{DatagramCounters, DatagramReject, FrameCounters, FrameReject, InterfaceCounters};
 pub use event::{Event, EventKind};
-pub use ingest::{Ingest, MAX_UNHEARD_IDS};
+pub use ingest::{Ingest, MAX_UNHEARD_IDS, RECLAIM_UNHEARD_US};
 pub use ports::{Port, PortStats, Ports, REBIND_QUIET_US};
+pub use silence::{silence_bound_s, SilenceWatch, Silent};
 
 use crate::config::InterfaceConfig;
 use crate::registry::Registry;

@@ -65,6 +65,19 @@ impl Allocator {
         Some(Frame::new(Address::HOST, request.parent, &assign))
     }
 
+    /// Takes back an ID handed out that no frame has come from: a cell
+    /// that never used it, or a request someone made up. It goes back to
+    /// the pool behind every ID not yet handed out (the allocator moves on
+    /// round the ID space), so a slow cell that speaks up later is almost
+    /// surely still alone with it. False when `id` was seen on the network
+    /// or is not pending.
+    pub fn release(&mut self, id: Address) -> bool {
+        let Some(request) = self.pending_by_id.remove(&id) else { return false };
+        self.pending.remove(&request);
+        self.used.remove(&id.0);
+        true
+    }
+
     fn fresh(&mut self) -> Option<Address> {
         for _ in 0..Address::MAX_CELL {
             let candidate = self.next;
@@ -79,5 +92,34 @@ impl Allocator {
     /// Cell IDs in use.
     pub fn used(&self) -> usize {
         self.used.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::message::Port;
+
+    fn assigned(frame: Option<Frame>) -> Address {
+        match frame.and_then(|f| f.message().ok()) {
+            Some(Message::IdAssign(a)) => a.id,
+            other => panic!("not an ID assignment: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn only_ids_never_seen_are_released_and_they_come_back_last() {
+        let mut a = Allocator::new();
+        let request = |parent| IdRequest { parent: Address(parent), port: Port::P1 };
+        let (first, second) = (assigned(a.request(request(0xFF00))), assigned(a.request(request(1))));
+        a.observe(second);
+        assert!(!a.release(second), "seen on the network");
+        assert!(!a.release(Address(77)), "never handed out");
+        assert!(a.release(first));
+        assert!(!a.release(first), "already released");
+        assert_eq!(a.pending(&request(0xFF00)), None);
+        assert_eq!(a.used(), 1);
+        // The same place asking again gets a fresh ID, not the released one.
+        assert_eq!(assigned(a.request(request(0xFF00))), Address(3));
     }
 }

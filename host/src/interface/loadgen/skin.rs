@@ -143,6 +143,9 @@ impl SimSkin {
                         None => None,
                     };
                 }
+                // The master-port tree: west along the row, north up the
+                // first column, and the first cell's west to the interface.
+                report.master = Some(if j % cols == 0 && j > 0 { Port::P1 } else { Port::P2 });
                 // Calibrated at the factory, with the load's rate and traffic kept.
                 let settings = [Setting::SampleRateHz(spec.rate_hz as f32), Setting::Traffic(mode)];
                 let app = AppCell::new(id(j), MemoryStore::with(Some([0; 8]), settings));

@@ -49,7 +49,7 @@ pub enum UrdfError {
         element: String,
     },
     /// A finite number outside what a robot can physically be.
-    #[error("{element} = {value} is out of range: {range}")]
+    #[error("{element} = {value:?} is out of range: {range}")]
     OutOfRange {
         /// The element and attribute, e.g. `link "base" <box> size`.
         element: String,
