@@ -6,9 +6,15 @@
 #![no_main]
 
 use skin_firmware::boards::qemu::{exit, CodeSram, FlashFile};
+use skin_firmware::boards::stack;
 use skin_firmware::flash_map::QEMU;
 use skin_firmware::loader::LoadError;
 use skin_protocol::image::Board;
+
+/// The stack peak on QEMU's stderr, beside the cell's own reports.
+fn started(peak: usize) {
+    semihosting::eprintln!("bootloader stack peak {} bytes of {} reserved", peak, stack::reserved_bytes());
+}
 
 fn fail(e: LoadError) -> ! {
     defmt::error!("bootloader: nothing to boot: {}", e);
@@ -22,5 +28,6 @@ skin_firmware::boot_main!(
     Board::Mps2An386,
     |_| unsafe { CodeSram::take() },
     QEMU.exec.base,
+    started,
     fail
 );

@@ -17,6 +17,10 @@ fn fail(e: LoadError) -> ! {
     }
 }
 
+fn started(peak: usize) {
+    defmt::info!("bootloader: stack peak {} bytes", peak);
+}
+
 fn flash() -> CellFlash {
     match CellFlash::take() {
         Some(f) => f,
@@ -24,4 +28,12 @@ fn flash() -> CellFlash {
     }
 }
 
-skin_firmware::boot_main!(flash(), STM32F4, Board::Stm32f405, |shared| shared, STM32F4.exec.base - STM32F4_FLASH, fail);
+skin_firmware::boot_main!(
+    flash(),
+    STM32F4,
+    Board::Stm32f405,
+    |shared| shared,
+    STM32F4.exec.base - STM32F4_FLASH,
+    started,
+    fail
+);

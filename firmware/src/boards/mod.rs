@@ -81,11 +81,12 @@ macro_rules! cell_main {
 /// The `main` of a bootloader binary: chooses the slot of `$flash` (laid
 /// out as `$map`) for images of `$image_board`, installs its body into
 /// `$exec(shared flash)` (a NOR flash holding the execution region at
-/// offset `$exec_base`: code SRAM, or the same flash) and jumps to it; if
-/// nothing can be booted, `$fail(error)`.
+/// offset `$exec_base`: code SRAM, or the same flash) and jumps to it,
+/// after telling `$started(stack peak in bytes)`; if nothing can be
+/// booted, `$fail(error)`.
 #[macro_export]
 macro_rules! boot_main {
-    ($flash:expr, $map:expr, $image_board:expr, $exec:expr, $exec_base:expr, $fail:expr) => {
+    ($flash:expr, $map:expr, $image_board:expr, $exec:expr, $exec_base:expr, $started:expr, $fail:expr) => {
         #[cortex_m_rt::entry]
         fn main() -> ! {
             use $crate::boot::BootRecord;
@@ -103,6 +104,7 @@ macro_rules! boot_main {
             match $crate::loader::load(&mut records, [&a, &b], &mut exec, $image_board, &$crate::UPDATE_KEY) {
                 Ok((slot, header)) => {
                     defmt::info!("bootloader: slot {}, version {}, {} bytes", slot, header.version, header.body_len);
+                    $started($crate::boards::stack::peak_bytes());
                     // SAFETY: the region holds the verified body, linked there; nothing was started.
                     unsafe { $crate::boards::jump(map.exec.base) }
                 }
