@@ -54,6 +54,8 @@ pub const QEMU_TRIAL_US: u64 = 10_000_000;
 
 /// Received bytes taken from a port at a time: a few frames.
 const RX_CHUNK: usize = 64;
+// Every update message a chunk can end waits in the node.
+const _: () = assert!(RX_CHUNK.div_ceil(FRAME_LEN) <= crate::node::PENDING_UPDATES);
 
 /// One cell-2-cell port: bytes in, whole frames out.
 pub trait SerialPort {
@@ -100,6 +102,8 @@ pub struct Firmware<B, F> {
     node: Node<F, FlashSlot<F>>,
     control: Option<BootControl<F>>,
     next_sample_us: u64,
+    /// The port read first in the next step.
+    first_port: usize,
 }
 
 impl<B: Board, F: NorFlash> Firmware<B, F> {
@@ -123,6 +127,7 @@ impl<B: Board, F: NorFlash> Firmware<B, F> {
             addr_of_mut!((*firmware).board).write(board);
             addr_of_mut!((*firmware).control).write(None);
             addr_of_mut!((*firmware).next_sample_us).write(now_us);
+            addr_of_mut!((*firmware).first_port).write(0);
             slot.assume_init_mut()
         };
         if let Some((control, updater, spare)) = updates {
@@ -164,12 +169,18 @@ impl<B: Board, F: NorFlash> Firmware<B, F> {
     }
 
     /// Does everything that is due; false when there was nothing to do.
+    /// Out of line, so that [`Firmware::run`]'s frame, under the update
+    /// checks, stays small.
+    #[inline(never)]
     pub fn step(&mut self) -> bool {
         let now = self.board.now_us();
         let mut busy = false;
-        // One chunk per port and step, so a flooded port starves no other work.
+        // One chunk per port and step, so a flooded port starves no other
+        // work; a chunk that brought update messages ends the reading, they
+        // are handled first, and the next step starts at the next port.
         let mut chunk = [0u8; RX_CHUNK];
-        for p in Port::ALL {
+        for k in 0..Port::ALL.len() {
+            let p = Port::ALL[(self.first_port + k) % Port::ALL.len()];
             let n = self.board.port(p).read(&mut chunk);
             busy |= n > 0;
             for byte in &chunk[..n] {
@@ -179,6 +190,10 @@ impl<B: Board, F: NorFlash> Firmware<B, F> {
                         defmt::warn!("accelerometer range not set: {}", _e);
                     }
                 }
+            }
+            if self.node.has_updates() {
+                self.first_port = (p.index() + 1) % Port::ALL.len();
+                break;
             }
         }
         self.boot_actions(now);
@@ -210,9 +225,17 @@ impl<B: Board, F: NorFlash> Firmware<B, F> {
         busy
     }
 
-    /// The main loop: work while there is work, sleep otherwise.
+    /// The main loop: work while there is work, sleep otherwise. Update
+    /// messages are handled here, at the top of the stack: the signature
+    /// check needs about 4 KiB of it, which the byte path (in
+    /// [`Firmware::step`]) must not add to its own.
     pub fn run(&mut self) -> ! {
         loop {
+            if self.node.has_updates() {
+                let now = self.board.now_us();
+                self.node.handle_updates(now);
+                self.boot_actions(now);
+            }
             if !self.step() {
                 self.board.sleep();
             }

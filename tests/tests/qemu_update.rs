@@ -60,7 +60,7 @@ fn seven_cells_are_updated_over_the_network_and_confirmed() {
     let mut patch = start(7);
     let image = patch.programs().genuine(2);
     let mut dist = Distributor::new(&image, patch.ids.clone()).unwrap();
-    let secs = patch.update(&mut dist, Duration::from_secs(180), &mut |_| Ok(())).unwrap_or_else(|e| panic!("{e}"));
+    let secs = patch.update(&mut dist, Duration::from_secs(900), &mut |_| Ok(())).unwrap_or_else(|e| panic!("{e}"));
     println!(
         "7 QEMU cells: version 2 ({} bytes, {} chunks) sent, booted on trial and confirmed in {secs:.2} s",
         image.len(),
@@ -90,7 +90,7 @@ fn a_cell_killed_while_writing_its_slot_boots_the_old_image_and_catches_up() {
     let mut dist = Distributor::new(&image, patch.ids.clone()).unwrap();
     let mut kill = Kill::Waiting;
     let secs = patch
-        .update(&mut dist, Duration::from_secs(240), &mut |p| {
+        .update(&mut dist, Duration::from_secs(900), &mut |p| {
             kill = match kill {
                 Kill::Waiting if partly_written(&p.slot(victim, 1)?, &image, image.len() / 2) => {
                     p.kill(victim);
@@ -160,7 +160,7 @@ fn an_image_never_confirmed_is_rolled_back_on_every_cell() {
     let mut patch = start(7);
     let image = patch.programs().genuine(5);
     let mut feed = Unconfirmed(Distributor::new(&image, patch.ids.clone()).unwrap());
-    let secs = patch.update(&mut feed, Duration::from_secs(240), &mut |_| Ok(())).unwrap_or_else(|e| panic!("{e}"));
+    let secs = patch.update(&mut feed, Duration::from_secs(900), &mut |_| Ok(())).unwrap_or_else(|e| panic!("{e}"));
     println!("7 QEMU cells: version 5 never confirmed, all back on version 1 in {secs:.2} s");
     all(&feed, Outcome::RolledBack);
     for i in 0..patch.len() {
@@ -196,7 +196,7 @@ fn twenty_cells_are_updated_through_repeated_kills_at_random_bytes() {
     let mut next = (1 + rng.below(19), rng.below(image.len()));
     let mut down: Option<(usize, Instant)> = None;
     let secs = patch
-        .update(&mut dist, Duration::from_secs(600), &mut |p| {
+        .update(&mut dist, Duration::from_secs(1800), &mut |p| {
             match down {
                 Some((i, t)) if t.elapsed() > Duration::from_millis(300 + 100 * rng.below(8) as u64) => {
                     assert_eq!(p.record(i)?.confirmed, SlotId::A, "cell {i}: a cut mid-write keeps the old image");
