@@ -144,7 +144,8 @@ fn forged_foreign_and_truncated_images_are_refused_by_every_cell_and_nothing_cha
         println!("{what}: refused ({refusal:?}) by all 7 cells in {secs:.2} s");
         all(feed.as_ref(), Outcome::Refused(refusal));
     }
-    // No cell restarted: all still organized with their IDs, untouched.
+    // Every cell still runs, organized with its ID; its boot record and
+    // running image are as they were.
     patch.reorganized(Duration::from_secs(10)).unwrap_or_else(|e| panic!("{e}"));
     for i in 0..patch.len() {
         assert_eq!(patch.record(i).unwrap(), UNTOUCHED, "cell {i}");
