@@ -3,7 +3,7 @@
 //! the cells run `cell-qemu` under `boot-qemu`, each with its flash file;
 //! the tests read the cells' boot records and slots back from those files.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -72,14 +72,16 @@ impl Feed for Unconfirmed {
 }
 
 /// The first bytes of an image offered as if they were all of it (a
-/// transfer cut short): the offer, again every 0.5 s, and each chunk
-/// once. The [`Distributor`] refuses to send such an image.
+/// transfer cut short): the offer, again every 0.5 s, each chunk once,
+/// and to each cell the chunks it reports missing. The [`Distributor`]
+/// refuses to send such an image.
 #[derive(Debug)]
 pub struct Truncated {
     offer: UpdateOffer,
     chunks: Vec<ImageChunk>,
     next: usize,
     last_offer_us: Option<u64>,
+    repairs: VecDeque<(Address, u16)>,
     cells: BTreeMap<Address, Option<UpdateReport>>,
 }
 
@@ -88,7 +90,8 @@ impl Truncated {
     pub fn new(image: &[u8], len: usize, version: u32, cells: &[Address]) -> Truncated {
         let chunks: Vec<ImageChunk> = skin_protocol::update::chunks(&image[..len.min(image.len())]).collect();
         let offer = UpdateOffer { version, chunks: chunks.len() as u16 };
-        Truncated { offer, chunks, next: 0, last_offer_us: None, cells: cells.iter().map(|c| (*c, None)).collect() }
+        let cells = cells.iter().map(|c| (*c, None)).collect();
+        Truncated { offer, chunks, next: 0, last_offer_us: None, repairs: VecDeque::new(), cells }
     }
 }
 
@@ -98,6 +101,9 @@ impl Feed for Truncated {
             self.last_offer_us = Some(now_us);
             return Some((Address::BROADCAST, Message::UpdateOffer(self.offer)));
         }
+        if let Some((cell, i)) = self.repairs.pop_front() {
+            return Some((cell, Message::ImageChunk(self.chunks[usize::from(i)])));
+        }
         let chunk = self.chunks.get(self.next)?;
         self.next += 1;
         Some((Address::BROADCAST, Message::ImageChunk(*chunk)))
@@ -105,6 +111,14 @@ impl Feed for Truncated {
 
     fn handle(&mut self, from: Address, report: UpdateReport) {
         self.cells.insert(from, Some(report));
+        if report.state == UpdateState::Receiving && report.version == self.offer.version {
+            let end = report.first_missing.saturating_add(report.missing).min(self.next as u16);
+            for i in report.first_missing..end {
+                if !self.repairs.contains(&(from, i)) {
+                    self.repairs.push_back((from, i));
+                }
+            }
+        }
     }
 
     fn outcomes(&self) -> Vec<(Address, Outcome)> {
