@@ -176,9 +176,14 @@ pub struct Qemu {
 }
 
 impl Qemu {
-    /// Takes the core peripherals and sets up the UARTs, the tick and the
-    /// interrupts; returns the board and its flash.
+    /// The board and its flash file ([`Qemu::start`], [`FlashFile::open`]).
     pub fn take() -> (Qemu, FlashFile) {
+        (Qemu::start(), FlashFile::open())
+    }
+
+    /// Takes the core peripherals and sets up the UARTs, the tick and the
+    /// interrupts: the board alone, for programs that keep nothing.
+    pub fn start() -> Qemu {
         let Some(mut core) = cortex_m::Peripherals::take() else {
             defmt::panic!("board taken twice");
         };
@@ -190,8 +195,7 @@ impl Qemu {
             unsafe { NVIC::unmask(RxInterrupt(irq)) };
         }
         let sensors = QemuSensors { uart: stimulus_uart, stimulus: Stimulated::new() };
-        let board = Qemu { ports, sensors, clock, stack: PeakWatch::new() };
-        (board, FlashFile::open())
+        Qemu { ports, sensors, clock, stack: PeakWatch::new() }
     }
 }
 
