@@ -8,6 +8,6 @@ use skin_firmware::boards::qemu::Qemu;
 
 #[entry]
 fn main() -> ! {
-    let _board = Qemu::take();
+    let _board = Qemu::start();
     cortex_m::asm::udf()
 }

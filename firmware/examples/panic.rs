@@ -7,6 +7,6 @@ use skin_firmware::boards::qemu::Qemu;
 
 #[entry]
 fn main() -> ! {
-    let _board = Qemu::take();
+    let _board = Qemu::start();
     panic!("deliberate panic: the harness checks that QEMU exits with a failure code");
 }

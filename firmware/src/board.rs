@@ -8,7 +8,10 @@ use embedded_storage::nor_flash::NorFlash;
 use skin_protocol::frame::FRAME_LEN;
 use skin_protocol::message::{Port, Setting};
 use skin_protocol::organize::Config;
+use skin_protocol::update::Updater;
 
+use crate::boot_control::{BootControl, Then};
+use crate::flash_slot::FlashSlot;
 use crate::node::Node;
 use crate::sensors::Sensors;
 use crate::store::Store;
@@ -38,8 +41,21 @@ pub const QEMU_CONFIG: Config = Config {
     report_period_us: 4_000_000,
 };
 
+/// The time a trial image has to be confirmed on a real cell: the
+/// simulator's limit too (`skin_sim::network::TRIAL_NS`).
+pub const TRIAL_US: u64 = 3_000_000;
+
+/// The trial limit of QEMU cells: every cell of a patch restarts into its
+/// trial at once, re-checks its image in its bootloader, and a QEMU patch
+/// takes seconds to organize again (its timings are ten times
+/// [`Config::default`]'s: [`QEMU_CONFIG`]; 7 cells take about 2 s, more
+/// on a loaded machine), so 10 s.
+pub const QEMU_TRIAL_US: u64 = 10_000_000;
+
 /// Received bytes taken from a port at a time: a few frames.
 const RX_CHUNK: usize = 64;
+// Every update message a chunk can end waits in the node.
+const _: () = assert!(RX_CHUNK.div_ceil(FRAME_LEN) <= crate::node::PENDING_UPDATES);
 
 /// One cell-2-cell port: bytes in, whole frames out.
 pub trait SerialPort {
@@ -70,45 +86,101 @@ pub trait Board {
     /// unless a byte is already waiting. Board background work (the QEMU
     /// board reads its stimulus channel) is done here.
     fn sleep(&mut self);
+    /// Restarts the cell into its bootloader, as a power cycle would.
+    fn restart(&mut self) -> !;
 }
 
-/// A board and a node, run together.
+/// What a program that takes updates was given at start
+/// ([`crate::boot_control::start`]).
+pub type Updates<F> = (BootControl<F>, Updater, FlashSlot<F>);
+
+/// A board and a node, run together; `F` is the flash of the store, the
+/// boot record and the slots.
 #[derive(Debug)]
 pub struct Firmware<B, F> {
     board: B,
-    node: Node<F>,
+    node: Node<F, FlashSlot<F>>,
+    control: Option<BootControl<F>>,
     next_sample_us: u64,
+    /// The port read first in the next step.
+    first_port: usize,
 }
 
 impl<B: Board, F: NorFlash> Firmware<B, F> {
     /// Boots a node on `board` into `slot`, in place: the state (kilobytes
     /// of queues and buffers) lives in a static, where the memory layout
-    /// accounts for it, and never passes through the stack.
-    pub fn boot(slot: &mut MaybeUninit<Self>, mut board: B, config: Config, store: Store<F>) -> &mut Self {
+    /// accounts for it, and never passes through the stack. Without
+    /// `updates`, update messages are ignored.
+    pub fn boot(
+        slot: &mut MaybeUninit<Self>,
+        mut board: B,
+        config: Config,
+        store: Store<F>,
+        updates: Option<Updates<F>>,
+    ) -> &mut Self {
         let now_us = board.now_us();
         let firmware = slot.as_mut_ptr();
         // SAFETY: each field is written once through a pointer into `slot`,
         // and the firmware is only referred to once all are written.
-        unsafe {
-            Node::<F>::boot(&mut *addr_of_mut!((*firmware).node).cast(), config, store, now_us);
+        let firmware = unsafe {
+            Node::<F, FlashSlot<F>>::boot(&mut *addr_of_mut!((*firmware).node).cast(), config, store, now_us);
             addr_of_mut!((*firmware).board).write(board);
+            addr_of_mut!((*firmware).control).write(None);
             addr_of_mut!((*firmware).next_sample_us).write(now_us);
+            addr_of_mut!((*firmware).first_port).write(0);
             slot.assume_init_mut()
+        };
+        if let Some((control, updater, spare)) = updates {
+            firmware.node.take_updates(updater, spare);
+            firmware.control = Some(control);
         }
+        firmware
     }
 
     /// The node.
-    pub fn node(&self) -> &Node<F> {
+    pub fn node(&self) -> &Node<F, FlashSlot<F>> {
         &self.node
     }
 
+    /// Does what the updater asked of the bootloader, and restarts a trial
+    /// out of time.
+    fn boot_actions(&mut self, now_us: u64) {
+        let Some(control) = self.control.as_mut() else { return };
+        if let Some(action) = self.node.take_boot_action() {
+            let ready = self.node.updates().map_or(0, |(u, _)| u.report().version);
+            match control.act(action, ready) {
+                Ok(Then::Restart) => {
+                    #[cfg(feature = "defmt")]
+                    defmt::info!("{}: restarting into the bootloader", action);
+                    self.board.restart()
+                }
+                Ok(Then::Run) => {}
+                Err(_e) => {
+                    #[cfg(feature = "defmt")]
+                    defmt::warn!("boot record not kept ({}): {} waits for the host to ask again", _e, action);
+                }
+            }
+        }
+        if control.expired(now_us) {
+            #[cfg(feature = "defmt")]
+            defmt::warn!("trial not confirmed in time: restarting into the old image");
+            self.board.restart()
+        }
+    }
+
     /// Does everything that is due; false when there was nothing to do.
+    /// Out of line, so that [`Firmware::run`]'s frame, under the update
+    /// checks, stays small.
+    #[inline(never)]
     pub fn step(&mut self) -> bool {
         let now = self.board.now_us();
         let mut busy = false;
-        // One chunk per port and step, so a flooded port starves no other work.
+        // One chunk per port and step, so a flooded port starves no other
+        // work; a chunk that brought update messages ends the reading, they
+        // are handled first, and the next step starts at the next port.
         let mut chunk = [0u8; RX_CHUNK];
-        for p in Port::ALL {
+        for k in 0..Port::ALL.len() {
+            let p = Port::ALL[(self.first_port + k) % Port::ALL.len()];
             let n = self.board.port(p).read(&mut chunk);
             busy |= n > 0;
             for byte in &chunk[..n] {
@@ -119,7 +191,12 @@ impl<B: Board, F: NorFlash> Firmware<B, F> {
                     }
                 }
             }
+            if self.node.has_updates() {
+                self.first_port = (p.index() + 1) % Port::ALL.len();
+                break;
+            }
         }
+        self.boot_actions(now);
         if self.node.poll_at() <= now {
             self.node.poll(now);
             busy = true;
@@ -148,9 +225,17 @@ impl<B: Board, F: NorFlash> Firmware<B, F> {
         busy
     }
 
-    /// The main loop: work while there is work, sleep otherwise.
+    /// The main loop: work while there is work, sleep otherwise. Update
+    /// messages are handled here, at the top of the stack: the signature
+    /// check needs about 4 KiB of it, which the byte path (in
+    /// [`Firmware::step`]) must not add to its own.
     pub fn run(&mut self) -> ! {
         loop {
+            if self.node.has_updates() {
+                let now = self.board.now_us();
+                self.node.handle_updates(now);
+                self.boot_actions(now);
+            }
             if !self.step() {
                 self.board.sleep();
             }

@@ -140,15 +140,20 @@ pub enum BootError {
 }
 
 /// The bootloader's work at reset: the record read, both slots checked
-/// as needed, the new record kept; returns the slot to jump to.
+/// as needed (a body longer than `max_body`, the room the program runs
+/// in, is as good as none), the new record kept; returns the slot to jump to.
 pub fn boot<F: NorFlash, S: Slot>(
     store: &mut Store<F, BootRecord>,
     slots: [&S; 2],
     board: Board,
     key: &[u8; PUBLIC_KEY_LEN],
+    max_body: u32,
 ) -> Result<SlotId, BootError> {
     let record = *store.state();
-    let genuine = |id: SlotId| verify_slot(slots[id as usize], board, key).ok().map(|h| h.version);
+    let genuine = |id: SlotId| {
+        let header = verify_slot(slots[id as usize], board, key).ok()?;
+        (header.body_len <= max_body).then_some(header.version)
+    };
     let (slot, next) = record.choose(genuine).ok_or(BootError::NoImage)?;
     match store.set(next) {
         // A trial that cannot be marked started is not run: the confirmed

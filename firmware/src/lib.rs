@@ -13,6 +13,10 @@
 //! - [`node`]: the cell's logic: [`skin_protocol::cell::Cell`] and
 //!   [`skin_protocol::processing::Processor`] on bytes and samples.
 //! - [`board`]: what a board provides, and the main loop.
+//! - [`boot`], [`boot_control`], [`loader`], [`flash_map`], [`flash_slot`],
+//!   [`shared_flash`]: updates: the boot record and the bootloader's
+//!   choice, the program's side of it, the bootloader's work, where each
+//!   board keeps what, image slots on flash, one flash for all of them.
 //! - [`cycle`]: a 250 Hz cycle of a cell, as its cost is measured.
 //! - `boards`: `qemu` (mps2-an386) and `stm32f4` (STM32F405), target only.
 #![cfg_attr(not(test), no_std)]
@@ -20,15 +24,24 @@
 
 pub mod board;
 pub mod boot;
+pub mod boot_control;
 pub mod cycle;
 pub mod deframer;
 pub mod drivers;
+pub mod flash_map;
 pub mod flash_slot;
+pub mod loader;
 pub mod node;
 pub mod ring;
 pub mod sensors;
+pub mod shared_flash;
 pub mod stimulus;
 pub mod store;
+
+/// The ed25519 public key every image must be signed with: built in
+/// (`SKIN_UPDATE_KEY` at build time, 64 hex digits), by default RFC 8032's
+/// TEST 1 key, a development key whose secret is published.
+pub const UPDATE_KEY: [u8; 32] = include!(concat!(env!("OUT_DIR"), "/update_key.rs"));
 
 #[cfg(all(target_os = "none", any(feature = "qemu", feature = "stm32f4")))]
 pub mod boards;

@@ -46,12 +46,18 @@ impl Slot for NoSlot {
     }
 }
 
+/// Update messages a node holds between [`Node::receive`] and
+/// [`Node::handle_updates`]: the frames that end in one 64-byte read of a port.
+pub const PENDING_UPDATES: usize = 4;
+
 /// A skin cell's logic; `S` is the spare image slot.
 #[derive(Debug)]
 pub struct Node<F, S = NoSlot> {
     app: CellApp<Store<F>>,
     rx: [Deframer; 4],
     update: Option<(Updater, S)>,
+    pending: [Option<UpdateInput>; PENDING_UPDATES],
+    dropped_updates: u32,
     boot_action: Option<BootAction>,
 }
 
@@ -75,6 +81,8 @@ impl<F: NorFlash, S: Slot> Node<F, S> {
             addr_of_mut!((*node).app).write(CellApp::new(config, store, now_us));
             addr_of_mut!((*node).rx).write(Default::default());
             addr_of_mut!((*node).update).write(None);
+            addr_of_mut!((*node).pending).write([None; PENDING_UPDATES]);
+            addr_of_mut!((*node).dropped_updates).write(0);
             addr_of_mut!((*node).boot_action).write(None);
             slot.assume_init_mut()
         }
@@ -129,23 +137,49 @@ impl<F: NorFlash, S: Slot> Node<F, S> {
 
     /// Takes a byte received on `port`. Returns a setting the host wrote and
     /// the cell accepted, for the board to apply to its hardware. Update
-    /// messages go to the updater (a node without one ignores them, as a
-    /// cell of an older firmware would); a boot action waits in
-    /// [`Node::take_boot_action`].
+    /// messages wait for [`Node::handle_updates`] (a node without an
+    /// updater ignores them, as a cell of an older firmware would).
     pub fn receive(&mut self, port: Port, byte: u8, now_us: u64) -> Option<Setting> {
         let frame = self.rx[port.index()].push(byte)?;
         match self.app.receive_frame(Arrived { port, frame, meta: None }, now_us, &mut ())? {
             Delivered::Config(write) => self.app.configure(&write, &mut (), |_, _| {}),
-            Delivered::Update(input) => {
-                self.update(&input, now_us);
+            Delivered::Update(input) if self.update.is_some() => {
+                match self.pending.iter_mut().find(|p| p.is_none()) {
+                    Some(free) => *free = Some(input),
+                    // The host repeats what a cell reports missing.
+                    None => self.dropped_updates = self.dropped_updates.saturating_add(1),
+                }
                 None
+            }
+            Delivered::Update(_) => None,
+        }
+    }
+
+    /// True when update messages wait for [`Node::handle_updates`].
+    pub fn has_updates(&self) -> bool {
+        self.pending.iter().any(Option::is_some)
+    }
+
+    /// Update messages dropped because [`PENDING_UPDATES`] were waiting.
+    pub fn dropped_updates(&self) -> u32 {
+        self.dropped_updates
+    }
+
+    /// Hands the waiting update messages to the updater, in order; a boot
+    /// action waits in [`Node::take_boot_action`]. The signature and image
+    /// checks behind them need kilobytes of stack: call this from the top
+    /// of the main loop, not from deep in the byte path (out of line, so
+    /// no caller reserves its frame).
+    #[inline(never)]
+    pub fn handle_updates(&mut self, now_us: u64) {
+        for i in 0..PENDING_UPDATES {
+            if let Some(input) = self.pending[i].take() {
+                self.update(&input, now_us);
             }
         }
     }
 
-    /// An update message to the updater. Out of line: the signature check
-    /// behind it needs kilobytes of stack, which the byte path must not
-    /// reserve for every byte.
+    /// An update message to the updater.
     #[inline(never)]
     fn update(&mut self, input: &UpdateInput, now_us: u64) {
         if let Some((updater, slot)) = self.update.as_mut() {
@@ -235,6 +269,7 @@ mod tests {
                 for b in f.as_bytes() {
                     node.receive(Port::P0, *b, *t);
                 }
+                node.handle_updates(*t);
             }
             if *t % 4_000 == 0 {
                 node.sample(&Sample::new(500, [100, 100, 100], [0, 0, 256], 800, 0).unwrap());

@@ -8,16 +8,17 @@
 //! - Logs go out with defmt over semihosting (QEMU's stdout). The stack's
 //!   peak use, whenever it grows, goes out as a text line on semihosting's
 //!   stderr (QEMU's stderr): `stack peak N bytes of R reserved`.
-//! - Persistent storage is a file on the host named by `store=PATH` in
-//!   QEMU's `-append`, accessed through semihosting: flash that survives
-//!   the QEMU process as real flash survives a power cycle. Without it the
-//!   store is in RAM and lost at exit.
+//! - Flash is a file on the host named by `flash=PATH` in QEMU's
+//!   `-append`, accessed through semihosting ([`FlashFile`]): the store,
+//!   the boot record and the image slots ([`crate::flash_map::QEMU`])
+//!   survive the QEMU process as real flash survives a power cycle, and a
+//!   killed QEMU is a power cut. The bootloader (`boot-qemu`, at 0x0)
+//!   copies the chosen image's body into code SRAM ([`CodeSram`]), which
+//!   QEMU does not keep.
 //! - A panic, a hard fault or any unexpected exception ends QEMU with a
 //!   failure exit code.
 
-use core::cell::UnsafeCell;
 use core::ffi::CStr;
-use core::sync::atomic::{AtomicBool, Ordering};
 
 use cortex_m::interrupt::InterruptNumber;
 use cortex_m::peripheral::{NVIC, SCB};
@@ -31,18 +32,18 @@ use skin_protocol::message::Port;
 use super::stack::{self, PeakWatch};
 use super::systick::Clock;
 use crate::board::{Board, SerialPort};
+use crate::flash_map::{QEMU as MAP, QEMU_FILE_LEN, QEMU_SECTOR};
 use crate::sensors::{SensorError, Sensors};
 use crate::stimulus::Stimulated;
-use crate::store::RamFlash;
 
 use defmt_semihosting as _;
 
 /// Core and peripheral clock of the board.
 const SYSCLK_HZ: u32 = 25_000_000;
-/// Bytes of an erase sector of the persistent store (four record slots).
-const STORE_SECTOR: usize = 1024;
-/// Bytes of the persistent store: two sectors, used in turn.
-pub const STORE_LEN: usize = 2 * STORE_SECTOR;
+/// Bytes of an erase sector of the flash file (four store records).
+const SECTOR: usize = QEMU_SECTOR as usize;
+/// Bytes of the flash file.
+const FILE_LEN: usize = QEMU_FILE_LEN as usize;
 
 /// A CMSDK APB UART, with the frame it is sending: it takes one byte at a
 /// time (QEMU passes each on to its chardev at once).
@@ -175,9 +176,14 @@ pub struct Qemu {
 }
 
 impl Qemu {
+    /// The board and its flash file ([`Qemu::start`], [`FlashFile::open`]).
+    pub fn take() -> (Qemu, FlashFile) {
+        (Qemu::start(), FlashFile::open())
+    }
+
     /// Takes the core peripherals and sets up the UARTs, the tick and the
-    /// interrupts; returns the board and its persistent store's flash.
-    pub fn take() -> (Qemu, StoreFlash) {
+    /// interrupts: the board alone, for programs that keep nothing.
+    pub fn start() -> Qemu {
         let Some(mut core) = cortex_m::Peripherals::take() else {
             defmt::panic!("board taken twice");
         };
@@ -189,8 +195,7 @@ impl Qemu {
             unsafe { NVIC::unmask(RxInterrupt(irq)) };
         }
         let sensors = QemuSensors { uart: stimulus_uart, stimulus: Stimulated::new() };
-        let board = Qemu { ports, sensors, clock, stack: PeakWatch::new() };
-        (board, StoreFlash::open())
+        Qemu { ports, sensors, clock, stack: PeakWatch::new() }
     }
 }
 
@@ -223,60 +228,42 @@ impl Board for Qemu {
             }
         });
     }
+
+    fn restart(&mut self) -> ! {
+        // QEMU resets the core and loads the bootloader's image again; the
+        // flash file and the UARTs' sockets stay.
+        SCB::sys_reset()
+    }
 }
 
 defmt::timestamp!("{=u64:us}", Clock::log_time_us(SYSCLK_HZ));
 
-/// The persistent store: a semihosting file, or RAM when none was named.
+/// The cell's flash: the semihosting file named by `flash=PATH`.
 #[derive(Debug)]
-pub enum StoreFlash {
-    /// `store=PATH` from QEMU's `-append`.
-    File(File),
-    /// No file: a static, lost at exit.
-    Ram(&'static mut RamFlash<STORE_SECTOR, 2>),
-}
+pub struct FlashFile(File);
 
-impl StoreFlash {
-    fn open() -> StoreFlash {
+impl FlashFile {
+    /// Opens the file, or creates it erased; without one the cell cannot
+    /// run (it keeps its images there) and QEMU exits with code 5.
+    pub fn open() -> FlashFile {
         let mut path = [0u8; 192];
-        match store_path(&mut path).and_then(open_file) {
-            Some(file) => StoreFlash::File(file),
+        match flash_path(&mut path).and_then(open_file) {
+            Some(file) => FlashFile(file),
             None => {
-                defmt::warn!("no store=PATH in the command line: ID and settings are kept in RAM only");
-                match take_ram_store() {
-                    Some(ram) => StoreFlash::Ram(ram),
-                    None => defmt::panic!("store opened twice"),
-                }
+                defmt::error!("no flash=PATH in QEMU's -append, or the file cannot be opened");
+                exit(5)
             }
         }
     }
 }
 
-/// The store without a file: erased flash is zeros in [`RamFlash`], so
-/// this static sits in `.bss` and is neither built nor copied at start.
-static RAM_STORE: RamStore = RamStore { flash: UnsafeCell::new(RamFlash::new()), taken: AtomicBool::new(false) };
-
-struct RamStore {
-    flash: UnsafeCell<RamFlash<STORE_SECTOR, 2>>,
-    taken: AtomicBool,
-}
-
-// SAFETY: the flash is handed out once, by `take_ram_store`.
-unsafe impl Sync for RamStore {}
-
-/// The RAM store, the first time only.
-fn take_ram_store() -> Option<&'static mut RamFlash<STORE_SECTOR, 2>> {
-    // SAFETY: the first and only reference to the flash.
-    (!RAM_STORE.taken.swap(true, Ordering::AcqRel)).then(|| unsafe { &mut *RAM_STORE.flash.get() })
-}
-
-/// The NUL-terminated path of `store=PATH` among the semihosting arguments.
-fn store_path(buf: &mut [u8; 192]) -> Option<&CStr> {
+/// The NUL-terminated path of `flash=PATH` among the semihosting arguments.
+fn flash_path(buf: &mut [u8; 192]) -> Option<&CStr> {
     let args = semihosting::experimental::env::args::<256>().ok()?;
-    let path = (&args).flatten().find_map(|a| a.strip_prefix("store="))?;
+    let path = (&args).flatten().find_map(|a| a.strip_prefix("flash="))?;
     let bytes = path.as_bytes();
     if bytes.len() >= buf.len() {
-        defmt::error!("store path longer than {} bytes", buf.len() - 1);
+        defmt::error!("flash path longer than {} bytes", buf.len() - 1);
         return None;
     }
     buf[..bytes.len()].copy_from_slice(bytes);
@@ -284,91 +271,77 @@ fn store_path(buf: &mut [u8; 192]) -> Option<&CStr> {
     CStr::from_bytes_until_nul(buf).ok()
 }
 
-/// Opens the store file, or creates it erased.
+/// Opens the flash file, or creates it erased.
 fn open_file(path: &CStr) -> Option<File> {
     if let Ok(file) = File::options().read(true).write(true).open(path) {
         return Some(file);
     }
     let mut file = File::options().read(true).write(true).create(true).truncate(true).open(path).ok()?;
     let erased = [0xFF; 256];
-    for _ in 0..STORE_LEN / erased.len() {
+    for _ in 0..FILE_LEN / erased.len() {
         file.write_all(&erased).ok()?;
     }
     Some(file)
 }
 
-impl ErrorType for StoreFlash {
+impl ErrorType for FlashFile {
     type Error = NorFlashErrorKind;
 }
 
-fn check(offset: u32, len: usize) -> Result<(), NorFlashErrorKind> {
+fn check(offset: u32, len: usize, capacity: usize) -> Result<(), NorFlashErrorKind> {
     match (offset as usize).checked_add(len) {
-        Some(end) if end <= STORE_LEN => Ok(()),
+        Some(end) if end <= capacity => Ok(()),
         _ => Err(NorFlashErrorKind::OutOfBounds),
     }
 }
 
-impl ReadNorFlash for StoreFlash {
+impl ReadNorFlash for FlashFile {
     const READ_SIZE: usize = 1;
 
     fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
-        check(offset, bytes.len())?;
-        match self {
-            StoreFlash::Ram(ram) => ram.read(offset, bytes),
-            StoreFlash::File(file) => {
-                bytes.fill(0xFF);
-                file.seek(SeekFrom::Start(offset.into())).map_err(|_| NorFlashErrorKind::Other)?;
-                // A short file reads as erased past its end.
-                let mut got = 0;
-                while got < bytes.len() {
-                    match file.read(&mut bytes[got..]) {
-                        Ok(0) => break,
-                        Ok(n) => got += n,
-                        Err(_) => return Err(NorFlashErrorKind::Other),
-                    }
-                }
-                Ok(())
+        check(offset, bytes.len(), FILE_LEN)?;
+        bytes.fill(0xFF);
+        self.0.seek(SeekFrom::Start(offset.into())).map_err(|_| NorFlashErrorKind::Other)?;
+        // A short file reads as erased past its end.
+        let mut got = 0;
+        while got < bytes.len() {
+            match self.0.read(&mut bytes[got..]) {
+                Ok(0) => break,
+                Ok(n) => got += n,
+                Err(_) => return Err(NorFlashErrorKind::Other),
             }
         }
+        Ok(())
     }
 
     fn capacity(&self) -> usize {
-        STORE_LEN
+        FILE_LEN
     }
 }
 
-impl NorFlash for StoreFlash {
+impl NorFlash for FlashFile {
     const WRITE_SIZE: usize = 1;
-    const ERASE_SIZE: usize = STORE_SECTOR;
+    const ERASE_SIZE: usize = SECTOR;
 
     fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
-        match self {
-            StoreFlash::Ram(ram) => ram.erase(from, to),
-            StoreFlash::File(file) => {
-                let sector = STORE_SECTOR as u32;
-                if from % sector != 0 || to % sector != 0 || from > to {
-                    return Err(NorFlashErrorKind::NotAligned);
-                }
-                check(from, (to - from) as usize)?;
-                file.seek(SeekFrom::Start(from.into())).map_err(|_| NorFlashErrorKind::Other)?;
-                let erased = [0xFF; 256];
-                let mut left = (to - from) as usize;
-                while left > 0 {
-                    let n = left.min(erased.len());
-                    file.write_all(&erased[..n]).map_err(|_| NorFlashErrorKind::Other)?;
-                    left -= n;
-                }
-                Ok(())
-            }
+        if from as usize % SECTOR != 0 || to as usize % SECTOR != 0 || from > to {
+            return Err(NorFlashErrorKind::NotAligned);
         }
+        check(from, (to - from) as usize, FILE_LEN)?;
+        self.0.seek(SeekFrom::Start(from.into())).map_err(|_| NorFlashErrorKind::Other)?;
+        let erased = [0xFF; 256];
+        let mut left = (to - from) as usize;
+        while left > 0 {
+            let n = left.min(erased.len());
+            self.0.write_all(&erased[..n]).map_err(|_| NorFlashErrorKind::Other)?;
+            left -= n;
+        }
+        Ok(())
     }
 
     /// Writes as NOR flash does: bits can only be cleared.
     fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
-        check(offset, bytes.len())?;
-        if let StoreFlash::Ram(ram) = self {
-            return ram.write(offset, bytes);
-        }
+        check(offset, bytes.len(), FILE_LEN)?;
         let mut at = offset;
         for chunk in bytes.chunks(64) {
             let mut merged = [0u8; 64];
@@ -377,11 +350,71 @@ impl NorFlash for StoreFlash {
             for (m, b) in merged.iter_mut().zip(chunk) {
                 *m &= *b;
             }
-            let StoreFlash::File(file) = self else { unreachable!() };
-            file.seek(SeekFrom::Start(at.into())).map_err(|_| NorFlashErrorKind::Other)?;
-            file.write_all(merged).map_err(|_| NorFlashErrorKind::Other)?;
+            self.0.seek(SeekFrom::Start(at.into())).map_err(|_| NorFlashErrorKind::Other)?;
+            self.0.write_all(merged).map_err(|_| NorFlashErrorKind::Other)?;
             at += chunk.len() as u32;
         }
+        Ok(())
+    }
+}
+
+/// The execution region in code SRAM ([`crate::flash_map::QEMU`]`.exec`),
+/// as the bootloader fills it: RAM that reads, erases and writes like flash.
+#[derive(Debug)]
+pub struct CodeSram(());
+
+impl CodeSram {
+    /// The region; only the bootloader writes it, before it starts the program.
+    ///
+    /// # Safety
+    /// Nothing runs from the region, and no other value refers to it.
+    pub unsafe fn take() -> CodeSram {
+        CodeSram(())
+    }
+
+    fn at(offset: u32, len: usize) -> Result<*mut u8, NorFlashErrorKind> {
+        let end = MAP.exec.end() as usize;
+        match (offset as usize).checked_add(len) {
+            Some(e) if offset >= MAP.exec.base && e <= end => Ok(offset as usize as *mut u8),
+            _ => Err(NorFlashErrorKind::OutOfBounds),
+        }
+    }
+}
+
+impl ErrorType for CodeSram {
+    type Error = NorFlashErrorKind;
+}
+
+impl ReadNorFlash for CodeSram {
+    const READ_SIZE: usize = 1;
+
+    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
+        let at = Self::at(offset, bytes.len())?;
+        // SAFETY: inside the execution region, which this value owns.
+        unsafe { core::ptr::copy_nonoverlapping(at, bytes.as_mut_ptr(), bytes.len()) };
+        Ok(())
+    }
+
+    fn capacity(&self) -> usize {
+        MAP.exec.end() as usize
+    }
+}
+
+impl NorFlash for CodeSram {
+    const WRITE_SIZE: usize = 1;
+    const ERASE_SIZE: usize = 1;
+
+    fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
+        let at = Self::at(from, to.saturating_sub(from) as usize)?;
+        // SAFETY: as in `read`.
+        unsafe { core::ptr::write_bytes(at, 0xFF, to.saturating_sub(from) as usize) };
+        Ok(())
+    }
+
+    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
+        let at = Self::at(offset, bytes.len())?;
+        // SAFETY: as in `read`.
+        unsafe { core::ptr::copy_nonoverlapping(bytes.as_ptr(), at, bytes.len()) };
         Ok(())
     }
 }

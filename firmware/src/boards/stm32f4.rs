@@ -7,6 +7,10 @@
 //! | BMA250, LM71        | SPI1, 4 MHz, mode 0 | PA5/PA6/PA7, chip selects PA4 (BMA250), PB0 (LM71) |
 //! | force pads          | GPIO open drain, 1 MOhm pull-ups | PC0, PC1, PC2 |
 //! | persistent store    | flash sectors 5 and 6, used in turn | 0x0802_0000, 2 x 128 KiB |
+//! | images              | slots A and B in sectors 7 and 8, boot record in 9 and 10 ([`crate::flash_map::STM32F4`]) | |
+//!
+//! `boot-stm32f4` in sectors 0 and 1 chooses the image and installs its
+//! body in sector 4, where this program is linked.
 //!
 //! The core sleeps with WFE until a port receives, a DMA interrupt or the
 //! tick ([`ports`] says how). Logs go out with defmt over RTT, and so does
@@ -49,10 +53,6 @@ pub mod ports;
 const SYSCLK_HZ: u32 = 64_000_000;
 /// Cell-2-cell bit rate (Table 2).
 const PORT_BAUD: u32 = 4_000_000;
-/// The store region: flash sectors 5 and 6 (128 KiB each), used in turn.
-pub const STORE_BASE: u32 = 0x2_0000;
-/// Length of the store region.
-pub const STORE_LEN: u32 = 0x4_0000;
 /// VCNL4010 LED current: 100 mA.
 const LED_CURRENT: u8 = 10;
 
@@ -160,6 +160,10 @@ impl Board for Stm32f4 {
         &mut self.chips
     }
 
+    fn restart(&mut self) -> ! {
+        SCB::sys_reset()
+    }
+
     fn sleep(&mut self) {
         if let Some(peak) = self.stack.grew(self.clock.now_us()) {
             defmt::info!("stack peak {} bytes of {} reserved", peak, stack::reserved_bytes());
@@ -174,8 +178,16 @@ impl Board for Stm32f4 {
     }
 }
 
-/// The MCU's flash as the store's NOR flash, unlocked for each operation.
+/// The MCU's flash as the store's, the boot record's and the slots' NOR
+/// flash, unlocked for each operation.
 pub struct CellFlash(LockedFlash);
+
+impl CellFlash {
+    /// The flash alone, for the bootloader (the board takes it with the rest).
+    pub fn take() -> Option<CellFlash> {
+        pac::Peripherals::take().map(|dp| CellFlash(LockedFlash::new(dp.FLASH)))
+    }
+}
 
 impl ErrorType for CellFlash {
     type Error = flash::Error;

@@ -31,7 +31,7 @@ fn reset(f: Flash) -> (Result<SlotId, BootError>, BootRecord, Flash) {
     // (the bootloader only reads them) and keep the record's writes.
     let slots = [FlashSlot::new(f.clone(), 2048, 2048).unwrap(), FlashSlot::new(f.clone(), 4096, 2048).unwrap()];
     let mut store = Store::<_, BootRecord>::open(f, 0, 2048).unwrap();
-    let chosen = boot(&mut store, [&slots[0], &slots[1]], Board::Mps2An386, &key());
+    let chosen = boot(&mut store, [&slots[0], &slots[1]], Board::Mps2An386, &key(), u32::MAX);
     let record = *store.state();
     (chosen, record, store.release())
 }

@@ -14,9 +14,16 @@ impl<const WORDS: usize> Bitmap<WORDS> {
     /// The set over nothing.
     pub const EMPTY: Self = Bitmap { words: [0; WORDS], len: 0 };
 
-    /// An empty set over `0..len`, or `None` if `len` exceeds the capacity.
-    pub fn new(len: u16) -> Option<Self> {
-        (usize::from(len) <= Self::CAPACITY).then_some(Bitmap { words: [0; WORDS], len })
+    /// Empties the set and makes it range over `0..len`, in place (a
+    /// bitmap is most of a cell's update state: no copy on the stack);
+    /// false, and unchanged, if `len` exceeds the capacity.
+    pub fn reset(&mut self, len: u16) -> bool {
+        if usize::from(len) > Self::CAPACITY {
+            return false;
+        }
+        self.words = [0; WORDS];
+        self.len = len;
+        true
     }
 
     /// The indices the set ranges over.
@@ -62,5 +69,21 @@ impl<const WORDS: usize> Bitmap<WORDS> {
     /// How many indices are in.
     pub fn count(&self) -> u32 {
         self.words.iter().map(|w| w.count_ones()).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_reset_empties_the_set_in_place_or_refuses_too_many() {
+        let mut b = Bitmap::<2>::EMPTY;
+        assert!(b.reset(40));
+        assert!(b.insert(39) && b.has(39) && !b.insert(40));
+        assert!(!b.reset(65), "64 indices at most");
+        assert_eq!((b.len(), b.has(39)), (40, true), "unchanged");
+        assert!(b.reset(64));
+        assert_eq!((b.len(), b.has(39)), (64, false));
     }
 }

@@ -137,9 +137,7 @@ impl Updater {
             } else {
                 Progress::Receiving
             };
-            let have = Bitmap::new(offer.chunks);
-            let progress = if have.is_none() { Progress::Refused(Refusal::TooLong) } else { progress };
-            self.have = have.unwrap_or(self.have);
+            let progress = if self.have.reset(offer.chunks) { progress } else { Progress::Refused(Refusal::TooLong) };
             self.offer = Some((offer, progress));
             self.header_checked = false;
             self.last_chunk_us = now_us;

@@ -61,11 +61,17 @@ pub struct CellCommand {
 }
 
 impl CellCommand {
-    /// A cell running `elf`, keeping its persistent store in `store`, with
-    /// UART0..UART4 joined as given.
-    pub fn new(elf: &Path, store: &Path, uarts: [Uart; 5]) -> CellCommand {
+    /// A cell starting with `bootloader`, keeping its flash (store, boot
+    /// record, image slots) in the file `flash`, with UART0..UART4 joined
+    /// as given.
+    pub fn new(bootloader: &Path, flash: &Path, uarts: [Uart; 5]) -> CellCommand {
         let mut args: Vec<OsString> = BOARD.iter().map(OsString::from).collect();
-        args.extend(["-kernel".into(), elf.into(), "-append".into(), format!("store={}", store.display()).into()]);
+        args.extend([
+            "-kernel".into(),
+            bootloader.into(),
+            "-append".into(),
+            format!("flash={}", flash.display()).into(),
+        ]);
         for (i, uart) in uarts.iter().enumerate() {
             let id = format!("uart{i}");
             match uart.chardev(&id) {

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use skin_protocol::frame::Frame;
 use skin_protocol::interface::{self, Datagram, DatagramHeader, MAX_DATAGRAM};
-use skin_protocol::message::{ConfigWrite, Message, NeighbourReport, Setting, TactileEvent};
+use skin_protocol::message::{ConfigWrite, Message, NeighbourReport, Setting, TactileEvent, UpdateReport};
 use skin_protocol::organize::Allocator;
 use skin_protocol::{Address, Sample};
 
@@ -40,6 +40,8 @@ pub struct Host {
     pub events: Vec<Arrival<TactileEvent>>,
     /// Configuration acknowledgements by cell and tag.
     pub acks: BTreeMap<(Address, u8), bool>,
+    /// Every update report received, in order.
+    pub updates: Vec<Arrival<UpdateReport>>,
     /// Datagrams received.
     pub datagrams: u64,
     /// Frames in them that failed their CRC or payload check.
@@ -60,6 +62,7 @@ impl Host {
             samples: Vec::new(),
             events: Vec::new(),
             acks: BTreeMap::new(),
+            updates: Vec::new(),
             datagrams: 0,
             bad_frames: 0,
         })
@@ -126,6 +129,7 @@ impl Host {
                 Message::ConfigAck(a) => {
                     self.acks.insert((src, a.tag), a.accepted);
                 }
+                Message::UpdateReport(value) => self.updates.push(Arrival { at, src, value }),
                 _ => {}
             }
         }
@@ -134,13 +138,20 @@ impl Host {
 
     /// Sends one frame down the interface port.
     pub fn send(&mut self, frame: Frame) -> Result<(), QemuError> {
+        self.send_all(&[frame])
+    }
+
+    /// Sends frames down the interface port, as many to a datagram as fit.
+    pub fn send_all(&mut self, frames: &[Frame]) -> Result<(), QemuError> {
         let Some(gateway) = self.gateway else { return Ok(()) };
-        let header =
-            DatagramHeader { interface: 0, seq: self.seq, timestamp_us: self.start.elapsed().as_micros() as u64 };
-        self.seq = self.seq.wrapping_add(1);
-        let mut buf = [0u8; MAX_DATAGRAM];
-        let len = interface::encode(header, &[frame], &mut buf).unwrap_or(0);
-        self.socket.send_to(&buf[..len], gateway).context(|| "host send".into())?;
+        for chunk in frames.chunks(interface::MAX_FRAMES) {
+            let header =
+                DatagramHeader { interface: 0, seq: self.seq, timestamp_us: self.start.elapsed().as_micros() as u64 };
+            self.seq = self.seq.wrapping_add(1);
+            let mut buf = [0u8; MAX_DATAGRAM];
+            let len = interface::encode(header, chunk, &mut buf).unwrap_or(0);
+            self.socket.send_to(&buf[..len], gateway).context(|| "host send".into())?;
+        }
         Ok(())
     }
 

@@ -8,10 +8,12 @@
 //! datagrams for the [`host::Host`] on loopback, and back.
 
 pub mod cells;
+pub mod flash;
 pub mod gateway;
 pub mod hex;
 pub mod host;
 pub mod net;
+pub mod update;
 
 use std::path::PathBuf;
 
@@ -20,7 +22,7 @@ use std::path::PathBuf;
 #[non_exhaustive]
 pub enum QemuError {
     /// The firmware image is not where it was looked for.
-    #[error("no firmware at {0}: build it with `cargo build -p skin-firmware --profile firmware --target thumbv7em-none-eabihf --features qemu --bin cell-qemu --examples` or pass --elf")]
+    #[error("no firmware at {0}: build it with `cargo build -p skin-firmware --profile firmware --target thumbv7em-none-eabihf --features qemu --bins --examples` or pass --elf")]
     MissingElf(PathBuf),
     /// QEMU could not be started.
     #[error("cannot start {program}: {source} (install it with `apt-get install qemu-system-arm`)")]

@@ -15,6 +15,7 @@ use skin_protocol::message::{Channel, Neighbour, Port, Setting, TrafficMode};
 use skin_protocol::{Address, Sample};
 
 use super::cells::{gateway_socket, plan, stimulus_socket, CellCommand, Cells, CpuUse, StackUse};
+use super::flash::{provision, Programs};
 use super::gateway::{Gateway, GatewayStats};
 use super::hex::{End, Wiring};
 use super::host::Host;
@@ -25,7 +26,7 @@ use super::{Context, QemuError};
 pub struct NetOptions {
     /// Cells in the patch (2 to 40).
     pub cells: usize,
-    /// The `cell-qemu` firmware image.
+    /// The `cell-qemu` firmware (`boot-qemu`, its bootloader, beside it).
     pub elf: PathBuf,
     /// Keep the run directory (sockets, stores, logs) after a success.
     pub keep: bool,
@@ -69,7 +70,7 @@ pub struct NetReport {
 }
 
 /// The baseline every cell sees at boot and calibrates its offsets on.
-fn baseline() -> Sample {
+pub(crate) fn baseline() -> Sample {
     Sample::saturating(1_000, [300, 310, 320], [0, 0, 256], 800, 0)
 }
 
@@ -101,20 +102,60 @@ fn fields(s: &Sample) -> (u16, [u16; 3], [i16; 3], i16) {
 }
 
 /// The harness: cells, host, interface port and stimulus channels.
-struct World {
-    cells: Cells,
-    host: Host,
+pub(crate) struct World {
+    pub(crate) cells: Cells,
+    pub(crate) host: Host,
     gateway: Gateway,
     listeners: Vec<UnixListener>,
     streams: Vec<Option<UnixStream>>,
     /// What each cell's sensors read; `None`: nothing yet, no samples.
     stimulus: Vec<Option<Sample>>,
     last_stimulus: Instant,
+    /// The programs the cells run.
+    pub(crate) programs: Programs,
+    /// Each cell's flash file.
+    pub(crate) flashes: Vec<PathBuf>,
 }
 
 impl World {
+    /// A patch wired as `wiring` with its interface port at `interface`, in
+    /// `dir`, not started: each cell's flash file holds version 1 of the
+    /// `cell-qemu` program `elf` in slot A.
+    pub(crate) fn new(elf: &Path, wiring: &Wiring, interface: End, dir: &Path) -> Result<World, QemuError> {
+        let n = wiring.cells();
+        let mut host = Host::bind()?;
+        let listener = |p: PathBuf| {
+            let l = UnixListener::bind(&p).context(|| format!("listening on {}", p.display()))?;
+            l.set_nonblocking(true).context(|| "nonblocking listener".into())?;
+            Ok::<_, QemuError>(l)
+        };
+        let gateway = Gateway::start(0, QEMU_CONFIG, listener(gateway_socket(dir))?, host.addr()?)?;
+        host.set_gateway(gateway.udp_addr());
+        let listeners = (0..n).map(|i| listener(stimulus_socket(dir, i))).collect::<Result<Vec<_>, _>>()?;
+        let programs = Programs::load(elf)?;
+        let factory = programs.genuine(1);
+        let (mut commands, mut flashes) = (Vec::new(), Vec::new());
+        for (i, uarts) in plan(wiring, interface, dir).into_iter().enumerate() {
+            let flash = dir.join(format!("cell{i}.flash"));
+            provision(&flash, &factory)?;
+            commands.push(CellCommand::new(&programs.bootloader, &flash, uarts));
+            flashes.push(flash);
+        }
+        Ok(World {
+            cells: Cells::new(dir, commands),
+            host,
+            gateway,
+            listeners,
+            streams: (0..n).map(|_| None).collect(),
+            stimulus: vec![None; n],
+            last_stimulus: Instant::now(),
+            programs,
+            flashes,
+        })
+    }
+
     /// Serves the stimulus channels and the host for `wait`.
-    fn pump(&mut self, wait: Duration) -> Result<(), QemuError> {
+    pub(crate) fn pump(&mut self, wait: Duration) -> Result<(), QemuError> {
         self.cells.check_alive()?;
         let resend = self.last_stimulus.elapsed() > Duration::from_millis(100);
         for (i, listener) in self.listeners.iter().enumerate() {
@@ -135,7 +176,33 @@ impl World {
         self.host.pump(wait)
     }
 
-    fn set_stimulus(&mut self, i: usize, raw: Sample) {
+    /// Writes `settings` (tag, setting) to every cell of `ids` until each
+    /// acknowledged each; returns the time it took.
+    pub(crate) fn configure(&mut self, ids: &[Option<Address>], settings: &[(u8, Setting)]) -> Result<f64, QemuError> {
+        let mut last_write = Instant::now() - Duration::from_secs(1);
+        let ((), configure_s) = self.wait("configuration", Duration::from_secs(15), |w| {
+            let missing: Vec<_> = ids
+                .iter()
+                .flatten()
+                .flat_map(|id| settings.iter().map(move |(tag, _)| (*id, *tag)))
+                .filter(|key| w.host.acks.get(key) != Some(&true))
+                .collect();
+            if missing.is_empty() {
+                return Ok(());
+            }
+            // Writes are idempotent; repeat them for cells that lost one.
+            if last_write.elapsed() > Duration::from_secs(1) {
+                last_write = Instant::now();
+                for (tag, setting) in settings {
+                    w.host.broadcast(*tag, *setting).map_err(|e| e.to_string())?;
+                }
+            }
+            Err(format!("acknowledgements missing: {missing:?}"))
+        })?;
+        Ok(configure_s)
+    }
+
+    pub(crate) fn set_stimulus(&mut self, i: usize, raw: Sample) {
         self.stimulus[i] = Some(raw);
         if let Some(stream) = &mut self.streams[i] {
             if stream.write_all(&stimulus::encode(&raw)).is_err() {
@@ -162,7 +229,7 @@ impl World {
     }
 
     /// Pumps until `done` gives a value or `limit` passes.
-    fn wait<T>(
+    pub(crate) fn wait<T>(
         &mut self,
         stage: &'static str,
         limit: Duration,
@@ -229,7 +296,7 @@ fn map_ids(
 }
 
 /// Every cell of `cells` mapped, to the IDs in `expect` where given.
-fn organized(
+pub(crate) fn organized(
     w: &World,
     wiring: &Wiring,
     interface: End,
@@ -296,7 +363,8 @@ pub fn run(opts: &NetOptions, progress: &mut dyn FnMut(&str)) -> Result<NetRepor
     })
 }
 
-fn run_dir() -> Result<PathBuf, QemuError> {
+/// A fresh run directory for sockets, flash files and logs.
+pub(crate) fn run_dir() -> Result<PathBuf, QemuError> {
     let stamp = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
     let dir = std::env::temp_dir().join(format!("skin-qemu-net-{}-{stamp}", std::process::id()));
     std::fs::create_dir_all(&dir).context(|| format!("creating {}", dir.display()))?;
@@ -311,29 +379,7 @@ fn run_in(opts: &NetOptions, dir: &Path, progress: &mut dyn FnMut(&str)) -> Resu
     let everyone: Vec<usize> = (0..n).collect();
     let survivors: Vec<usize> = everyone.iter().copied().filter(|i| *i != killed).collect();
 
-    let mut host = Host::bind()?;
-    let listener = |p: PathBuf| {
-        let l = UnixListener::bind(&p).context(|| format!("listening on {}", p.display()))?;
-        l.set_nonblocking(true).context(|| "nonblocking listener".into())?;
-        Ok::<_, QemuError>(l)
-    };
-    let gateway = Gateway::start(0, QEMU_CONFIG, listener(gateway_socket(dir))?, host.addr()?)?;
-    host.set_gateway(gateway.udp_addr());
-    let listeners = (0..n).map(|i| listener(stimulus_socket(dir, i))).collect::<Result<Vec<_>, _>>()?;
-    let commands = plan(&wiring, interface, dir)
-        .into_iter()
-        .enumerate()
-        .map(|(i, uarts)| CellCommand::new(&opts.elf, &dir.join(format!("cell{i}.store")), uarts))
-        .collect();
-    let mut w = World {
-        cells: Cells::new(dir, commands),
-        host,
-        gateway,
-        listeners,
-        streams: (0..n).map(|_| None).collect(),
-        stimulus: vec![None; n],
-        last_stimulus: Instant::now(),
-    };
+    let mut w = World::new(&opts.elf, &wiring, interface, dir)?;
 
     progress(&format!("starting {n} QEMU cells, interface on cell {} port {:?}", interface.0, interface.1));
     let started = Instant::now();
@@ -346,26 +392,7 @@ fn run_in(opts: &NetOptions, dir: &Path, progress: &mut dyn FnMut(&str)) -> Resu
 
     progress("configuring: event traffic, filter cut-off 1 kHz");
     let settings = [(1u8, Setting::Traffic(TrafficMode::Event)), (2, Setting::FilterCutoffHz(1_000.0))];
-    let mut last_write = Instant::now() - Duration::from_secs(1);
-    let ((), configure_s) = w.wait("configuration", Duration::from_secs(15), |w| {
-        let missing: Vec<_> = ids
-            .iter()
-            .flatten()
-            .flat_map(|id| settings.iter().map(move |(tag, _)| (*id, *tag)))
-            .filter(|key| w.host.acks.get(key) != Some(&true))
-            .collect();
-        if missing.is_empty() {
-            return Ok(());
-        }
-        // Writes are idempotent; repeat them for cells that lost one.
-        if last_write.elapsed() > Duration::from_secs(1) {
-            last_write = Instant::now();
-            for (tag, setting) in settings {
-                w.host.broadcast(tag, setting).map_err(|e| e.to_string())?;
-            }
-        }
-        Err(format!("acknowledgements missing: {missing:?}"))
-    })?;
+    let configure_s = w.configure(&ids, &settings)?;
 
     // Sensors come alive only now, so the organization above ran on a quiet
     // network; each cell calibrates its offsets on the baseline, then sends

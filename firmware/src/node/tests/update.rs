@@ -33,7 +33,7 @@ fn base(slot: SlotId) -> u32 {
 fn power_on(flash: Image, store: Flash, sink: &mut Sink, t: &mut u64) -> (Node<Flash, Spare>, BootRecord) {
     let slots = [SlotId::A, SlotId::B].map(|s| FlashSlot::new(flash.clone(), base(s), SLOT_LEN).unwrap());
     let mut records = Store::<_, BootRecord>::open(flash, 0, 2048).unwrap();
-    let running = boot(&mut records, [&slots[0], &slots[1]], Board::Mps2An386, &key()).unwrap();
+    let running = boot(&mut records, [&slots[0], &slots[1]], Board::Mps2An386, &key(), u32::MAX).unwrap();
     let record = *records.state();
     let version = image::ImageHeader::parse(&read(&slots[running as usize], 128)).unwrap().version;
     let spare = FlashSlot::new(records.release(), base(record.spare()), SLOT_LEN).unwrap();
