@@ -16,7 +16,6 @@ use skin_host::interface::{
     tactile_text, DatagramReject, Event, EventKind, FrameReject, Interface, InterfaceCounters, PortStats,
 };
 use skin_host::registry::Topology;
-use skin_host::view::Update;
 use skin_protocol::message::Channel;
 use skin_protocol::Address;
 
@@ -85,7 +84,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     if !live {
         eprintln!("skin monitor: listening on {}", interface.local_addr());
     }
-    let (foxglove, feed) = args.foxglove.open()?;
+    let (foxglove, mut feed) = args.foxglove.open()?;
     let mut view = View::new(&interface);
     let settings = config.cells.settings();
     let mut settings_pending = args.write_settings;
@@ -98,8 +97,8 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         events.clear();
         interface.poll(Duration::from_millis(20), &mut events)?;
         view.take(&events, interface.now_us());
-        if let Some(feed) = feed.as_ref().filter(|_| !events.is_empty()) {
-            feed.send(Update::Events(events.clone()));
+        if let Some(feed) = &mut feed {
+            feed.events(&events);
         }
         if settings_pending && interface.ports().iter().any(|p| p.address().is_some()) {
             let tags = interface.send_config(Address::BROADCAST, &settings)?;

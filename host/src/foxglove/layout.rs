@@ -149,27 +149,31 @@ pub fn cells(
             on_part.insert(cell.0, (k, i, part.cells.len()));
         }
     }
-    let loose: Vec<u16> =
-        ids.iter().copied().filter(|id| !poses.contains_key(id) && !on_part.contains_key(id)).collect();
-    ids.iter()
-        .map(|id| {
-            if let Some(pose) = poses.get(id) {
-                if let Some(frame) = skeleton.frame(&pose.frame) {
-                    let [r, p, y] = pose.rpy;
-                    let local = Isometry3::from_parts(
-                        Translation3::new(pose.xyz[0], pose.xyz[1], pose.xyz[2]),
-                        UnitQuaternion::from_euler_angles(r, p, y),
-                    );
-                    return frame * local;
-                }
-            }
-            if let Some(&(k, i, n)) = on_part.get(id) {
-                if let Some(frame) = skeleton.frame(&part_frame(k)) {
-                    return frame * on_grid(i, n);
-                }
-            }
-            let k = loose.iter().position(|l| l == id).unwrap_or(0);
-            on_grid(k, loose.len())
+    let placed = |id: &u16| {
+        poses.get(id).and_then(|pose| skeleton.frame(&pose.frame).map(|frame| (pose, frame))).map(|(pose, frame)| {
+            let [r, p, y] = pose.rpy;
+            let local = Isometry3::from_parts(
+                Translation3::new(pose.xyz[0], pose.xyz[1], pose.xyz[2]),
+                UnitQuaternion::from_euler_angles(r, p, y),
+            );
+            frame * local
+        })
+    };
+    let on_tree = |id: &u16| {
+        let &(k, i, n) = on_part.get(id)?;
+        skeleton.frame(&part_frame(k)).map(|frame| frame * on_grid(i, n))
+    };
+    let known: Vec<Option<Isometry3<f64>>> = ids.iter().map(|id| placed(id).or_else(|| on_tree(id))).collect();
+    // The rest share one grid, in ID order.
+    let loose = known.iter().filter(|k| k.is_none()).count();
+    let mut next = 0;
+    known
+        .into_iter()
+        .map(|k| {
+            k.unwrap_or_else(|| {
+                next += 1;
+                on_grid(next - 1, loose)
+            })
         })
         .collect()
 }

@@ -118,8 +118,8 @@ impl Session {
         self.view = Some((feed, false));
     }
 
-    fn tell(&self, update: impl FnOnce() -> Update) {
-        if let Some((feed, _)) = &self.view {
+    fn tell(&mut self, update: impl FnOnce() -> Update) {
+        if let Some((feed, _)) = &mut self.view {
             feed.send(update());
         }
     }
@@ -197,7 +197,7 @@ impl Session {
                 if !std::mem::replace(told, true) {
                     feed.send(Update::Dofs(dof_names.to_vec()));
                 }
-                feed.send(Update::Positions(positions.to_vec()));
+                feed.positions(positions);
             }
             self.publish(skin::JOINT_STATES, t, &skin::joint_state(Stamp::from_nanos(t), dof_names, positions));
         }
@@ -228,8 +228,8 @@ impl Session {
     /// What the skin said in one tick at robot time `robot_s`: contacts at
     /// once, the cloud (and IMUs) at 50 Hz of robot time.
     pub fn events(&mut self, events: &[Event], robot_s: f64) {
-        if !events.is_empty() {
-            self.tell(|| Update::Events(events.to_vec()));
+        if let Some((feed, _)) = &mut self.view {
+            feed.events(events);
         }
         let t = now_ns();
         let stamp = Stamp::from_nanos(t);
