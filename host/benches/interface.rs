@@ -17,11 +17,16 @@
 //!      over Zenoh, to a subscriber in the same process connected over
 //!      loopback TCP): loss, the receiving thread's CPU and the other
 //!      threads' (load generator, Zenoh's runtime), and messages and bytes
-//!      the subscriber got per second.
+//!      the subscriber got per second;
+//!    - with `--features foxglove` (or `ros2`), the Foxglove view on
+//!      (`--foxglove`), a WebSocket client in the same process subscribed
+//!      to every channel: loss, the receiving thread's CPU and the other
+//!      threads' (load generator, the view's thread, the SDK's runtime, the
+//!      client), and messages and bytes the client got per second.
 //!
 //! `cargo bench -p skin-host --bench interface [--features ros2]` (about 4 minutes);
 //! `SKIN_BENCH_SECONDS` sets the length of each loopback run (default 10);
-//! `SKIN_BENCH_ONLY_PUBLISH=1` runs only publishing and its baselines.
+//! `SKIN_BENCH_ONLY_PUBLISH=1` runs only publishing (Zenoh, Foxglove) and its baselines.
 
 use std::hint::black_box;
 use std::net::SocketAddr;
@@ -121,6 +126,9 @@ enum Output {
     /// Publishes the ROS 2 topics over Zenoh to a subscriber.
     #[cfg(feature = "ros2")]
     Publish,
+    /// Serves the Foxglove view to a subscribed client.
+    #[cfg(feature = "foxglove")]
+    Foxglove,
 }
 
 /// CPU time of the process's live threads in seconds (Linux): a thread that ended is not counted.
@@ -134,7 +142,7 @@ fn process_cpu_s() -> Option<f64> {
 }
 
 /// Messages and bytes a subscriber got.
-#[cfg(feature = "ros2")]
+#[cfg(any(feature = "ros2", feature = "foxglove"))]
 type Counts = Arc<(std::sync::atomic::AtomicU64, std::sync::atomic::AtomicU64)>;
 
 /// A Zenoh subscriber to everything `node` publishes, counting messages and bytes.
@@ -160,6 +168,86 @@ fn subscriber(node: &skin_host::ros::rmw_zenoh::Node) -> (zenoh::Session, zenoh:
     // Until the subscription has reached the publisher's side.
     thread::sleep(Duration::from_millis(500));
     (session, sub, counts)
+}
+
+/// A Foxglove client at `addr` that subscribes to every channel advertised
+/// and counts the messages and bytes it gets: a plain WebSocket client over
+/// a `TcpStream` (RFC 6455: one upgrade request, masked text frames out,
+/// unmasked frames in), so the bench needs no WebSocket crate.
+#[cfg(feature = "foxglove")]
+fn foxglove_client(addr: SocketAddr, stop: Arc<AtomicBool>) -> (thread::JoinHandle<()>, Counts) {
+    use std::io::{BufRead, BufReader, Read, Write};
+    let counts: Counts = Arc::new((std::sync::atomic::AtomicU64::new(0), std::sync::atomic::AtomicU64::new(0)));
+    let c = counts.clone();
+    let mut tcp = std::net::TcpStream::connect(addr).expect("connect to the view");
+    tcp.set_read_timeout(Some(Duration::from_millis(200))).expect("timeout");
+    write!(
+        tcp,
+        "GET / HTTP/1.1\r\nHost: {addr}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n\
+         Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\
+         Sec-WebSocket-Protocol: foxglove.sdk.v1\r\n\r\n"
+    )
+    .expect("upgrade request");
+    let client = thread::spawn(move || {
+        let mut reader = BufReader::new(tcp.try_clone().expect("clone"));
+        let mut line = String::new();
+        while reader.read_line(&mut line).expect("upgrade answer") > 2 {
+            line.clear();
+        }
+        let mut next_id = 1u32;
+        while !stop.load(Ordering::Relaxed) {
+            let mut head = [0u8; 2];
+            match reader.read_exact(&mut head) {
+                Ok(()) => {}
+                Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => continue,
+                Err(_) => break,
+            }
+            let len = match head[1] & 0x7f {
+                126 => {
+                    let mut l = [0u8; 2];
+                    reader.read_exact(&mut l).expect("length");
+                    usize::from(u16::from_be_bytes(l))
+                }
+                127 => {
+                    let mut l = [0u8; 8];
+                    reader.read_exact(&mut l).expect("length");
+                    u64::from_be_bytes(l) as usize
+                }
+                n => usize::from(n),
+            };
+            let mut payload = vec![0u8; len];
+            reader.read_exact(&mut payload).expect("payload");
+            if head[0] & 0x0f == 2 {
+                c.0.fetch_add(1, Ordering::Relaxed);
+                c.1.fetch_add(len as u64, Ordering::Relaxed);
+                continue;
+            }
+            // A text frame: subscribe to what an advertise offers.
+            let text: serde_json::Value = serde_json::from_slice(&payload).unwrap_or_default();
+            let Some(channels) = text["channels"].as_array().filter(|_| text["op"] == "advertise") else { continue };
+            let subscriptions: Vec<serde_json::Value> = channels
+                .iter()
+                .map(|ch| {
+                    next_id += 1;
+                    serde_json::json!({"id": next_id, "channelId": ch["id"]})
+                })
+                .collect();
+            let body = serde_json::json!({"op": "subscribe", "subscriptions": subscriptions}).to_string();
+            let mut frame = vec![0x81u8];
+            match body.len() {
+                n if n < 126 => frame.push(0x80 | n as u8),
+                n => {
+                    frame.push(0x80 | 126);
+                    frame.extend_from_slice(&(n as u16).to_be_bytes());
+                }
+            }
+            // A client masks what it sends; a zero mask leaves it as it is.
+            frame.extend_from_slice(&[0; 4]);
+            frame.extend_from_slice(body.as_bytes());
+            tcp.write_all(&frame).expect("subscribe");
+        }
+    });
+    (client, counts)
 }
 
 struct Received {
@@ -210,6 +298,28 @@ fn loopback(
                     }));
                     let mut s = Session::live(AccelRange::G2, false);
                     s.add_outlet(Box::new(node));
+                    Some(s)
+                }
+                #[cfg(feature = "foxglove")]
+                Output::Foxglove => {
+                    let (view, feed) = skin_host::foxglove::FoxgloveView::start(SocketAddr::from(([127, 0, 0, 1], 0)))
+                        .expect("start the Foxglove view");
+                    let done = Arc::new(AtomicBool::new(false));
+                    let (client, counts) = foxglove_client(view.local_addr(), done.clone());
+                    // Until the client has subscribed.
+                    thread::sleep(Duration::from_millis(500));
+                    let view = std::cell::Cell::new(Some((view, client)));
+                    published = Some(Box::new(move || {
+                        if let Some((view, client)) = view.take() {
+                            let stats = view.finish();
+                            println!("    the view: {stats:?}");
+                            done.store(true, Ordering::Relaxed);
+                            let _ = client.join();
+                        }
+                        (counts.0.load(Ordering::Relaxed), counts.1.load(Ordering::Relaxed))
+                    }));
+                    let mut s = Session::live(AccelRange::G2, false);
+                    s.add_view(feed);
                     Some(s)
                 }
             };
@@ -334,7 +444,12 @@ fn loopback_report(seconds: f64) {
     #[cfg(feature = "ros2")]
     runs.extend([
         (heavy_skin(1000), "each port sends every 1 ms, PUBLISHING over Zenoh", Output::Publish),
-        (hrp2, "74 cells on 5 ports, each sends every 1 ms, PUBLISHING over Zenoh", Output::Publish),
+        (hrp2.clone(), "74 cells on 5 ports, each sends every 1 ms, PUBLISHING over Zenoh", Output::Publish),
+    ]);
+    #[cfg(feature = "foxglove")]
+    runs.extend([
+        (heavy_skin(1000), "each port sends every 1 ms, PUBLISHING to Foxglove", Output::Foxglove),
+        (hrp2, "74 cells on 5 ports, each sends every 1 ms, PUBLISHING to Foxglove", Output::Foxglove),
     ]);
     // Publishing and its baselines alone.
     if std::env::var_os("SKIN_BENCH_ONLY_PUBLISH").is_some() {
@@ -368,13 +483,13 @@ fn loopback_report(seconds: f64) {
             InterfaceConfig::default().recv_buffer_bytes,
         );
         println!(
-            "    kernel UDP receive-buffer overflows (system-wide): {}; the other threads (load generator, Zenoh's runtime): {}",
+            "    kernel UDP receive-buffer overflows (system-wide): {}; the other threads (load generator; publishing: Zenoh's runtime, or the view's thread, the SDK's runtime and the client): {}",
             delta(drops0, rcvbuf_errors()),
             process_cpu.map_or("CPU unknown".into(), |cpu| format!("{:.1} % of a core", 100.0 * cpu / sent.wall_time_s))
         );
         if let Some((messages, bytes)) = got.published {
             println!(
-                "    the Zenoh subscriber got {messages} messages = {:.1} per second, {:.2} MB/s",
+                "    the subscriber got {messages} messages = {:.1} per second, {:.2} MB/s",
                 messages as f64 / sent.wall_time_s,
                 bytes as f64 / 1e6 / sent.wall_time_s
             );

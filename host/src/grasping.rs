@@ -225,11 +225,13 @@ struct Lab<'a, R> {
     notes: Vec<Note>,
     /// Robot time since the lab was opened, s.
     time_s: f64,
+    /// The controller's transitions already told to the robot's viewers.
+    told: usize,
 }
 
 impl<'a, R: Robot + SampleSource> Lab<'a, R> {
     fn new(robot: &'a mut R, person: &'a mut dyn Experimenter) -> Lab<'a, R> {
-        Lab { robot, person, samples: Vec::new(), notes: Vec::new(), time_s: 0.0 }
+        Lab { robot, person, samples: Vec::new(), notes: Vec::new(), time_s: 0.0, told: 0 }
     }
 
     /// One control period under the held command: its samples, and what
@@ -253,6 +255,11 @@ impl<'a, R: Robot + SampleSource> Lab<'a, R> {
         let pose = self.robot.positions();
         let command = controller.step(map, &pose, self.time_s)?;
         self.robot.command_velocities(command)?;
+        let transitions = controller.transitions();
+        for t in transitions.get(self.told..).unwrap_or_default() {
+            self.robot.grasp_entered(t);
+        }
+        self.told = transitions.len();
         Ok(())
     }
 

@@ -26,6 +26,8 @@
 //! - [`ros`]: ROS 2 message types, their CDR encoding and type hashes, and the skin's topics.
 //! - [`recording`]: a run recorded into an MCAP file (raw datagrams and ROS 2 topics), and read back.
 //! - [`replay`]: a recording played back as a robot and skin, to explore again.
+//! - [`view`]: what a live viewer is told, over a queue that drops rather than blocks.
+//! - `foxglove` (the `foxglove` feature): the live 3D view in Foxglove, over the SDK's WebSocket server.
 // Denied, not forbidden: the batched receive of `interface::socket` calls
 // `recvmmsg`/`sendmmsg` and is the one module allowed to.
 #![deny(unsafe_code)]
@@ -35,6 +37,8 @@ pub mod calibrate;
 pub mod config;
 pub mod control;
 pub mod explore;
+#[cfg(feature = "foxglove")]
+pub mod foxglove;
 #[cfg(feature = "sim")]
 pub mod grasping;
 pub mod interface;
@@ -47,3 +51,4 @@ pub mod report;
 pub mod robot;
 pub mod ros;
 pub mod update;
+pub mod view;

@@ -426,6 +426,12 @@ impl SampleSource for Remote {
         }));
         Ok(())
     }
+
+    fn grasp_entered(&mut self, transition: &crate::control::grasp::Transition) {
+        if let Some(session) = &mut self.recording {
+            session.grasp_entered(transition);
+        }
+    }
 }
 
 #[cfg(test)]

@@ -132,4 +132,9 @@ pub trait SampleSource {
     /// Waits for the next tick (a real skin: the next sampling period; the
     /// simulator: advances its clock) and appends the samples that arrived.
     fn next_tick(&mut self, out: &mut Vec<(Address, Sample)>) -> Result<(), RobotError>;
+
+    /// The grasp controller driving this source entered a state: a source
+    /// with live viewers (a [`crate::remote::Remote`] with `--foxglove`)
+    /// shows it; the others ignore it.
+    fn grasp_entered(&mut self, _transition: &crate::control::grasp::Transition) {}
 }

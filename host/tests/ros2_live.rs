@@ -7,8 +7,7 @@
 
 mod common;
 
-use std::io::{BufRead, BufReader, Read};
-use std::process::{Command, Stdio};
+use std::ffi::OsStr;
 
 use serde_json::Value;
 use skin_host::ros::rmw_zenoh::keys;
@@ -18,25 +17,9 @@ fn a_zenoh_peer_sees_the_demo_as_rmw_zenoh_publishes() {
     let Some(python) = common::python() else { return };
     let dir = std::env::temp_dir().join(format!("skin-ros2-live-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let mut demo = Command::new(env!("CARGO_BIN_EXE_skin"))
-        .args(["demo", "--quick", "--no-record", "--json", "--ros2", "--imu", "--out"])
-        .arg(&dir)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stderr = BufReader::new(demo.stderr.take().unwrap());
-    let mut announced = String::new();
-    while !announced.contains("ROS 2 over Zenoh:") {
-        announced.clear();
-        assert!(stderr.read_line(&mut announced).unwrap() > 0, "the demo ended without announcing its node");
-    }
-    // The rest of stderr is drained so that the demo never blocks on it.
-    let drain = std::thread::spawn(move || {
-        let mut rest = String::new();
-        let _ = stderr.read_to_string(&mut rest);
-        rest
-    });
+    let args = ["demo", "--quick", "--no-record", "--json", "--ros2", "--imu", "--out"].map(OsStr::new);
+    let (demo, announced, drain) =
+        common::spawn_announcing(&[&args[..], &[dir.as_os_str()]].concat(), "ROS 2 over Zenoh:");
     let words: Vec<&str> = announced.split_whitespace().collect();
     let zid = words[words.iter().position(|w| *w == "peer").unwrap() + 1].to_owned();
     let endpoint = words.iter().find(|w| w.starts_with("tcp/127.0.0.1:")).expect("a loopback endpoint").to_string();

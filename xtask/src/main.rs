@@ -80,7 +80,10 @@ fn ci_steps() -> Vec<Step> {
         ),
         cargo("docs", r#"doc --workspace --no-deps --config build.rustdocflags=["-D","warnings"]"#),
         cargo("tests (host)", "test --workspace"),
-        cargo("tests (ROS 2 over Zenoh: unit, and a Python zenoh peer)", "test -p skin-host --features ros2 --lib --test ros2_live"),
+        cargo(
+            "tests (ROS 2 over Zenoh and the Foxglove view: unit, a Python zenoh peer, a Python Foxglove client)",
+            "test -p skin-host --features ros2 --lib --test ros2_live --test foxglove_live",
+        ),
         cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
         cargo(
             "build firmware and bootloader (qemu board)",
@@ -277,10 +280,17 @@ fn install() -> Result<(), String> {
 /// The Python readers the tests check our files and our live topics with
 /// (readers we did not write), pinned, in a venv under the target
 /// directory: rosbags and mcap-ros2-support read MCAP and CDR,
-/// eclipse-zenoh subscribes as a ROS 2 machine's peer would, and ROS's own
-/// urdf_parser_py reads our URDF with skin frames.
-const PYTHON_READERS: [&str; 4] =
-    ["rosbags==0.11.9", "mcap-ros2-support==0.6.0", "eclipse-zenoh==1.10.2", "urdf-parser-py==0.0.4"];
+/// eclipse-zenoh subscribes as a ROS 2 machine's peer would, ROS's own
+/// urdf_parser_py reads our URDF with skin frames, and websockets with
+/// protobuf watch the Foxglove view as a Foxglove client would.
+const PYTHON_READERS: [&str; 6] = [
+    "rosbags==0.11.9",
+    "mcap-ros2-support==0.6.0",
+    "eclipse-zenoh==1.10.2",
+    "urdf-parser-py==0.0.4",
+    "websockets==15.0.1",
+    "protobuf==6.31.1",
+];
 
 /// Creates the venv `target/pyenv` with [`PYTHON_READERS`]; without
 /// python3 it says that those tests will be skipped.
@@ -295,7 +305,7 @@ fn python_readers() -> Result<(), String> {
     if !Path::new(python).exists() {
         run("python3", &["-m", "venv", venv.to_str().ok_or("the target directory's path is not UTF-8")?])?;
     }
-    if !succeeds(python, &["-c", "import rosbags, mcap_ros2, zenoh, urdf_parser_py"]) {
+    if !succeeds(python, &["-c", "import rosbags, mcap_ros2, zenoh, urdf_parser_py, websockets, google.protobuf"]) {
         let mut args = vec!["-m", "pip", "install", "-q"];
         args.extend(PYTHON_READERS);
         run(python, &args)?;

@@ -83,7 +83,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     if !args.no_record {
         job::record(&mut remote, &args.out.join(RECORDING), &steps, args.imu)?;
     }
-    args.live.start(&mut remote, steps.explore.range, args.imu)?;
+    let live = args.live.start(&mut remote, steps.explore.range, args.imu)?;
     let found = job::run(&mut remote, &steps)?;
     let exploration = found.exploration.clone();
     let grasp_wall = Instant::now();
@@ -95,7 +95,9 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         teach_and_grasp(&mut remote, &mut endpoint, exploration.smm.clone(), &Params::default(), &chosen)?;
     let grasp_wall_s = grasp_wall.elapsed().as_secs_f64();
     let robot_addr = endpoint.robot;
-    let recorded = job::finish_recording(&mut remote)?;
+    let recorded = job::finish_recording(&mut remote);
+    live.finish();
+    let recorded = recorded?;
     let truth = endpoint.stop()?;
     let checked = truth_section(&remote, &truth, &exploration, seed)?;
     let cells = truth.ids.len();

@@ -12,12 +12,14 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 use skin_host::config::{Config, PortConfig};
-use skin_host::interface::{DatagramReject, Event, EventKind, FrameReject, Interface, InterfaceCounters, PortStats};
+use skin_host::interface::{
+    tactile_text, DatagramReject, Event, EventKind, FrameReject, Interface, InterfaceCounters, PortStats,
+};
 use skin_host::registry::Topology;
-use skin_protocol::event::{FORCE_NAMES, PROXIMITY_NAMES};
 use skin_protocol::message::Channel;
 use skin_protocol::Address;
 
+use super::live::FoxgloveArgs;
 use super::seconds;
 
 /// Arguments of `skin monitor`.
@@ -47,6 +49,8 @@ pub struct Args {
     /// Redraw period in milliseconds.
     #[arg(long, default_value_t = 250, value_parser = clap::value_parser!(u64).range(10..))]
     refresh_ms: u64,
+    #[command(flatten)]
+    foxglove: FoxgloveArgs,
 }
 
 /// Cells heard within this time count as alive.
@@ -80,6 +84,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     if !live {
         eprintln!("skin monitor: listening on {}", interface.local_addr());
     }
+    let (foxglove, mut feed) = args.foxglove.open()?;
     let mut view = View::new(&interface);
     let settings = config.cells.settings();
     let mut settings_pending = args.write_settings;
@@ -92,6 +97,9 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         events.clear();
         interface.poll(Duration::from_millis(20), &mut events)?;
         view.take(&events, interface.now_us());
+        if let Some(feed) = &mut feed {
+            feed.events(&events);
+        }
         if settings_pending && interface.ports().iter().any(|p| p.address().is_some()) {
             let tags = interface.send_config(Address::BROADCAST, &settings)?;
             view.note(interface.now_us(), format!("wrote {} settings to every cell (tags {:?})", tags.len(), tags));
@@ -108,6 +116,8 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
             next_draw += refresh;
         }
     }
+    drop(feed);
+    foxglove.finish();
     let snapshot = view.snapshot(&interface);
     if args.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&snapshot)?)?;
@@ -160,15 +170,8 @@ impl View {
                     continue;
                 }
                 EventKind::Tactile(t) => {
-                    let (channel, names) = match t.channel {
-                        Channel::Proximity => ("proximity", &PROXIMITY_NAMES),
-                        Channel::Force0 => ("force 0", &FORCE_NAMES),
-                        Channel::Force1 => ("force 1", &FORCE_NAMES),
-                        Channel::Force2 => ("force 2", &FORCE_NAMES),
-                    };
                     self.touched.insert(cell);
-                    let name = names.get(usize::from(t.level)).unwrap_or(&"?");
-                    format!("{cell}: {channel} level {} ({name})", t.level)
+                    format!("{cell}: {}", tactile_text(&t))
                 }
                 EventKind::Joined => format!("{cell} joined on port {}", e.interface),
                 EventKind::Moved { from } => format!("{cell} moved from port {from} to port {}", e.interface),

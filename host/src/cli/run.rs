@@ -140,7 +140,10 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     if let Some(path) = &args.record {
         job::record(&mut remote, path, &steps, args.imu)?;
     }
-    args.live.start(&mut remote, range, args.imu)?;
+    let live = args.live.start(&mut remote, range, args.imu)?;
+    if let (Some((_, model)), Some(session)) = (&description, remote.recording_mut()) {
+        session.described(model);
+    }
     let found = job::run(&mut remote, &steps).map_err(Box::<dyn std::error::Error>::from).and_then(|found| {
         let calibration = match &description {
             Some((text, model)) => Some(calibrate_skin(&mut remote, text, model, &found, range, &args.out)?),
@@ -148,7 +151,9 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         };
         Ok((found, calibration))
     });
-    let recorded = job::finish_recording(&mut remote)?;
+    let recorded = job::finish_recording(&mut remote);
+    live.finish();
+    let recorded = recorded?;
     let (found, calibration) = found?;
     let mut report = job::report(&remote, source, found);
     report.calibration = calibration;

@@ -1,7 +1,21 @@
 //! What the interface hands to the rest of the host.
 
-use skin_protocol::message::{ConfigAck, NeighbourReport, Port, TactileEvent, UpdateReport};
+use skin_protocol::event::{FORCE_NAMES, PROXIMITY_NAMES};
+use skin_protocol::message::{Channel, ConfigAck, NeighbourReport, Port, TactileEvent, UpdateReport};
 use skin_protocol::{Address, Sample};
+
+/// A tactile level change as people read it (`force 0 level 2 (medium
+/// force)`): the monitor's lines and the live view's log say it alike.
+pub fn tactile_text(t: &TactileEvent) -> String {
+    let (channel, names) = match t.channel {
+        Channel::Proximity => ("proximity", &PROXIMITY_NAMES),
+        Channel::Force0 => ("force 0", &FORCE_NAMES),
+        Channel::Force1 => ("force 1", &FORCE_NAMES),
+        Channel::Force2 => ("force 2", &FORCE_NAMES),
+    };
+    let name = names.get(usize::from(t.level)).unwrap_or(&"?");
+    format!("{channel} level {} ({name})", t.level)
+}
 
 /// One thing that happened on the skin.
 #[derive(Clone, Copy, Debug, PartialEq)]

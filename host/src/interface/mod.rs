@@ -38,7 +38,7 @@ use skin_protocol::message::{ConfigWrite, Setting};
 use skin_protocol::{Address, Frame, Message};
 
 pub use counters::{DatagramCounters, DatagramReject, FrameCounters, FrameReject, InterfaceCounters};
-pub use event::{Event, EventKind};
+pub use event::{tactile_text, Event, EventKind};
 pub use ingest::{Ingest, MAX_UNHEARD_IDS, RECLAIM_UNHEARD_US};
 pub use ports::{Port, PortStats, Ports, REBIND_QUIET_US};
 pub use silence::{silence_bound_s, SilenceWatch, Silent};

@@ -1,6 +1,8 @@
 //! A run being recorded and published: the raw channels `skin replay`
 //! reads go to the file, the ROS 2 topics to the file and to every live
-//! [`Outlet`] (each message encoded once). A failed write (a full disk)
+//! [`Outlet`] (each message encoded once), and what a live viewer draws
+//! to its [`Feed`] (never to the file: a viewer's own schemas are no ROS 2
+//! types, and ROS 2 readers reject them). A failed write (a full disk)
 //! does not stop the robot: the session stops writing, says so once, and
 //! [`Session::finish`] returns the error.
 
@@ -20,6 +22,7 @@ use crate::interface::Event;
 use crate::ros::msgs::{Datagram, Message, Stamp, StringMsg};
 use crate::ros::outlet::Outlet;
 use crate::ros::skin::{self, SkinTopics};
+use crate::view::{Feed, Update};
 
 /// Robot time between two `/skin/cells` clouds (and `/skin/imu` rounds), s: 50 Hz.
 const CLOUD_PERIOD_S: f64 = 0.02;
@@ -78,6 +81,8 @@ pub struct Session {
     failed: Option<RecordError>,
     /// Interface sources and their text.
     sources: Vec<(SocketAddr, String)>,
+    /// A live viewer, and whether it has been told the DoF names.
+    view: Option<(Feed, bool)>,
 }
 
 fn now_ns() -> u64 {
@@ -104,7 +109,29 @@ impl Session {
             last_cloud_s: None,
             failed: None,
             sources: Vec::new(),
+            view: None,
         }
+    }
+
+    /// Tells `feed` (a live viewer) what the run hears and learns from now on.
+    pub fn add_view(&mut self, feed: Feed) {
+        self.view = Some((feed, false));
+    }
+
+    fn tell(&mut self, update: impl FnOnce() -> Update) {
+        if let Some((feed, _)) = &mut self.view {
+            feed.send(update());
+        }
+    }
+
+    /// The robot's own description (`--urdf`), for the viewer to draw its links.
+    pub fn described(&mut self, model: &skin_sim::robot::Robot) {
+        self.tell(|| Update::Description(Box::new(model.clone())));
+    }
+
+    /// The grasp entered a state: the viewer shows it (no ROS 2 topic carries it).
+    pub fn grasp_entered(&mut self, transition: &crate::control::grasp::Transition) {
+        self.tell(|| Update::Grasp(*transition));
     }
 
     /// Publishes the ROS 2 topics to `outlet` too from now on.
@@ -130,6 +157,9 @@ impl Session {
 
     /// A ROS 2 topic: encoded once, to the file and every outlet.
     fn publish<M: Message>(&mut self, topic: &'static str, time_ns: u64, message: &M) {
+        if self.writer.is_none() && self.outlets.is_empty() {
+            return;
+        }
         message.encode_into(&mut self.scratch);
         for outlet in &mut self.outlets {
             outlet.publish(topic, M::TYPE, time_ns, &self.scratch);
@@ -163,6 +193,12 @@ impl Session {
             }
         }
         if let FromRobot::State { positions, .. } = state {
+            if let Some((feed, told)) = &mut self.view {
+                if !std::mem::replace(told, true) {
+                    feed.send(Update::Dofs(dof_names.to_vec()));
+                }
+                feed.positions(positions);
+            }
             self.publish(skin::JOINT_STATES, t, &skin::joint_state(Stamp::from_nanos(t), dof_names, positions));
         }
     }
@@ -192,13 +228,18 @@ impl Session {
     /// What the skin said in one tick at robot time `robot_s`: contacts at
     /// once, the cloud (and IMUs) at 50 Hz of robot time.
     pub fn events(&mut self, events: &[Event], robot_s: f64) {
+        if let Some((feed, _)) = &mut self.view {
+            feed.events(events);
+        }
         let t = now_ns();
         let stamp = Stamp::from_nanos(t);
         self.topics.take(events, stamp);
         if let Some(markers) = self.topics.take_contacts() {
             self.publish(skin::EVENTS, t, &markers);
         }
-        if self.last_cloud_s.is_some_and(|last| robot_s - last < CLOUD_PERIOD_S) {
+        // A session for a viewer alone (`--foxglove` only) builds no cloud nobody reads.
+        let ros_readers = self.writer.is_some() || !self.outlets.is_empty();
+        if !ros_readers || self.last_cloud_s.is_some_and(|last| robot_s - last < CLOUD_PERIOD_S) {
             return;
         }
         self.last_cloud_s = Some(robot_s);
@@ -221,6 +262,7 @@ impl Session {
 
     /// The body is explored: the cells' frames and the learned tree.
     pub fn explored(&mut self, exploration: &Exploration) {
+        self.tell(|| Update::Tree(Box::new(exploration.tree.clone()), exploration.dof_kinds.clone()));
         let poses = skin::poses_on_parts(exploration);
         let description = skin::robot_description(exploration, &poses);
         self.topics.set_poses(poses);
@@ -233,6 +275,7 @@ impl Session {
     /// The skin is calibrated on the robot's description: every cell's
     /// frame on its link, and that description with the skin's frames.
     pub fn calibrated(&mut self, poses: Vec<skin::CellPose>, description: String) {
+        self.tell(|| Update::Poses(poses.clone()));
         self.topics.set_poses(poses);
         let t = now_ns();
         let tf = self.topics.tf_static(Stamp::from_nanos(t));

@@ -1,9 +1,12 @@
 //! The Python readers we did not write (rosbags, mcap-ros2-support,
-//! eclipse-zenoh), as `cargo xtask install` puts them in a venv under the
+//! eclipse-zenoh, websockets with protobuf), as `cargo xtask install` puts them in a venv under the
 //! target directory.
 
+use std::ffi::OsStr;
+use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Child, Command, Stdio};
+use std::thread::JoinHandle;
 
 /// The venv's Python, or `None` (after saying so loudly) when this
 /// machine has no Python at all. A machine with Python but without the
@@ -34,4 +37,29 @@ pub fn run_json(python: &Path, script: &str, args: &[&Path]) -> serde_json::Valu
     assert!(out.status.success(), "{} failed: {stderr}", script.display());
     serde_json::from_slice(&out.stdout)
         .unwrap_or_else(|e| panic!("{} printed no JSON ({e}): {stderr}", script.display()))
+}
+
+/// `skin ARGS` with piped output, once a line of its stderr contains
+/// `marker`: the child, that line, and a thread draining the rest of
+/// stderr (so the run never blocks on it) that returns it.
+#[allow(dead_code, reason = "the live tests' helper; the other tests share this module")]
+pub fn spawn_announcing(args: &[&OsStr], marker: &str) -> (Child, String, JoinHandle<String>) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = BufReader::new(child.stderr.take().unwrap());
+    let mut announced = String::new();
+    while !announced.contains(marker) {
+        announced.clear();
+        assert!(stderr.read_line(&mut announced).unwrap() > 0, "skin ended without announcing {marker:?}");
+    }
+    let drain = std::thread::spawn(move || {
+        let mut rest = String::new();
+        let _ = stderr.read_to_string(&mut rest);
+        rest
+    });
+    (child, announced, drain)
 }
