@@ -154,6 +154,26 @@ fn the_running_version_is_not_taken_again_and_a_trial_confirms() {
     );
 }
 
+#[test]
+fn an_offer_during_a_trial_leaves_the_running_image_alone() {
+    // The trial image runs from the spare slot: erasing it for another
+    // offer would leave the confirm pointing at nothing.
+    let (_, running) = image(Board::Mps2An386, 2, 300, 1);
+    let (_, next) = image(Board::Mps2An386, 3, 300, 1);
+    let mut slot = TestSlot::default();
+    for c in &running {
+        slot.write(u32::from(c.index) * CHUNK_LEN as u32, &c.data).unwrap();
+    }
+    let before = *slot.bytes();
+    let mut u = Updater::new(Board::Mps2An386, key_pair(1).public.to_bytes(), 2, BootState::Trial);
+    assert_eq!(state(u.offer(offer_of(3, &next), &mut slot, 0)), Some(UpdateState::Trial));
+    assert_eq!(u.chunk(&next[0], &mut slot, 0), None);
+    assert_eq!(slot.bytes(), &before);
+    // Once confirmed, the next version is taken.
+    u.command(&UpdateCommand { version: 2, action: UpdateAction::Confirm }, 0);
+    assert_eq!(state(u.offer(offer_of(3, &next), &mut slot, 0)), Some(UpdateState::Receiving));
+}
+
 fn any_message() -> impl Strategy<Value = (u8, u16, [u8; CHUNK_LEN], u32)> {
     (0u8..4, any::<u16>(), any::<[u8; CHUNK_LEN]>(), 0u32..4)
 }

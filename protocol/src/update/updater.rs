@@ -124,7 +124,12 @@ impl Updater {
     }
 
     /// An offer: a new version clears the slot for it; every offer is answered.
+    /// On trial the running image is the spare slot's own, so nothing is
+    /// taken until the trial is confirmed or rolled back.
     pub fn offer(&mut self, offer: UpdateOffer, slot: &mut impl Slot, now_us: u64) -> Option<UpdateReport> {
+        if self.boot == BootState::Trial {
+            return self.reported(now_us);
+        }
         let current = self.offer.is_some_and(|(o, _)| o == offer);
         let failed = self.boot == BootState::RolledBack { from: offer.version };
         if offer.version != self.running && !current && !failed {
