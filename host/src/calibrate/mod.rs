@@ -249,9 +249,8 @@ pub fn calibrate<R: Robot + SampleSource>(
     let mut session = Session::with_cells(rig, found.cells.clone(), cfg.range);
     // The exploration's still windows already show gravity in each of its
     // postures (the start among them): only the rest are planned.
-    let fresh = cfg.postures.saturating_sub(found.postures.len()) + 1;
-    let postures: Vec<Vec<f64>> =
-        plan::still_postures(model, &matching.urdf_dof, &start, fresh, cfg).into_iter().skip(1).collect();
+    let fresh = cfg.postures.saturating_sub(found.postures.len());
+    let postures = plan::still_postures(model, &matching.urdf_dof, &start, fresh, cfg);
     let excitations = plan::excitations(model, &matching, &start, cfg);
     let total = postures.len() + excitations.planned.len();
 

@@ -36,7 +36,7 @@ pub struct Excitations {
     pub skipped: Vec<(usize, String)>,
 }
 
-/// `count` postures: the start, then seeded ones spread around it, inside the limits.
+/// `count` seeded postures spread around the start, inside the limits.
 pub fn still_postures(
     model: &Model,
     urdf_dof: &[usize],
@@ -45,8 +45,8 @@ pub fn still_postures(
     cfg: &CalibrateConfig,
 ) -> Vec<Vec<f64>> {
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed ^ 0xca1b);
-    let mut postures = vec![start.to_vec()];
-    for _ in 1..count {
+    let mut postures = Vec::with_capacity(count);
+    for _ in 0..count {
         let pose = urdf_dof
             .iter()
             .zip(start)
