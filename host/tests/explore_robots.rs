@@ -151,6 +151,21 @@ fn a_ur5_like_arm_on_a_level_base_is_undecided_about_its_base_cells_until_a_clea
     }
 }
 
+#[test]
+fn a_clearance_of_a_millimetre_is_reached_by_pooling_more_steps() {
+    for seed in 0..2 {
+        // One step bounds a still cell's lever to a few millimetres; a
+        // declared 1 mm needs the repeats pooled until the bound is below it.
+        let robot = Robot::from_urdf_str(&ur5_like()).unwrap();
+        let declared = Skin::per_link(&robot, 4, seed).unwrap().min_axis_clearance_m().min(0.001);
+        let trial = Trial::run(world(&ur5_like(), BaseConfig::rigid(), 4, seed, 1.0), &declaring(declared));
+        let warnings = verdict(&trial).unwrap();
+        assert!(warnings.iter().any(|w| w.starts_with("DoF shoulder_pan:")), "{warnings:?}");
+        let (found, _) = trial.outcome.as_ref().unwrap();
+        assert!(found.structure_time_s < 120.0, "{} s", found.structure_time_s);
+    }
+}
+
 /// IDs of the base cells of the UR5-like arm's skin for `seed`.
 fn strict_skin(seed: u64) -> Vec<u16> {
     let robot = Robot::from_urdf_str(&ur5_like()).unwrap();

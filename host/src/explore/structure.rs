@@ -11,7 +11,10 @@
 //!   another posture. It turns a DoF known to carry the undecided one (one
 //!   that moves every cell it moves, nearest first) by `tilt_rad`, which
 //!   tilts the axis out of gravity's line, measures again and turns back:
-//!   the paper's "change the posture of the robot", done by the robot.
+//!   the paper's "change the posture of the robot", done by the robot;
+//! - *near an axis no posture tilts*, with a mounting clearance declared:
+//!   more repeats of the step, pooled, until each still cell's lever is
+//!   bounded below the clearance.
 //!
 //! Between measurements, entries that the decided ones imply in a
 //! kinematic tree are settled without moving (`infer`): the cells of two
@@ -59,7 +62,8 @@ pub struct StructureConfig {
     /// this to the axis line of a joint that moves it, m (0: nothing
     /// declared). With it, a cell that shows no lever to a gravity-aligned
     /// axis that no posture can tilt (a yaw joint on the fixed base) is
-    /// still. Without it, such a cell is reported as undecided.
+    /// still, once pooled repeats bound its lever below the clearance.
+    /// Without it, such a cell is reported as undecided.
     pub axis_clearance_m: f64,
 }
 
@@ -318,7 +322,7 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
                 return Ok(true);
             }
         }
-        if noisy && self.blind[d] && self.tilt[d].is_none() {
+        if (noisy || self.tightens(m, d)) && self.blind[d] && self.tilt[d].is_none() {
             // Only the lever can tell: more of the same (larger) step, a
             // batch in a row so the base stops ringing, pooled; longer
             // still windows would not help.
@@ -327,7 +331,10 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
                 for _ in 0..BATCH {
                     self.repeats[d] += 1;
                     self.measure(m, d)?;
-                    if self.repeats[d] >= MAX_REPEATS || self.out_of_time() || !self.noisy(m, d) {
+                    if self.repeats[d] >= MAX_REPEATS
+                        || self.out_of_time()
+                        || !(self.noisy(m, d) || self.tightens(m, d))
+                    {
                         break;
                     }
                 }
@@ -350,6 +357,29 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
     /// DoF `d` has entries undecided for noise or saturation.
     fn noisy(&self, m: &ActivityMatrix, d: usize) -> bool {
         self.open_doubts(m, d).into_iter().any(|doubt| matches!(doubt, Doubt::Noise | Doubt::Saturated))
+    }
+
+    /// More pooled repeats of DoF `d`'s step could settle an entry on the
+    /// declared clearance: it is near an axis no posture tilts, its lever
+    /// bound is still above the clearance, and the pooled lever does not
+    /// already show it farther out (a cell that really turns about the
+    /// axis at a lever between the clearance and `axis_lever_m` stays
+    /// undecided, not pooled forever).
+    fn tightens(&self, m: &ActivityMatrix, d: usize) -> bool {
+        let clearance = self.cfg.axis_clearance_m;
+        if clearance <= 0.0 || self.kinds[d] != DofKind::Revolute || self.next_carrier(m, d).is_some() {
+            return false;
+        }
+        let (dofs, k) = (m.dofs(), self.cfg.confidence_sigmas);
+        (0..m.cells()).any(|u| {
+            let i = u * dofs + d;
+            let [x, y, z, w] = self.pooled[i];
+            let below = w == 0.0 || ((x * x + y * y + z * z).sqrt() / w - k / w.sqrt()) < clearance;
+            m.get(u, d) == Activity::Unknown
+                && self.doubts[i] == Some(Doubt::NearAxis)
+                && self.lever_bound[i] >= clearance
+                && below
+        })
     }
 
     /// Turns carrier `p` to tilt DoF `d`'s axis, measures `d` there (with
