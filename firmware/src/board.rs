@@ -86,6 +86,10 @@ pub trait Board {
     /// unless a byte is already waiting. Board background work (the QEMU
     /// board reads its stimulus channel) is done here.
     fn sleep(&mut self);
+    /// Feeds the hardware watchdog the bootloader armed: a program that
+    /// stops calling this (a hang, not a crash) is reset, and a trial
+    /// image that hangs is thus rolled back.
+    fn feed_watchdog(&mut self);
     /// Restarts the cell into its bootloader, as a power cycle would.
     fn restart(&mut self) -> !;
 }
@@ -228,9 +232,11 @@ impl<B: Board, F: NorFlash> Firmware<B, F> {
     /// The main loop: work while there is work, sleep otherwise. Update
     /// messages are handled here, at the top of the stack: the signature
     /// check needs about 4 KiB of it, which the byte path (in
-    /// [`Firmware::step`]) must not add to its own.
+    /// [`Firmware::step`]) must not add to its own. Every pass feeds the
+    /// watchdog: the tick wakes the loop at least every millisecond.
     pub fn run(&mut self) -> ! {
         loop {
+            self.board.feed_watchdog();
             if self.node.has_updates() {
                 let now = self.board.now_us();
                 self.node.handle_updates(now);
