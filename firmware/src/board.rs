@@ -41,13 +41,10 @@ pub const QEMU_CONFIG: Config = Config {
     report_period_us: 4_000_000,
 };
 
-/// The time a trial image has to be confirmed on a real cell: the
-/// simulator's limit too (`skin_sim::network::TRIAL_NS`).
-pub const TRIAL_US: u64 = 3_000_000;
-
-/// The trial limit of QEMU cells: every cell of a patch restarts into its
-/// trial at once, re-checks its image in its bootloader, and a QEMU patch
-/// takes seconds to organize again (its timings are ten times
+/// The trial limit of QEMU cells instead of a real cell's
+/// ([`skin_protocol::update::TRIAL_US`]): every cell of a patch restarts
+/// into its trial at once, re-checks its image in its bootloader, and a
+/// QEMU patch takes seconds to organize again (its timings are ten times
 /// [`Config::default`]'s: [`QEMU_CONFIG`]; 7 cells take about 2 s, more
 /// on a loaded machine), so 10 s.
 pub const QEMU_TRIAL_US: u64 = 10_000_000;
