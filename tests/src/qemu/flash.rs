@@ -125,10 +125,10 @@ pub fn record(path: &Path) -> Result<BootRecord, QemuError> {
 /// Keeps `record` in the flash file at `path`, as a cell would.
 pub fn write_record(path: &Path, record: BootRecord) -> Result<(), QemuError> {
     let mut ram = Records::new();
-    let mut store =
-        Store::<_, BootRecord>::open(&mut ram, 0, QEMU.records.len).map_err(|_| unreadable(path, "no store"))?;
-    store.set(record).map_err(|_| unreadable(path, "not kept"))?;
-    drop(store);
+    Store::<_, BootRecord>::open(&mut ram, 0, QEMU.records.len)
+        .map_err(|_| unreadable(path, "no store"))?
+        .set(record)
+        .map_err(|_| unreadable(path, "not kept"))?;
     let mut region = vec![0; QEMU.records.len as usize];
     ram.read(0, &mut region).map_err(|_| unreadable(path, "not read back"))?;
     let what = || format!("writing the boot record of {}", path.display());
