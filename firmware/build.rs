@@ -28,6 +28,9 @@ fn main() {
         [one] => *one,
         _ => panic!("features {chosen:?} name two boards: build one board at a time"),
     };
+    // An older build script put one layout in OUT_DIR itself, which comes
+    // first in the link path: left there, it would link every program at it.
+    let _ = std::fs::remove_file(out.join("board.x"));
     std::fs::copy("../memory.x", out.join("memory.x")).expect("the workspace's memory.x exists");
     std::fs::copy("memory/stack.x", out.join("stack.x")).expect("the stack reserve check exists");
     println!("cargo:rustc-link-search={}", out.display());

@@ -41,13 +41,10 @@ pub const QEMU_CONFIG: Config = Config {
     report_period_us: 4_000_000,
 };
 
-/// The time a trial image has to be confirmed on a real cell: the
-/// simulator's limit too (`skin_sim::network::TRIAL_NS`).
-pub const TRIAL_US: u64 = 3_000_000;
-
-/// The trial limit of QEMU cells: every cell of a patch restarts into its
-/// trial at once, re-checks its image in its bootloader, and a QEMU patch
-/// takes seconds to organize again (its timings are ten times
+/// The trial limit of QEMU cells instead of a real cell's
+/// ([`skin_protocol::update::TRIAL_US`]): every cell of a patch restarts
+/// into its trial at once, re-checks its image in its bootloader, and a
+/// QEMU patch takes seconds to organize again (its timings are ten times
 /// [`Config::default`]'s: [`QEMU_CONFIG`]; 7 cells take about 2 s, more
 /// on a loaded machine), so 10 s.
 pub const QEMU_TRIAL_US: u64 = 10_000_000;
@@ -86,6 +83,10 @@ pub trait Board {
     /// unless a byte is already waiting. Board background work (the QEMU
     /// board reads its stimulus channel) is done here.
     fn sleep(&mut self);
+    /// Feeds the hardware watchdog the bootloader armed: a program that
+    /// stops calling this (a hang, not a crash) is reset, and a trial
+    /// image that hangs is thus rolled back.
+    fn feed_watchdog(&mut self);
     /// Restarts the cell into its bootloader, as a power cycle would.
     fn restart(&mut self) -> !;
 }
@@ -228,9 +229,11 @@ impl<B: Board, F: NorFlash> Firmware<B, F> {
     /// The main loop: work while there is work, sleep otherwise. Update
     /// messages are handled here, at the top of the stack: the signature
     /// check needs about 4 KiB of it, which the byte path (in
-    /// [`Firmware::step`]) must not add to its own.
+    /// [`Firmware::step`]) must not add to its own. Every pass feeds the
+    /// watchdog: the tick wakes the loop at least every millisecond.
     pub fn run(&mut self) -> ! {
         loop {
+            self.board.feed_watchdog();
             if self.node.has_updates() {
                 let now = self.board.now_us();
                 self.node.handle_updates(now);

@@ -8,13 +8,11 @@ use proptest::prelude::*;
 use skin_protocol::address::Address;
 use skin_protocol::image::{self, Board, ImageError};
 use skin_protocol::message::{Message, Refusal, UpdateReport};
-use skin_protocol::update::{BootAction, BootState, Distributor, MemorySlot, Outcome, Updater};
+use skin_protocol::update::{BootAction, BootState, Distributor, MemorySlot, Outcome, Updater, TRIAL_US};
 
 const SLOT: usize = 8192;
 /// One frame time on a 4 Mbit/s link with start and stop bits.
 const FRAME_US: u64 = 50;
-/// The bootloader's trial limit: unconfirmed by then, the cell goes back.
-const TRIAL_US: u64 = 2_000_000;
 
 fn key(seed: u8) -> salty::Keypair {
     salty::Keypair::from(&[seed; 32])

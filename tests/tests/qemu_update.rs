@@ -21,6 +21,7 @@ use skin_protocol::message::Refusal;
 use skin_protocol::update::{Distributor, Outcome};
 use skin_tests::qemu::default_elf_dir;
 use skin_tests::qemu::flash::DEVELOPMENT_SEED;
+use skin_tests::qemu::hang::{hanging_trial, HANGING_VERSION};
 use skin_tests::qemu::update::{partly_written, Feed, Patch, Truncated, Unconfirmed};
 
 static ONE_PATCH: Mutex<()> = Mutex::new(());
@@ -168,6 +169,23 @@ fn an_image_never_confirmed_is_rolled_back_on_every_cell() {
         assert_eq!(patch.record(i).unwrap(), BootRecord { failed: Some(5), ..UNTOUCHED }, "cell {i}");
     }
     patch.finish();
+}
+
+/// A signed image that hangs at once (no crash, no exit) booted on trial:
+/// the watchdog armed by the bootloader resets the cell, the bootloader
+/// goes back to version 1 and refuses version 2, and version 1 runs on
+/// (it feeds the watchdog: no further reset in 6 s, longer than the
+/// watchdog's 4 s).
+#[test]
+#[ignore]
+fn a_trial_image_that_hangs_is_reset_by_the_watchdog_and_rolled_back() {
+    let _one = one_patch();
+    let elf = default_elf_dir().join("cell-qemu");
+    let report = hanging_trial(&elf, Duration::from_secs(60), Duration::from_secs(6)).unwrap_or_else(|e| panic!("{e}"));
+    println!("hanging trial image rolled back after {:.2} s of wall time: {report:?}", report.rollback_s);
+    assert_eq!(report.record, BootRecord { failed: Some(HANGING_VERSION), ..UNTOUCHED });
+    assert_eq!(report.boots, 2, "the trial boot, the watchdog's reset, and no reset after: {report:?}");
+    assert!(report.program_reports > 0, "version 1 ran its main loop after the rollback: {report:?}");
 }
 
 /// A small deterministic generator for the heavy run's choices.

@@ -9,8 +9,15 @@
 //! - `cargo xtask qemu-net --cells N`: a hexagonal patch of N QEMU cells.
 //! - `cargo xtask image --key KEY --version V`: a board's firmware as a
 //!   signed update image (`skin sign`).
+//! - `cargo xtask provision --key KEY`: a new STM32F405 cell's bootloader
+//!   and first image as one file for a debug probe; `cargo xtask fw-flash
+//!   --key KEY` (`cargo fw-flash`) writes it with probe-rs.
 
 mod elf;
+#[path = "../../firmware/src/flash_map.rs"]
+#[allow(dead_code)]
+mod flash_map;
+mod hex;
 
 use std::env;
 use std::fs;
@@ -96,7 +103,7 @@ fn ci_steps() -> Vec<Step> {
         Step { name: "firmware size within budget", action: Action::Check(firmware_size) },
         cargo("QEMU tests (fault exits, 7-cell network)", "test -p skin-tests --test qemu -- --ignored"),
         cargo(
-            "QEMU update tests (7 cells: update, kill mid-write, refusals, rollback)",
+            "QEMU update tests (7 cells: update, kill mid-write, refusals, rollback; a hanging trial image)",
             "test -p skin-tests --test qemu_update -- --ignored --skip twenty",
         ),
     ]
@@ -114,7 +121,9 @@ fn main() -> ExitCode {
         Some("install") => install(),
         Some("firmware") => firmware(),
         Some("qemu-net") => qemu_net(&args[1..]),
-        Some("image") => image(&args[1..]),
+        Some("image") => image(&args[1..]).map(drop),
+        Some("provision") => provision(&args[1..]).map(drop),
+        Some("fw-flash") => fw_flash(&args[1..]),
         _ => {
             eprintln!(
                 "usage: cargo xtask <command>\n\n  \
@@ -123,7 +132,11 @@ fn main() -> ExitCode {
                  firmware             build the cell firmware and bootloader for both boards and check their size\n  \
                  qemu-net --cells N   run a hexagonal patch of N QEMU cells (more flags: --json, --keep)\n  \
                  image --key KEY --version V [--board qemu|stm32f4] [--out FILE]\n                       \
-                 build a board's firmware and sign it into an update image"
+                 build a board's firmware and sign it into an update image\n  \
+                 provision --key KEY [--version V] [--out FILE]\n                       \
+                 a new STM32F405 cell: bootloader and signed image in slot A as one Intel HEX file\n  \
+                 fw-flash --key KEY [--version V]\n                       \
+                 provision, then write it to a cell with probe-rs"
             );
             return ExitCode::from(2);
         }
@@ -358,13 +371,18 @@ fn firmware_size() -> Result<Vec<String>, String> {
     }
 }
 
+/// A flag's value in `args`.
+fn flag<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
+    args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).map(String::as_str)
+}
+
 /// `cargo xtask image --key KEY --version V [--board B] [--out FILE]`:
-/// builds the board's firmware, flattens its ELF and signs it with `skin sign`.
-fn image(args: &[String]) -> Result<(), String> {
-    let flag = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).map(String::as_str);
-    let key = flag("--key").ok_or("image needs --key KEY (make one with `skin keygen`)")?;
-    let version = flag("--version").ok_or("image needs --version V")?;
-    let board = flag("--board").unwrap_or("qemu");
+/// builds the board's firmware, flattens its ELF and signs it with `skin
+/// sign`; returns the signed image's path.
+fn image(args: &[String]) -> Result<PathBuf, String> {
+    let key = flag(args, "--key").ok_or("image needs --key KEY (make one with `skin keygen`)")?;
+    let version = flag(args, "--version").ok_or("image needs --version V")?;
+    let board = flag(args, "--board").unwrap_or("qemu");
     let (features, bin) = BOARDS
         .into_iter()
         .find(|(b, _)| *b == board)
@@ -372,14 +390,13 @@ fn image(args: &[String]) -> Result<(), String> {
     let signed_board = if board == "qemu" { "mps2-an386" } else { "stm32f405" };
     build_board(features)?;
     let elf_path = target_dir().join(THUMB).join("firmware").join(bin);
-    let bytes = fs::read(&elf_path).map_err(|e| format!("cannot read {}: {e}", elf_path.display()))?;
-    let (at, flat) = elf::flat_binary(&bytes).map_err(|e| format!("{}: {e}", elf_path.display()))?;
+    let (at, flat) = flat_elf(&elf_path)?;
     let program = elf_path.with_extension("bin");
     fs::write(&program, &flat).map_err(|e| format!("cannot write {}: {e}", program.display()))?;
     println!("{}: {} bytes loaded at {at:#010x}", program.display(), flat.len());
-    let default_out = elf_path.with_extension("skfw").display().to_string();
-    let out = flag("--out").unwrap_or(&default_out);
+    let out = flag(args, "--out").map(PathBuf::from).unwrap_or_else(|| elf_path.with_extension("skfw"));
     let program = program.display().to_string();
+    let out_arg = out.display().to_string();
     run(
         "cargo",
         &[
@@ -397,9 +414,77 @@ fn image(args: &[String]) -> Result<(), String> {
             "--board",
             signed_board,
             "--out",
-            out,
+            &out_arg,
         ],
-    )
+    )?;
+    Ok(out)
+}
+
+/// An ELF file's flash contents and where they start.
+fn flat_elf(path: &Path) -> Result<(u32, Vec<u8>), String> {
+    let bytes = fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    elf::flat_binary(&bytes).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// `cargo xtask provision --key KEY [--version V] [--out FILE]`: what a new
+/// STM32F405 cell needs through a debug probe, as one Intel HEX file:
+/// `boot-stm32f4` in sectors 0-1, the cell program signed with KEY (version
+/// V, 1 by default) in slot A, and one erased byte in each boot record
+/// sector, so that the probe erases them (probe-rs erases every sector it
+/// writes to) and the bootloader starts from slot A. The settings store
+/// (ID, offsets) is not touched. The firmware must trust KEY: build with
+/// `SKIN_UPDATE_KEY` set to its public key, or the bootloader boots nothing.
+fn provision(args: &[String]) -> Result<PathBuf, String> {
+    use flash_map::{BOOTLOADER, STM32F4, STM32F4_FLASH};
+    let version = flag(args, "--version").unwrap_or("1").to_owned();
+    let key = flag(args, "--key").ok_or("provision needs --key KEY (make one with `skin keygen`)")?.to_owned();
+    let signed = image(&["--key".into(), key, "--version".into(), version, "--board".into(), "stm32f4".into()])?;
+    let image = fs::read(&signed).map_err(|e| format!("cannot read {}: {e}", signed.display()))?;
+    let boot_elf = target_dir().join(THUMB).join("firmware").join("boot-stm32f4");
+    let (at, boot) = flat_elf(&boot_elf)?;
+    let region = BOOTLOADER[1].1;
+    if at != region.base || boot.len() as u32 > region.len {
+        return Err(format!(
+            "{}: {} bytes at {at:#x}, not within the bootloader's sectors",
+            boot_elf.display(),
+            boot.len()
+        ));
+    }
+    if image.len() as u32 > STM32F4.slots[0].len {
+        return Err(format!("{}: {} bytes, longer than slot A", signed.display(), image.len()));
+    }
+    let erased = [0xFFu8];
+    let records = STM32F4_FLASH + STM32F4.records.base;
+    let half = STM32F4.records.len / 2;
+    let text = hex::encode(&[
+        (at, &boot),
+        (STM32F4_FLASH + STM32F4.slots[0].base, &image),
+        (records, &erased),
+        (records + half, &erased),
+    ]);
+    let default_out = boot_elf.with_file_name("provision-stm32f4.hex");
+    let out = flag(args, "--out").map(PathBuf::from).unwrap_or(default_out);
+    fs::write(&out, text).map_err(|e| format!("cannot write {}: {e}", out.display()))?;
+    println!(
+        "{}: bootloader ({} B) at {at:#010x}, signed image ({} B) in slot A at {:#010x}, boot record erased",
+        out.display(),
+        boot.len(),
+        image.len(),
+        STM32F4_FLASH + STM32F4.slots[0].base
+    );
+    Ok(out)
+}
+
+/// `cargo xtask fw-flash --key KEY [--version V]` (`cargo fw-flash`):
+/// provisions, then writes the file to the cell on the probe and starts it.
+fn fw_flash(args: &[String]) -> Result<(), String> {
+    let hex = provision(args)?;
+    let hex = hex.display().to_string();
+    run("probe-rs", &["download", "--chip", "STM32F405RGTx", "--binary-format", "hex", &hex])?;
+    run("probe-rs", &["reset", "--chip", "STM32F405RGTx"])?;
+    let elf = target_dir().join(THUMB).join("firmware").join("cell-stm32f4");
+    println!("cell logs: probe-rs attach --chip STM32F405RGTx {}", elf.display());
+    Ok(())
 }
 
 /// `cargo xtask qemu-net --cells N ...`: builds the QEMU board and runs the

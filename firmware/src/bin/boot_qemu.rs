@@ -1,11 +1,11 @@
 //! The bootloader of QEMU's mps2-an386 cells: the boot record and the
 //! slots are in the semihosting flash file, the chosen body goes to code
-//! SRAM at 0x0001_0000 and is started there. Nothing to boot: QEMU exits
-//! with code 6.
+//! SRAM at 0x0001_0000 and is started there, the board's watchdog armed.
+//! Nothing to boot: QEMU exits with code 6.
 #![no_std]
 #![no_main]
 
-use skin_firmware::boards::qemu::{exit, CodeSram, FlashFile};
+use skin_firmware::boards::qemu::{exit, CodeSram, FlashFile, Watchdog};
 use skin_firmware::boards::stack;
 use skin_firmware::flash_map::QEMU;
 use skin_firmware::loader::LoadError;
@@ -23,7 +23,7 @@ fn fail(e: LoadError) -> ! {
 
 // SAFETY: nothing runs from the execution region until the jump.
 skin_firmware::boot_main!(
-    FlashFile::open(),
+    (FlashFile::open(), Watchdog),
     QEMU,
     Board::Mps2An386,
     |_| unsafe { CodeSram::take() },

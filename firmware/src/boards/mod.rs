@@ -78,21 +78,25 @@ macro_rules! cell_main {
     };
 }
 
-/// The `main` of a bootloader binary: chooses the slot of `$flash` (laid
-/// out as `$map`) for images of `$image_board`, installs its body into
-/// `$exec(shared flash)` (a NOR flash holding the execution region at
-/// offset `$exec_base`: code SRAM, or the same flash) and jumps to it,
-/// after telling `$started(stack peak in bytes)`; if nothing can be
-/// booted, `$fail(error)`.
+/// The `main` of a bootloader binary: takes `$parts`, the board's flash
+/// and its hardware watchdog (a value whose `arm(self)` starts it),
+/// chooses the slot of the flash (laid out as `$map`) for images of
+/// `$image_board`, installs its body into `$exec(shared flash)` (a NOR
+/// flash holding the execution region at offset `$exec_base`: code SRAM,
+/// or the same flash) and jumps to it, after telling `$started(stack peak
+/// in bytes)` and arming the watchdog, so a program that hangs is reset
+/// (and a trial image that hangs is left for the old one); if nothing can
+/// be booted, `$fail(error)`.
 #[macro_export]
 macro_rules! boot_main {
-    ($flash:expr, $map:expr, $image_board:expr, $exec:expr, $exec_base:expr, $started:expr, $fail:expr) => {
+    ($parts:expr, $map:expr, $image_board:expr, $exec:expr, $exec_base:expr, $started:expr, $fail:expr) => {
         #[cortex_m_rt::entry]
         fn main() -> ! {
             use $crate::boot::BootRecord;
             use $crate::flash_slot::FlashSlot;
             let map: $crate::flash_map::FlashMap = $map;
-            let flash = core::cell::RefCell::new($flash);
+            let (flash, watchdog) = $parts;
+            let flash = core::cell::RefCell::new(flash);
             let shared = || $crate::shared_flash::SharedFlash::new(&flash);
             let records = $crate::store::Store::<_, BootRecord>::open(shared(), map.records.base, map.records.len);
             let slot = |i: usize| FlashSlot::new(shared(), map.slots[i].base, map.slots[i].len);
@@ -105,6 +109,7 @@ macro_rules! boot_main {
                 Ok((slot, header)) => {
                     defmt::info!("bootloader: slot {}, version {}, {} bytes", slot, header.version, header.body_len);
                     $started($crate::boards::stack::peak_bytes());
+                    watchdog.arm();
                     // SAFETY: the region holds the verified body, linked there; nothing was started.
                     unsafe { $crate::boards::jump(map.exec.base) }
                 }

@@ -15,10 +15,16 @@
 //!   killed QEMU is a power cut. The bootloader (`boot-qemu`, at 0x0)
 //!   copies the chosen image's body into code SRAM ([`CodeSram`]), which
 //!   QEMU does not keep.
+//! - The CMSDK APB watchdog (QEMU maps it at 0x4000_8000 on the AN386,
+//!   clocked at 25 MHz; [`Watchdog`]): `boot-qemu` arms it just before it
+//!   starts a program, the cell's main loop feeds it. Its first expiry is
+//!   the NMI, its second resets the machine (QEMU's `-watchdog-action`,
+//!   `reset` by default), as `SCB::sys_reset` does: the flash file stays.
 //! - A panic, a hard fault or any unexpected exception ends QEMU with a
 //!   failure exit code.
 
 use core::ffi::CStr;
+use core::sync::atomic::{AtomicBool, Ordering};
 
 use cortex_m::interrupt::InterruptNumber;
 use cortex_m::peripheral::{NVIC, SCB};
@@ -219,6 +225,9 @@ impl Board for Qemu {
         if let Some(peak) = self.stack.grew(self.clock.now_us()) {
             semihosting::eprintln!("stack peak {} bytes of {} reserved", peak, stack::reserved_bytes());
         }
+        if WATCHDOG_WARNED.swap(false, Ordering::Relaxed) {
+            defmt::warn!("watchdog: the main loop missed a period (NMI); fed again in time");
+        }
         // With interrupts masked, a byte arriving after the check still
         // wakes the WFI (it is pending), so none waits for the next tick.
         cortex_m::interrupt::free(|_| {
@@ -229,6 +238,10 @@ impl Board for Qemu {
         });
     }
 
+    fn feed_watchdog(&mut self) {
+        Watchdog::feed();
+    }
+
     fn restart(&mut self) -> ! {
         // QEMU resets the core and loads the bootloader's image again; the
         // flash file and the UARTs' sockets stay.
@@ -237,6 +250,60 @@ impl Board for Qemu {
 }
 
 defmt::timestamp!("{=u64:us}", Clock::log_time_us(SYSCLK_HZ));
+
+/// The board's CMSDK APB watchdog. It counts down from its load value at
+/// 25 MHz; the first time it reaches zero it raises its interrupt (the
+/// NMI) and starts again, the second time it resets the machine; a feed
+/// (a write to its interrupt clear register) starts the count again.
+#[derive(Debug)]
+pub struct Watchdog;
+
+impl Watchdog {
+    const BASE: usize = 0x4000_8000;
+    const LOAD: usize = 0x00;
+    const CONTROL: usize = 0x08;
+    const INTCLR: usize = 0x0C;
+    const INTEN: u32 = 1 << 0;
+    const RESEN: u32 = 1 << 1;
+    /// Ticks to the first expiry, 2 s: the reset comes 4 s after the last
+    /// feed. A QEMU cell's longest pass of its main loop (a slot erase or
+    /// an image read back through semihosting) is far shorter, but its
+    /// process may wait for a core on a loaded machine while the clock runs.
+    const PERIOD_TICKS: u32 = 2 * SYSCLK_HZ;
+
+    fn set(reg: usize, value: u32) {
+        // SAFETY: a register of the watchdog, which only this type touches.
+        unsafe { core::ptr::write_volatile((Self::BASE + reg) as *mut u32, value) }
+    }
+
+    /// Starts it, for the program about to be started (the bootloader's
+    /// last act); the program must feed it from then on.
+    pub fn arm(self) {
+        Self::set(Self::LOAD, Self::PERIOD_TICKS);
+        Self::set(Self::CONTROL, Self::INTEN | Self::RESEN);
+    }
+
+    /// Starts the count again (harmless when it was never armed: a cell
+    /// program started without the bootloader).
+    fn feed() {
+        Self::set(Self::INTCLR, 1);
+    }
+}
+
+/// Set by the watchdog's first expiry, reported by the main loop if it
+/// ever runs again.
+static WATCHDOG_WARNED: AtomicBool = AtomicBool::new(false);
+
+/// The watchdog's first expiry: the main loop has not fed it for a
+/// period. Nothing is logged here (an NMI may interrupt a log line); if
+/// the loop does not feed it within another period, the machine resets.
+///
+/// # Safety
+/// cortex-m-rt's rule for NMI handlers: it touches only an atomic.
+#[exception]
+unsafe fn NonMaskableInt() {
+    WATCHDOG_WARNED.store(true, Ordering::Relaxed);
+}
 
 /// The cell's flash: the semihosting file named by `flash=PATH`.
 #[derive(Debug)]

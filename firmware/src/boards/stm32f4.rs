@@ -10,7 +10,8 @@
 //! | images              | slots A and B in sectors 7 and 8, boot record in 9 and 10 ([`crate::flash_map::STM32F4`]) | |
 //!
 //! `boot-stm32f4` in sectors 0 and 1 chooses the image and installs its
-//! body in sector 4, where this program is linked.
+//! body in sector 4, where this program is linked, and arms the
+//! independent watchdog ([`Watchdog`]), which the main loop feeds.
 //!
 //! The core sleeps with WFE until a port receives, a DMA interrupt or the
 //! tick ([`ports`] says how). Logs go out with defmt over RTT, and so does
@@ -34,6 +35,7 @@ use stm32f4xx_hal::rcc::Config as ClockConfig;
 use stm32f4xx_hal::rcc::Enable;
 use stm32f4xx_hal::serial::{self, config::DmaConfig, Serial};
 use stm32f4xx_hal::spi::{Mode, Phase, Polarity, Spi};
+use stm32f4xx_hal::watchdog::IndependentWatchdog;
 
 use self::ports::DmaPort;
 use super::stack::{self, PeakWatch};
@@ -67,6 +69,7 @@ pub struct Stm32f4 {
     chips: CellChips,
     clock: Clock,
     stack: PeakWatch,
+    watchdog: IndependentWatchdog,
 }
 
 impl Stm32f4 {
@@ -140,7 +143,9 @@ impl Stm32f4 {
             ),
         };
         let clock = Clock::start(&mut cp.SYST, SYSCLK_HZ);
-        (Stm32f4 { ports, chips, clock, stack: PeakWatch::new() }, CellFlash(LockedFlash::new(dp.FLASH)))
+        // Started by the bootloader; only fed here.
+        let watchdog = IndependentWatchdog::new(dp.IWDG);
+        (Stm32f4 { ports, chips, clock, stack: PeakWatch::new(), watchdog }, CellFlash(LockedFlash::new(dp.FLASH)))
     }
 }
 
@@ -158,6 +163,10 @@ impl Board for Stm32f4 {
 
     fn sensors(&mut self) -> &mut CellChips {
         &mut self.chips
+    }
+
+    fn feed_watchdog(&mut self) {
+        self.watchdog.feed();
     }
 
     fn restart(&mut self) -> ! {
@@ -178,16 +187,39 @@ impl Board for Stm32f4 {
     }
 }
 
+/// What the bootloader takes of the MCU: the flash and the watchdog (the
+/// board takes them with the rest).
+pub fn boot_parts() -> Option<(CellFlash, Watchdog)> {
+    let dp = pac::Peripherals::take()?;
+    Some((CellFlash(LockedFlash::new(dp.FLASH)), Watchdog { iwdg: IndependentWatchdog::new(dp.IWDG), dbg: dp.DBGMCU }))
+}
+
+/// The independent watchdog (IWDG, on the LSI oscillator), as the
+/// bootloader arms it; once started only a reset stops it.
+pub struct Watchdog {
+    iwdg: IndependentWatchdog,
+    dbg: pac::DBGMCU,
+}
+
+impl Watchdog {
+    /// Its period, nominal (LSI at 32 kHz). The main loop's longest pass
+    /// is a 128 KiB sector erase at 8-bit parallelism, as the HAL erases:
+    /// at most 4 s (datasheet, t_ERASE128KB); the LSI may run at up to
+    /// 47 kHz, which makes 8 s nominal 5.4 s at the shortest.
+    pub const PERIOD_MS: u32 = 8_000;
+
+    /// Starts it, for the program about to be started (the bootloader's
+    /// last act); stopped while a debugger halts the core.
+    pub fn arm(self) {
+        let mut iwdg = self.iwdg;
+        iwdg.stop_on_debug(&self.dbg, true);
+        iwdg.start(Self::PERIOD_MS.millis());
+    }
+}
+
 /// The MCU's flash as the store's, the boot record's and the slots' NOR
 /// flash, unlocked for each operation.
 pub struct CellFlash(LockedFlash);
-
-impl CellFlash {
-    /// The flash alone, for the bootloader (the board takes it with the rest).
-    pub fn take() -> Option<CellFlash> {
-        pac::Peripherals::take().map(|dp| CellFlash(LockedFlash::new(dp.FLASH)))
-    }
-}
 
 impl ErrorType for CellFlash {
     type Error = flash::Error;

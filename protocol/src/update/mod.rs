@@ -22,7 +22,7 @@ mod updater;
 pub use bitmap::Bitmap;
 #[cfg(feature = "std")]
 pub use distributor::{Distributor, Outcome};
-pub use updater::{BootAction, BootState, Updater, QUIET_US, REPAIR_WINDOW, TRIAL_REPORT_US};
+pub use updater::{BootAction, BootState, Updater, QUIET_US, REPAIR_WINDOW, TRIAL_REPORT_US, TRIAL_US};
 
 use crate::app::StoreFailed;
 use crate::image::{Board, ImageError, ImageHeader, Verifier, HEADER_LEN, PUBLIC_KEY_LEN};

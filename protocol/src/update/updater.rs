@@ -14,6 +14,11 @@ pub const QUIET_US: u64 = 20_000;
 pub const REPAIR_WINDOW: u16 = 64;
 /// How often a cell on trial reports until the host confirms it.
 pub const TRIAL_REPORT_US: u64 = 200_000;
+/// The time a new image has to be confirmed once booted on trial: the
+/// bootloader goes back to the old image at the next boot if it was not
+/// (the firmware of a real cell and the simulator keep this limit; QEMU
+/// cells, which take seconds to organize again, have their own).
+pub const TRIAL_US: u64 = 3_000_000;
 /// Chunks a cell can take: a 64 KiB image and its header.
 const WORDS: usize = (64 * 1024 + HEADER_LEN).div_ceil(CHUNK_LEN).div_ceil(32);
 /// Chunks of the header.

@@ -2,12 +2,16 @@
 //! signed image of the `cell-qemu` program in slot A; and that program's
 //! images, signed with the development key the firmware trusts by default
 //! (RFC 8032's TEST 1 key: its secret is published, so only tests use it).
+//! Also the boot record and slots read from or put into a flash file.
 
 use std::fs::OpenOptions;
 use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
-use skin_firmware::flash_map::{QEMU, QEMU_FILE_LEN};
+use embedded_storage::nor_flash::{NorFlash, ReadNorFlash};
+use skin_firmware::boot::BootRecord;
+use skin_firmware::flash_map::{QEMU, QEMU_FILE_LEN, QEMU_SECTOR};
+use skin_firmware::store::{RamFlash, Store};
 use skin_protocol::image::{self, Board};
 
 use super::{Context, QemuError};
@@ -65,6 +69,22 @@ impl Programs {
     }
 }
 
+/// The body of a program that hangs at once, linked at the execution
+/// region: a vector table whose every vector (reset, NMI, faults) is one
+/// `b .` instruction, so it never feeds the watchdog and nothing it does
+/// ends QEMU. What a trial image that hangs looks like to the bootloader.
+pub fn hanging_body() -> Vec<u8> {
+    const VECTORS: u32 = 16;
+    let spin = QEMU.exec.base + 4 * VECTORS;
+    let mut body: Vec<u8> = 0x2000_4000u32.to_le_bytes().to_vec(); // initial stack pointer
+    for _ in 1..VECTORS {
+        body.extend((spin | 1).to_le_bytes()); // Thumb
+    }
+    body.extend(0xE7FEu16.to_le_bytes()); // b .
+    body.extend([0, 0]);
+    body
+}
+
 /// Writes a factory-fresh flash file at `path`: erased, `image` in slot A.
 pub fn provision(path: &Path, image: &[u8]) -> Result<(), QemuError> {
     let what = || format!("writing the flash file {}", path.display());
@@ -72,6 +92,49 @@ pub fn provision(path: &Path, image: &[u8]) -> Result<(), QemuError> {
     file.write_all(&vec![0xFF; QEMU_FILE_LEN as usize]).context(what)?;
     file.seek(SeekFrom::Start(u64::from(QEMU.slots[0].base))).context(what)?;
     file.write_all(image).context(what)
+}
+
+/// Writes `image` into slot `index` of the flash file at `path`.
+pub fn write_slot(path: &Path, index: usize, image: &[u8]) -> Result<(), QemuError> {
+    let what = || format!("writing slot {index} of {}", path.display());
+    let mut file = OpenOptions::new().write(true).open(path).context(what)?;
+    file.seek(SeekFrom::Start(u64::from(QEMU.slots[index].base))).context(what)?;
+    file.write_all(image).context(what)
+}
+
+/// The flash file's boot record region as a RAM flash.
+type Records = RamFlash<{ QEMU_SECTOR as usize }, { (QEMU.records.len / QEMU_SECTOR) as usize }>;
+
+fn unreadable(path: &Path, what: &str) -> QemuError {
+    QemuError::Io {
+        context: format!("the boot record of {}", path.display()),
+        source: std::io::Error::new(std::io::ErrorKind::InvalidData, what.to_owned()),
+    }
+}
+
+/// The boot record kept in the flash file at `path`.
+pub fn record(path: &Path) -> Result<BootRecord, QemuError> {
+    let bytes = std::fs::read(path).context(|| format!("reading {}", path.display()))?;
+    let region = bytes.get(QEMU.records.base as usize..QEMU.records.end() as usize).unwrap_or_default();
+    let mut ram = Records::new();
+    ram.write(0, region).map_err(|_| unreadable(path, "short file"))?;
+    let store = Store::<_, BootRecord>::open(ram, 0, QEMU.records.len).map_err(|_| unreadable(path, "unreadable"))?;
+    Ok(*store.state())
+}
+
+/// Keeps `record` in the flash file at `path`, as a cell would.
+pub fn write_record(path: &Path, record: BootRecord) -> Result<(), QemuError> {
+    let mut ram = Records::new();
+    Store::<_, BootRecord>::open(&mut ram, 0, QEMU.records.len)
+        .map_err(|_| unreadable(path, "no store"))?
+        .set(record)
+        .map_err(|_| unreadable(path, "not kept"))?;
+    let mut region = vec![0; QEMU.records.len as usize];
+    ram.read(0, &mut region).map_err(|_| unreadable(path, "not read back"))?;
+    let what = || format!("writing the boot record of {}", path.display());
+    let mut file = OpenOptions::new().write(true).open(path).context(what)?;
+    file.seek(SeekFrom::Start(u64::from(QEMU.records.base))).context(what)?;
+    file.write_all(&region).context(what)
 }
 
 /// The bytes of a slot of the flash file at `path`.

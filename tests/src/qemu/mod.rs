@@ -10,6 +10,7 @@
 pub mod cells;
 pub mod flash;
 pub mod gateway;
+pub mod hang;
 pub mod hex;
 pub mod host;
 pub mod net;

@@ -8,8 +8,6 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use skin_firmware::boot::BootRecord;
-use skin_firmware::flash_map::QEMU;
-use skin_firmware::store::{RamFlash, Store};
 use skin_protocol::frame::Frame;
 use skin_protocol::message::{
     ImageChunk, Message, Setting, TrafficMode, UpdateAction, UpdateCommand, UpdateOffer, UpdateReport, UpdateState,
@@ -21,7 +19,7 @@ use skin_protocol::Address;
 use super::flash::{self, Programs};
 use super::hex::{End, Wiring};
 use super::net::{baseline, organized, run_dir, World};
-use super::{Context, QemuError};
+use super::QemuError;
 
 /// What sends an image to the cells and hears their reports.
 pub trait Feed {
@@ -278,16 +276,7 @@ impl Patch {
 
     /// Cell `i`'s boot record, read from its flash file.
     pub fn record(&self, i: usize) -> Result<BootRecord, QemuError> {
-        let path = &self.world.flashes[i];
-        let bytes = std::fs::read(path).context(|| format!("reading {}", path.display()))?;
-        let region = bytes.get(QEMU.records.base as usize..QEMU.records.end() as usize).unwrap_or_default();
-        let mut ram = RamFlash::<1024, 2>::new();
-        let copied = embedded_storage::nor_flash::NorFlash::write(&mut ram, 0, region);
-        let store = copied.ok().and_then(|()| Store::<_, BootRecord>::open(ram, 0, QEMU.records.len).ok());
-        store.map(|s| *s.state()).ok_or_else(|| QemuError::Io {
-            context: format!("the boot record of {}", path.display()),
-            source: std::io::Error::new(std::io::ErrorKind::InvalidData, "unreadable"),
-        })
+        flash::record(&self.world.flashes[i])
     }
 
     /// Slot `slot` (0: A, 1: B) of cell `i`, from its flash file.

@@ -13,9 +13,8 @@ use super::{Event, Network, Power};
 
 /// Bytes of a simulated slot: a 64 KiB body, its header and the last chunk's padding.
 const SLOT: usize = 66 * 1024;
-/// The bootloader's trial limit: a new image not confirmed within this
-/// after it booted is left for the previous one at the next boot.
-pub const TRIAL_NS: u64 = 3_000_000_000;
+/// The bootloader's trial limit ([`skin_protocol::update::TRIAL_US`]) in ns.
+pub const TRIAL_NS: u64 = skin_protocol::update::TRIAL_US * 1_000;
 
 /// What a simulated skin's cells run and trust.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
