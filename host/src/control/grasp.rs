@@ -269,9 +269,13 @@ impl Grasp {
             }
             State::Contact => {
                 // The first touch ends the contact phase: from here force,
-                // not the pre-contact sensor, is what matters.
+                // not the pre-contact sensor, is what matters. Force on the
+                // chest is a touch too: an arm's bare surface has pushed the
+                // object against the chest, where only pressing holds it.
                 if any(Contact, Force, 1) {
                     Some((Load, Cause::Force))
+                } else if any(Chest, Force, 1) {
+                    Some((Load, Cause::Chest))
                 } else if every(Contact, Proximity, t.contact_proximity) {
                     Some((Load, Cause::Proximity))
                 } else if trajectory == Some(Stalled) && every(Contact, Proximity, 1) {
@@ -283,12 +287,21 @@ impl Grasp {
             Load => {
                 // One arm's force is enough: the pull's force reactions keep
                 // it moderate while the trajectory brings the other arm in.
-                if any(Contact, Force, t.load_force) {
+                // High force anywhere (the object pinned against the chest)
+                // hands over to the pull too, which holds or gives up
+                // before pain.
+                if any(Contact, Force, t.load_force) || touch.highest(Force) >= level::HIGH {
                     Some((Pull, Cause::Force))
+                } else if trajectory == Some(Reached) {
+                    // The taught closed pose is no tighter than the teacher
+                    // made it: a narrow or soft object still between both
+                    // arms (each sees it at the contact level, or one
+                    // touches it) is pulled in, the pull closing the arms
+                    // further; with nothing there, pressing failed.
+                    let still_there = every(Contact, Proximity, t.contact_proximity) || any(Contact, Force, 1);
+                    Some(if still_there { (Pull, Cause::Reached) } else { (Cancel, Cause::Reached) })
                 } else {
-                    // Pressing harder is the point here: only reaching the
-                    // pose (nothing to press on) fails.
-                    (trajectory == Some(Reached)).then_some((Cancel, Cause::Reached))
+                    None
                 }
             }
             Pull => {
