@@ -295,10 +295,10 @@ impl Grasp {
                 } else if trajectory == Some(Reached) {
                     // The taught closed pose is no tighter than the teacher
                     // made it: a narrow or soft object still between both
-                    // arms (each sees it at the contact level, or one
-                    // touches it) is pulled in, the pull closing the arms
-                    // further; with nothing there, pressing failed.
-                    let still_there = every(Contact, Proximity, t.contact_proximity) || any(Contact, Force, 1);
+                    // arms (each sees it as near as ended the approach, or
+                    // one touches it) is pulled in, the pull closing the
+                    // arms further; with nothing there, pressing failed.
+                    let still_there = every(Contact, Proximity, t.approach_proximity) || any(Contact, Force, 1);
                     Some(if still_there { (Pull, Cause::Reached) } else { (Cancel, Cause::Reached) })
                 } else {
                     None
