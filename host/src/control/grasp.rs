@@ -6,7 +6,11 @@
 //! another pat releases it. The pull ends only when the chest is close
 //! *and* every contact area feels force (or the arms stall against the
 //! object while one feels it: the object is what holds them back), so the
-//! arms hold the object, not the chest alone; when a contact area that
+//! arms hold the object, not the chest alone; loading that reaches the
+//! closed pose with the object still near both arms (narrow or soft: the
+//! taught pose is no tighter than the teacher made it) pulls it in too,
+//! and a touch on the chest ends the contact phase like one on an arm (an
+//! arm's bare surface pushed the object there); when a contact area that
 //! felt it on holding has not felt it for [`SLIP_S`], the grasp pulls
 //! again. Transitions are driven by tactile events (as
 //! per-area levels) and trajectory events only. A state whose goal is
@@ -269,9 +273,13 @@ impl Grasp {
             }
             State::Contact => {
                 // The first touch ends the contact phase: from here force,
-                // not the pre-contact sensor, is what matters.
+                // not the pre-contact sensor, is what matters. Force on the
+                // chest is a touch too: an arm's bare surface has pushed the
+                // object against the chest, where only pressing holds it.
                 if any(Contact, Force, 1) {
                     Some((Load, Cause::Force))
+                } else if any(Chest, Force, 1) {
+                    Some((Load, Cause::Chest))
                 } else if every(Contact, Proximity, t.contact_proximity) {
                     Some((Load, Cause::Proximity))
                 } else if trajectory == Some(Stalled) && every(Contact, Proximity, 1) {
@@ -283,12 +291,21 @@ impl Grasp {
             Load => {
                 // One arm's force is enough: the pull's force reactions keep
                 // it moderate while the trajectory brings the other arm in.
-                if any(Contact, Force, t.load_force) {
+                // High force anywhere (the object pinned against the chest)
+                // hands over to the pull too, which holds or gives up
+                // before pain.
+                if any(Contact, Force, t.load_force) || touch.highest(Force) >= level::HIGH {
                     Some((Pull, Cause::Force))
+                } else if trajectory == Some(Reached) {
+                    // The taught closed pose is no tighter than the teacher
+                    // made it: a narrow or soft object still between both
+                    // arms (each sees it as near as ended the approach, or
+                    // one touches it) is pulled in, the pull closing the
+                    // arms further; with nothing there, pressing failed.
+                    let still_there = every(Contact, Proximity, t.approach_proximity) || any(Contact, Force, 1);
+                    Some(if still_there { (Pull, Cause::Reached) } else { (Cancel, Cause::Reached) })
                 } else {
-                    // Pressing harder is the point here: only reaching the
-                    // pose (nothing to press on) fails.
-                    (trajectory == Some(Reached)).then_some((Cancel, Cause::Reached))
+                    None
                 }
             }
             Pull => {
@@ -464,6 +481,39 @@ mod tests {
         assert_eq!(r.step(None), State::Evade, "until the contact is gone");
         set(&mut r.ev, 2, 0.0, 0.0);
         assert_eq!(r.step(None), State::Cancelled);
+    }
+
+    #[test]
+    fn what_the_closed_pose_does_not_reach_is_pulled_in_and_the_chest_counts_as_a_touch() {
+        use TrajectoryEvent::*;
+        let load = |near: [f32; 2]| {
+            let mut r = Run::new();
+            r.pat();
+            r.step(Some(Reached));
+            set(&mut r.ev, 2, 0.2, 0.0);
+            set(&mut r.ev, 3, 0.2, 0.0);
+            assert_eq!(r.step(None), State::Contact);
+            assert_eq!(r.step(None), State::Load, "both arms at the contact level");
+            set(&mut r.ev, 2, near[0], 0.0);
+            set(&mut r.ev, 3, near[1], 0.0);
+            r
+        };
+        let mut r = load([0.05, 0.03]);
+        assert_eq!(r.step(Some(Reached)), State::Pull, "closed, both arms still see it near: pull it in");
+        let mut r = load([0.05, 0.0]);
+        assert_eq!(r.step(Some(Reached)), State::Cancel, "closed with one arm seeing nothing: missed");
+        let mut r = load([0.05, 0.03]);
+        set(&mut r.ev, 4, 0.9, 0.35);
+        assert_eq!(r.step(None), State::Pull, "high force on the chest ends the loading");
+
+        let mut r = Run::new();
+        r.pat();
+        r.step(Some(Reached));
+        set(&mut r.ev, 2, 0.03, 0.0);
+        assert_eq!(r.step(None), State::Contact);
+        set(&mut r.ev, 4, 0.9, 0.05);
+        assert_eq!(r.step(None), State::Load, "pushed against the chest by an arm no cell of which feels it");
+        assert_eq!(r.step(None), State::Load, "a low force on the chest does not end the loading");
     }
 
     proptest! {
