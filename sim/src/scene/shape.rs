@@ -137,7 +137,11 @@ impl Shape {
     /// ellipsoid term is at least `r min(semi) / max(semi) - max(semi)`).
     pub fn distance_at_least(&self, r_m: f64) -> f64 {
         match *self {
-            Shape::Box { .. } | Shape::Cylinder { .. } | Shape::Sphere { .. } => r_m - self.bounding_radius(),
+            Shape::Box { half, .. } => r_m - half.norm(),
+            // Not `hypot`, which costs more than the distance it saves;
+            // the rounding is far below the broad phase's margin.
+            Shape::Cylinder { radius, half_height } => r_m - (radius * radius + half_height * half_height).sqrt(),
+            Shape::Sphere { radius } => r_m - radius,
             Shape::Blob { semi, bump_m, bump_rad_per_m } => {
                 let scale = 1.0 + 1.3 * bump_m * bump_rad_per_m;
                 let above = semi.min() / semi.max() * r_m - semi.max() - bump_m.abs();
