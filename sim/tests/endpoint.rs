@@ -7,7 +7,7 @@ use std::time::Duration;
 use skin_protocol::frame::Kind;
 use skin_protocol::interface::{Datagram, MAX_DATAGRAM};
 use skin_protocol::robot_link::{self, FromRobot, Refusal, ToRobot};
-use skin_sim::endpoint::{Endpoint, EndpointConfig, Pacing, Running, Served};
+use skin_sim::endpoint::{Batching, Endpoint, EndpointConfig, Pacing, Running, Served};
 use skin_sim::network::host::Host;
 use skin_sim::network::NetworkConfig;
 
@@ -17,6 +17,7 @@ fn lockstep(host: SocketAddr) -> EndpointConfig {
         robot: "127.0.0.1:0".parse().unwrap(),
         host,
         pacing: Pacing::Lockstep,
+        batching: Batching::default(),
         network: NetworkConfig::default(),
     }
 }

@@ -30,7 +30,7 @@ use skin_host::interface::Interface;
 use skin_host::pipeline::OrganizeConfig;
 use skin_host::remote::{Remote, RobotLink};
 use skin_host::report::{check_folder, GraspSection, LatencySection, Report, TruthSection};
-use skin_sim::endpoint::{Endpoint, EndpointConfig, Pacing, Running, Truth};
+use skin_sim::endpoint::{Batching, Endpoint, EndpointConfig, Pacing, Running, Truth};
 use skin_sim::network::NetworkConfig;
 use skin_sim::robot::hrp2;
 use skin_sim::scene::experiment::Setup;
@@ -139,7 +139,9 @@ pub(super) fn serve_experiment(seed: u64) -> Result<(Running, Remote, Steps), Bo
     let host = interface.local_addr();
     let endpoint = Running::spawn(move || {
         let network = NetworkConfig { seed, ..NetworkConfig::default() };
-        Endpoint::experiment(seed, EndpointConfig { robot: LOOPBACK, host, pacing: Pacing::Lockstep, network })
+        let config =
+            EndpointConfig { robot: LOOPBACK, host, pacing: Pacing::Lockstep, batching: Batching::default(), network };
+        Endpoint::experiment(seed, config)
     })?;
     let steps = Steps {
         organize: OrganizeConfig {

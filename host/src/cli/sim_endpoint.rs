@@ -9,7 +9,7 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use clap::ValueEnum;
-use skin_sim::endpoint::{Endpoint, EndpointConfig, Pacing, Running};
+use skin_sim::endpoint::{Batching, Endpoint, EndpointConfig, Pacing, Running};
 use skin_sim::network::{NetworkConfig, UpdateSetup};
 
 use super::seconds;
@@ -38,6 +38,12 @@ pub struct Args {
     /// The firmware version the cells run at power-up (with --update-key).
     #[arg(long, default_value_t = 1, requires = "update_key")]
     firmware_version: u32,
+    /// Most frames an interface port puts in one datagram (1..=72; 1 sends every frame alone).
+    #[arg(long, value_name = "N", default_value_t = Batching::default().max_frames)]
+    batch_frames: usize,
+    /// Longest a frame waits at its interface port for others, microseconds of robot time.
+    #[arg(long, value_name = "US", default_value_t = Batching::default().max_wait_ns / 1000)]
+    batch_us: u64,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -67,7 +73,8 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     // A cell's update reports ride on its sampling pulse: no cell rests.
     let network =
         NetworkConfig { seed: args.seed, update, skip_resting_cells: update.is_none(), ..NetworkConfig::default() };
-    let config = EndpointConfig { robot: args.robot, host: args.host, pacing, network };
+    let batching = Batching { max_frames: args.batch_frames, max_wait_ns: args.batch_us.saturating_mul(1000) };
+    let config = EndpointConfig { robot: args.robot, host: args.host, pacing, batching, network };
     // Served on a thread of its own, watched from here: when it fails or
     // panics, the process ends with its error instead of serving nothing.
     let endpoint = Running::spawn(move || Endpoint::hrp2(args.seed, config))?;

@@ -22,6 +22,7 @@
 //! control period's start and notes sent before that period's feedback, so
 //! a lockstep run stays the same for a seed.
 
+mod batch;
 mod rig;
 mod running;
 
@@ -41,6 +42,7 @@ use crate::scene::experiment::Setup;
 use crate::scene::operator::Operator;
 use crate::world::World;
 
+pub use batch::Batching;
 pub use rig::Rig;
 pub use running::Running;
 
@@ -69,6 +71,8 @@ pub struct EndpointConfig {
     pub host: SocketAddr,
     /// How time advances.
     pub pacing: Pacing,
+    /// How the interface ports gather frames into datagrams.
+    pub batching: Batching,
     /// The skin network's settings (its stimulus is replaced by the world).
     pub network: NetworkConfig,
 }
@@ -183,6 +187,7 @@ impl Endpoint {
         if world.robot().dofs().len() > MAX_DOFS {
             return Err(NetworkError::TooManyDofs(world.robot().dofs().len()));
         }
+        let batching = config.batching.checked().map_err(NetworkError::Flag)?;
         let network = Network::new(topology, config.network)?;
         let local = SocketAddr::new(config.robot.ip(), 0);
         let ports = (0..network.interfaces()).map(|_| bind(local)).collect::<Result<Vec<_>, _>>()?;
@@ -190,7 +195,7 @@ impl Endpoint {
             UdpSocket::bind(config.robot).map_err(|source| NetworkError::Bind { addr: config.robot, source })?;
         robot_socket.set_read_timeout(Some(STOP_CHECK))?;
         Ok(Endpoint {
-            rig: Rig::new(world, network, world_cell, config.pacing),
+            rig: Rig::new(world, network, world_cell, config.pacing, batching),
             robot_socket,
             ports,
             host: config.host,
@@ -270,7 +275,7 @@ impl Endpoint {
         self.send_up()
     }
 
-    /// Sends the datagrams the skin delivered, each from its interface port.
+    /// Sends the datagrams for the host, each from its interface port.
     fn send_up(&mut self) -> Result<(), NetworkError> {
         for (port, bytes) in self.up.drain(..) {
             self.ports[port].send_to(&bytes, self.host)?;
@@ -337,6 +342,7 @@ mod tests {
             robot: "127.0.0.1:0".parse().unwrap(),
             host: host.local_addr().unwrap(),
             pacing: Pacing::Lockstep,
+            batching: Batching::default(),
             network: NetworkConfig::default(),
         }
     }

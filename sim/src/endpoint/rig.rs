@@ -11,6 +11,7 @@ use skin_protocol::interface::Datagram;
 use skin_protocol::robot_link::{FromRobot, Refusal, ToRobot, MAX_NAME};
 use skin_protocol::{Address, Sample};
 
+use super::batch::{Batcher, Batching};
 use super::{Pacing, Served, Truth};
 use crate::network::{Network, NetworkError};
 use crate::scene::operator::{Note, Operator, Order};
@@ -27,6 +28,8 @@ pub struct Rig {
     /// `world_cell[n]`: the world's skin index of network cell `n`.
     pub(super) world_cell: Vec<usize>,
     pub(super) pacing: Pacing,
+    /// The interface ports' frames on their way into datagrams.
+    batcher: Batcher,
     command: Vec<f64>,
     /// When the last command came.
     commanded_at: Option<Instant>,
@@ -49,9 +52,16 @@ pub(super) struct Side {
 
 impl Rig {
     /// `world` and the skin `network` of its cells (network cell `n` is
-    /// the world's skin cell `world_cell[n]`), paced as asked.
-    pub(super) fn new(world: World, network: Network, world_cell: Vec<usize>, pacing: Pacing) -> Rig {
+    /// the world's skin cell `world_cell[n]`), paced and batched as asked.
+    pub(super) fn new(
+        world: World,
+        network: Network,
+        world_cell: Vec<usize>,
+        pacing: Pacing,
+        batching: Batching,
+    ) -> Rig {
         Rig {
+            batcher: Batcher::new(network.interfaces(), batching),
             command: vec![0.0; world.robot().dofs().len()],
             raw: vec![Sample::default(); world_cell.len()],
             world,
@@ -178,10 +188,10 @@ impl Rig {
 
     /// One control period: what the host sent down goes into the skin, the
     /// world moves under the held command, and the network runs to the
-    /// period's end, every datagram it delivers going up to the host.
+    /// period's end, every frame it delivers going up to the host.
     /// The host's datagrams for the skin are taken before (see
-    /// [`Rig::from_host`]); those the network delivers go to `up`, with the
-    /// number of the interface port that sends them.
+    /// [`Rig::from_host`]); the datagrams for the host, batched per
+    /// interface port, go to `up` with the number of the port that sends them.
     pub fn advance(&mut self, now: Instant, up: &mut Vec<(usize, Vec<u8>)>) -> Result<(), NetworkError> {
         if self.pacing == Pacing::RealTime && self.commanded_at.is_none_or(|t| now.duration_since(t) > WATCHDOG) {
             self.command.iter_mut().for_each(|w| *w = 0.0);
@@ -202,11 +212,14 @@ impl Rig {
         }
         self.network.feed(&self.raw)?;
         let until_ns = (self.world.time_s() * 1e9).round() as u64;
+        let before = up.len();
         while let Some(d) = self.network.step(until_ns) {
-            let port = usize::from(Datagram::parse(&d.bytes).map_err(NetworkError::Datagram)?.header().interface);
-            up.push((port, d.bytes));
-            self.served.datagrams_up += 1;
+            self.batcher.take(d.at_ns, &d.bytes, up)?;
         }
+        // The next chance to send is the next period's end.
+        let tick_ns = (self.world.config().tick_s * 1e9).round() as u64;
+        self.batcher.due(until_ns + tick_ns, up);
+        self.served.datagrams_up += (up.len() - before) as u64;
         self.served.ticks += 1;
         Ok(())
     }

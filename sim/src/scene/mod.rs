@@ -41,6 +41,10 @@ use shape::Shape;
 /// Standard gravity, m/s^2.
 const G: f64 = 9.81;
 
+/// How far past its test the broad phase's bound must be for a skip, m:
+/// far above the rounding of a distance, so no skip changes a reading.
+const BROAD_PHASE_MARGIN_M: f64 = 1e-9;
+
 /// The sensing layers of a skin cell.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SkinModel {
@@ -124,6 +128,9 @@ struct Bare {
     cell: usize,
     /// Surface points in that cell's frame, m.
     points: Vec<Point3<f64>>,
+    /// A sphere holding every point (centre in the cell's frame, radius in
+    /// m), for the broad phase.
+    bound: (Point3<f64>, f64),
 }
 
 /// Objects, hands and the physics between them and the skin.
@@ -188,7 +195,9 @@ impl Scene {
     /// pushed by it (grounded on insensitive spots, as the paper puts it)
     /// but no cell feels that.
     pub fn add_bare_surface(&mut self, cell: usize, points: Vec<Point3<f64>>) {
-        self.bare.push(Bare { cell, points });
+        let centre = points.iter().fold(Vector3::zeros(), |sum, p| sum + p.coords) / points.len().max(1) as f64;
+        let radius = points.iter().map(|p| (p.coords - centre).norm()).fold(0.0, f64::max);
+        self.bare.push(Bare { cell, points, bound: (Point3::from(centre), radius) });
     }
 
     /// Puts a person's hands somewhere (none: taken away).
@@ -282,15 +291,26 @@ impl Scene {
         }
         for bare in &self.bare {
             let Some(pose) = poses.get(bare.cell) else { continue };
+            let centre = pose * bare.bound.0;
             for (placed, load) in self.objects.iter().zip(loads.iter_mut()) {
+                // The broad phase: no point of the surface can be inside.
+                let nearest_m = (centre.coords - placed.pose.translation.vector).norm() - bare.bound.1;
+                if placed.object.shape.distance_at_least(nearest_m) > BROAD_PHASE_MARGIN_M {
+                    continue;
+                }
                 for p in &bare.points {
-                    let local = placed.pose.inverse_transform_point(&(pose * p));
+                    let at = pose * p;
+                    let from_centre = (at.coords - placed.pose.translation.vector).norm();
+                    if placed.object.shape.distance_at_least(from_centre) > BROAD_PHASE_MARGIN_M {
+                        continue;
+                    }
+                    let local = placed.pose.inverse_transform_point(&at);
                     let depth = -placed.object.shape.distance(&local);
                     if depth > 0.0 {
                         // A rigid robot surface against the object's own compliance.
                         let into_body = -(placed.pose.rotation * placed.object.shape.normal(&local));
                         let force_n = depth * placed.object.stiffness_n_per_m;
-                        self.contacts.push(Contact { cell: bare.cell, point: pose * p, force_n, felt: false });
+                        self.contacts.push(Contact { cell: bare.cell, point: at, force_n, felt: false });
                         load.push += force_n * horizontal(&into_body);
                         load.stiffness += placed.object.stiffness_n_per_m;
                     }
@@ -339,11 +359,18 @@ fn touch(
     sense: &mut CellSense,
     load: Option<(&mut Load, Vector3<f64>)>,
 ) {
-    let axis = cell.rotation * Vector3::z();
     let window = cell * Point3::new(0.0, 0.0, skin.surface_offset_m);
+    let reach = skin.proximity.range_m + skin.force.radius_m;
+    // The broad phase: a cell beyond the body's bounding distance (with a
+    // margin for rounding) is left as the distance test below would leave it.
+    let from_centre = (window.coords - body.pose.translation.vector).norm();
+    if body.shape.distance_at_least(from_centre) > reach + BROAD_PHASE_MARGIN_M {
+        return;
+    }
+    let axis = cell.rotation * Vector3::z();
     let local = body.pose.inverse_transform_point(&window);
     let distance = body.shape.distance(&local);
-    if distance > skin.proximity.range_m + skin.force.radius_m {
+    if distance > reach {
         return;
     }
     let towards = -(body.pose.rotation * body.shape.normal(&local));

@@ -129,6 +129,31 @@ impl Shape {
         inside
     }
 
+    /// A lower bound of [`Shape::distance`] at every point `r_m` from the
+    /// centre (or farther: it never falls as `r_m` grows), m: the scene's broad phase, which skips the distance of
+    /// cells too far for any bound of it to reach them. The box, cylinder
+    /// and sphere distances are exact, so the bounding sphere bounds them;
+    /// the blob's is an estimate, bounded through its own formula (the
+    /// ellipsoid term is at least `r min(semi) / max(semi) - max(semi)`).
+    pub fn distance_at_least(&self, r_m: f64) -> f64 {
+        match *self {
+            Shape::Box { half, .. } => r_m - half.norm(),
+            // Not `hypot`, which costs more than the distance it saves;
+            // the rounding is far below the broad phase's margin.
+            Shape::Cylinder { radius, half_height } => r_m - (radius * radius + half_height * half_height).sqrt(),
+            Shape::Sphere { radius } => r_m - radius,
+            Shape::Blob { semi, bump_m, bump_rad_per_m } => {
+                let scale = 1.0 + 1.3 * bump_m * bump_rad_per_m;
+                let above = semi.min() / semi.max() * r_m - semi.max() - bump_m.abs();
+                if semi.min() > 0.0 && scale > 0.0 && above > 0.0 {
+                    above / scale
+                } else {
+                    f64::NEG_INFINITY
+                }
+            }
+        }
+    }
+
     /// Radius of a sphere around the origin that holds the whole shape, m.
     pub fn bounding_radius(&self) -> f64 {
         match *self {
@@ -197,6 +222,28 @@ mod tests {
             t += 1e-4;
         }
         assert!(back >= t - 1e-4 && back <= 0.15 + 0.0101, "{back} vs {t}");
+    }
+
+    proptest::proptest! {
+        /// The broad phase's bound never exceeds the distance.
+        #[test]
+        fn the_distance_bound_holds(
+            shape in 0..4usize,
+            size in proptest::array::uniform3(0.01..0.3f64),
+            bumps in (0.0..0.02f64, 0.0..60.0f64),
+            point in proptest::array::uniform3(-1.0..1.0f64),
+        ) {
+            let [x, y, z] = size;
+            let shape = [
+                Shape::Box { half: Vector3::new(x, y, z), round_m: x.min(y).min(z) / 2.0 },
+                Shape::Cylinder { radius: x, half_height: y },
+                Shape::Sphere { radius: x },
+                Shape::Blob { semi: Vector3::new(x, y, z), bump_m: bumps.0, bump_rad_per_m: bumps.1 },
+            ][shape];
+            let p = Point3::from(Vector3::from(point));
+            let (d, bound) = (shape.distance(&p), shape.distance_at_least(p.coords.norm()));
+            proptest::prop_assert!(bound <= d + 1e-12, "{shape:?} at {p}: {d} < {bound}");
+        }
     }
 
     #[test]
