@@ -68,6 +68,19 @@ pub struct DatagramHeader {
     pub timestamp_us: u64,
 }
 
+impl DatagramHeader {
+    /// The header's bytes, as they open a datagram.
+    pub fn to_bytes(&self) -> [u8; HEADER_LEN] {
+        let mut b = [0; HEADER_LEN];
+        b[0..2].copy_from_slice(&MAGIC);
+        b[2] = VERSION;
+        b[3] = self.interface;
+        b[4..8].copy_from_slice(&self.seq.to_le_bytes());
+        b[8..16].copy_from_slice(&self.timestamp_us.to_le_bytes());
+        b
+    }
+}
+
 /// A checked datagram borrowing its bytes; frames are checked one by one
 /// as they are read, so one corrupt frame does not hide the others.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -126,11 +139,7 @@ pub fn encode(header: DatagramHeader, frames: &[Frame], buf: &mut [u8]) -> Optio
     if frames.is_empty() || frames.len() > MAX_FRAMES || buf.len() < len {
         return None;
     }
-    buf[0..2].copy_from_slice(&MAGIC);
-    buf[2] = VERSION;
-    buf[3] = header.interface;
-    buf[4..8].copy_from_slice(&header.seq.to_le_bytes());
-    buf[8..16].copy_from_slice(&header.timestamp_us.to_le_bytes());
+    buf[..HEADER_LEN].copy_from_slice(&header.to_bytes());
     for (chunk, f) in buf[HEADER_LEN..len].chunks_exact_mut(FRAME_LEN).zip(frames) {
         chunk.copy_from_slice(f.as_bytes());
     }

@@ -16,7 +16,7 @@
 //! its first frame, as the format says.
 
 use skin_protocol::frame::{Kind, FRAME_LEN};
-use skin_protocol::interface::{Datagram, HEADER_LEN, MAGIC, MAX_FRAMES, VERSION};
+use skin_protocol::interface::{Datagram, DatagramHeader, HEADER_LEN, MAX_FRAMES};
 
 use crate::network::NetworkError;
 
@@ -108,11 +108,8 @@ impl Batcher {
         for frame in frames.chunks_exact(FRAME_LEN) {
             if held.bytes.is_empty() {
                 held.first_ns = at_ns;
-                held.bytes.extend_from_slice(&MAGIC);
-                held.bytes.push(VERSION);
-                held.bytes.push(d.header().interface);
-                held.bytes.extend_from_slice(&held.seq.to_le_bytes());
-                held.bytes.extend_from_slice(&d.header().timestamp_us.to_le_bytes());
+                let header = DatagramHeader { seq: held.seq, ..d.header() };
+                held.bytes.extend_from_slice(&header.to_bytes());
             }
             held.bytes.extend_from_slice(frame);
             if held.frames() == self.batching.max_frames {
@@ -150,7 +147,7 @@ fn send(port: usize, held: &mut Held, out: &mut Vec<(usize, Vec<u8>)>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use skin_protocol::interface::{encode, DatagramHeader};
+    use skin_protocol::interface::encode;
     use skin_protocol::{Address, Frame, Message, Sample};
 
     /// A datagram of port `port` holding one sample frame from each of `srcs`.
