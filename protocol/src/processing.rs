@@ -234,6 +234,13 @@ impl Processor {
         })
     }
 
+    /// False when no input can keep the processor from sending: traffic is
+    /// clock-driven (every sample goes out) or a calibration runs (its end
+    /// is a store write). A caller checks this before computing bounds.
+    pub fn may_be_silent(&self) -> bool {
+        self.traffic == TrafficMode::Event && self.calibration.is_none()
+    }
+
     /// True when, from its present state, this processor sends nothing for
     /// any run of raw samples whose channels stay within `lo..=hi` (in
     /// [`Sample::channels`] order), and such samples change nothing but its
@@ -241,7 +248,7 @@ impl Processor {
     /// stay so bounded for a while (a simulator's resting cell) may process
     /// them later in one go, with the same outcome.
     ///
-    /// It holds when traffic is event-driven, no calibration runs, and every
+    /// It holds when the processor [may be silent](Processor::may_be_silent) and every
     /// value the filter can reach stays within the send-on-delta threshold
     /// of the last sample sent and within each quantizer's present level.
     /// The filter's output is a weighted mean of its present value and the
@@ -251,7 +258,7 @@ impl Processor {
     /// (or 2^-20 of the value, when larger) covers. Quantization to counts
     /// and the level of a value are monotonic, so the range's ends decide.
     pub fn silent_within(&self, lo: [i32; 8], hi: [i32; 8]) -> bool {
-        if self.traffic != TrafficMode::Event || self.calibration.is_some() {
+        if !self.may_be_silent() {
             return false;
         }
         let (a, b) = (self.inputs(lo), self.inputs(hi));

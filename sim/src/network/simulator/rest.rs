@@ -68,7 +68,7 @@ impl Network {
     /// rest: its stimulus reaches it within a few samples, or its
     /// processor might send something at rest.
     pub(super) fn rest_end(&self, i: usize, next_ns: u64, period_ns: u64) -> Option<u64> {
-        if !self.config.skip_resting_cells {
+        if !self.config.skip_resting_cells || !self.processor(i).may_be_silent() {
             return None;
         }
         let until_s = self.stimulus.rest_until(i, next_ns as f64 * 1e-9);
