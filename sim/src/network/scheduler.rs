@@ -312,8 +312,10 @@ impl<E> Scheduler<E> {
         let lane = &mut self.lanes[k];
         // In time order already; a ranked event may go before others
         // scheduled at this same time.
-        let at = lane.iter().rposition(|x| x.key() < item.key()).map_or(0, |p| p + 1);
-        lane.insert(at, item);
+        match lane.iter().rposition(|x| x.key() < item.key()) {
+            Some(p) if p + 1 == lane.len() => lane.push_back(item),
+            at => lane.insert(at.map_or(0, |p| p + 1), item),
+        }
         self.heads[k] = lane[0].key();
     }
 

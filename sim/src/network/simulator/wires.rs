@@ -39,15 +39,6 @@ pub(super) enum Signal {
     Corrupted([u8; FRAME_LEN]),
 }
 
-impl Signal {
-    pub(super) fn bytes(&self) -> &[u8; FRAME_LEN] {
-        match self {
-            Signal::Intact(f) => f.as_bytes(),
-            Signal::Corrupted(b) => b,
-        }
-    }
-}
-
 impl Network {
     /// Starts cell `i`'s transmitter on port `p` if it is idle and has a
     /// frame, or makes sure it is woken when it is free.
@@ -186,7 +177,12 @@ impl Network {
                     return lost(self, DropReason::DeadInterface);
                 }
                 self.m.ledger.received += 1;
-                match i.sink.receive(signal.bytes(), now_us) {
+                // An intact frame was checked when it was made.
+                let from_cell = match &signal {
+                    Signal::Intact(frame) => i.sink.receive_frame(*frame, now_us),
+                    Signal::Corrupted(bytes) => i.sink.receive(bytes, now_us),
+                };
+                match from_cell {
                     Err(_) => {
                         self.m.ledger.corrupt_rejected += 1;
                         lost(self, DropReason::Corrupt);
