@@ -16,10 +16,8 @@ use std::net::{SocketAddr, UdpSocket};
 use std::time::{Duration, Instant};
 
 /// The most a lockstep peer tries before it sleeps: longer than nearly
-/// every control period takes to compute at either end (of the demo's
-/// 160,000 waits, 3,000-14,000 still slept at 100 us, 90-320 at 300 us),
-/// short enough that a peer that went away costs a fraction of a
-/// millisecond.
+/// every control period takes to compute at either end, short enough that
+/// a peer that went away costs a fraction of a millisecond.
 pub const LOCKSTEP_SPIN: Duration = Duration::from_micros(300);
 
 /// Waits that sleep without trying after a miss.
