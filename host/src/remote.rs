@@ -17,6 +17,7 @@ use std::time::{Duration, Instant};
 
 use skin_protocol::robot_link::{self, FromRobot, ToRobot, MAX_DOFS, MAX_NAME};
 use skin_protocol::{Address, Sample};
+use skin_sim::spin_recv::{SpinRecv, LOCKSTEP_SPIN};
 
 use crate::interface::{DatagramReject, Event, EventKind, Interface, SilenceWatch};
 use crate::recording::{RecordError, Session};
@@ -65,6 +66,10 @@ pub struct RobotLink {
     time_us: u64,
     /// When `time_us` last advanced, on the host's clock.
     clock_moved: Instant,
+    /// How long a wait for an answer tries before it sleeps: a lockstep
+    /// robot (a simulator) answers within microseconds, a real one when
+    /// its period is up.
+    spin: SpinRecv,
     counters: LinkCounters,
 }
 
@@ -102,6 +107,7 @@ impl RobotLink {
             positions: Vec::new(),
             time_us: 0,
             clock_moved: Instant::now(),
+            spin: SpinRecv::new(Duration::ZERO),
             counters: LinkCounters::default(),
         };
         let (dofs, period_us, lockstep) =
@@ -134,6 +140,7 @@ impl RobotLink {
         link.info = RobotInfo { dof_names: names, dof_kinds: kinds, period_s: f64::from(period_us) * 1e-6, lockstep };
         link.command = vec![0.0; usize::from(dofs)];
         link.clock_moved = Instant::now();
+        link.spin = SpinRecv::new(if lockstep { LOCKSTEP_SPIN } else { Duration::ZERO });
         link.tick()?;
         Ok(link)
     }
@@ -213,7 +220,7 @@ impl RobotLink {
             let deadline = Instant::now() + self.timeout;
             while let Some(left) = deadline.checked_duration_since(Instant::now()).filter(|d| !d.is_zero()) {
                 self.socket.set_read_timeout(Some(left)).map_err(|e| gone(self.robot, e))?;
-                let (n, from) = match self.socket.recv_from(&mut buf) {
+                let (n, from) = match self.spin.recv_from(&self.socket, &mut buf) {
                     Ok(got) => got,
                     Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => {
                         break

@@ -13,6 +13,7 @@
 //! - [`world`]: robot, base and skin stepped together at 250 Hz.
 //! - [`network`]: the cell network, every cell running the firmware's protocol code.
 //! - [`endpoint`]: the simulated robot and skin served over UDP, as a real one is reached.
+//! - [`spin_recv`]: the receive of a lockstep peer, which tries before it sleeps.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -22,4 +23,5 @@ pub mod network;
 pub mod robot;
 pub mod scene;
 pub mod skin;
+pub mod spin_recv;
 pub mod world;

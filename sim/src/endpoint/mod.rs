@@ -40,6 +40,7 @@ use crate::network::{Network, NetworkConfig, NetworkError, Topology};
 use crate::robot::hrp2;
 use crate::scene::experiment::Setup;
 use crate::scene::operator::Operator;
+use crate::spin_recv::{SpinRecv, LOCKSTEP_SPIN};
 use crate::world::World;
 
 pub use batch::Batching;
@@ -224,6 +225,9 @@ impl Endpoint {
         let tick_s = self.rig.world.config().tick_s;
         let start = Instant::now();
         let mut buf = [0u8; robot_link::MAX_DATAGRAM + 1];
+        // In lockstep the host's next command follows within microseconds.
+        let lockstep = self.rig.pacing == Pacing::Lockstep;
+        let mut spin = SpinRecv::new(if lockstep { LOCKSTEP_SPIN } else { Duration::ZERO });
         while !stop.load(Ordering::Relaxed) {
             if self.rig.pacing == Pacing::RealTime {
                 let due = start + Duration::from_secs_f64(tick_s * (self.rig.served.ticks + 1) as f64);
@@ -235,7 +239,7 @@ impl Endpoint {
                     Some(wait) => self.robot_socket.set_read_timeout(Some(wait.clamp(MIN_WAIT, STOP_CHECK)))?,
                 }
             }
-            let (n, from) = match self.robot_socket.recv_from(&mut buf) {
+            let (n, from) = match spin.recv_from(&self.robot_socket, &mut buf) {
                 Ok(got) => got,
                 Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => continue,
                 // An ICMP error from an earlier answer to a host that went away.
