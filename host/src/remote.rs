@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 
 use skin_protocol::robot_link::{self, FromRobot, ToRobot, MAX_DOFS, MAX_NAME};
 use skin_protocol::{Address, Sample};
-use skin_sim::spin_recv::{SpinRecv, LOCKSTEP_SPIN};
+use skin_sim::spin_recv::SpinRecv;
 
 use crate::interface::{DatagramReject, Event, EventKind, Interface, SilenceWatch};
 use crate::recording::{RecordError, Session};
@@ -107,7 +107,7 @@ impl RobotLink {
             positions: Vec::new(),
             time_us: 0,
             clock_moved: Instant::now(),
-            spin: SpinRecv::new(Duration::ZERO),
+            spin: SpinRecv::for_peer(false),
             counters: LinkCounters::default(),
         };
         let (dofs, period_us, lockstep) =
@@ -140,7 +140,7 @@ impl RobotLink {
         link.info = RobotInfo { dof_names: names, dof_kinds: kinds, period_s: f64::from(period_us) * 1e-6, lockstep };
         link.command = vec![0.0; usize::from(dofs)];
         link.clock_moved = Instant::now();
-        link.spin = SpinRecv::new(if lockstep { LOCKSTEP_SPIN } else { Duration::ZERO });
+        link.spin = SpinRecv::for_peer(lockstep);
         link.tick()?;
         Ok(link)
     }

@@ -49,6 +49,12 @@ impl SpinRecv {
         SpinRecv { most, resting: 0 }
     }
 
+    /// Tries for up to [`LOCKSTEP_SPIN`] when the peer runs in `lockstep`,
+    /// never otherwise: the one place that decides when trying pays.
+    pub fn for_peer(lockstep: bool) -> SpinRecv {
+        SpinRecv::new(if lockstep { LOCKSTEP_SPIN } else { Duration::ZERO })
+    }
+
     /// As [`UdpSocket::recv_from`] on a blocking `socket` (its read
     /// timeout bounds the wait), trying without blocking first.
     pub fn recv_from(&mut self, socket: &UdpSocket, buf: &mut [u8]) -> io::Result<(usize, SocketAddr)> {

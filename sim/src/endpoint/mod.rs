@@ -40,7 +40,7 @@ use crate::network::{Network, NetworkConfig, NetworkError, Topology};
 use crate::robot::hrp2;
 use crate::scene::experiment::Setup;
 use crate::scene::operator::Operator;
-use crate::spin_recv::{SpinRecv, LOCKSTEP_SPIN};
+use crate::spin_recv::SpinRecv;
 use crate::world::World;
 
 pub use batch::Batching;
@@ -226,8 +226,7 @@ impl Endpoint {
         let start = Instant::now();
         let mut buf = [0u8; robot_link::MAX_DATAGRAM + 1];
         // In lockstep the host's next command follows within microseconds.
-        let lockstep = self.rig.pacing == Pacing::Lockstep;
-        let mut spin = SpinRecv::new(if lockstep { LOCKSTEP_SPIN } else { Duration::ZERO });
+        let mut spin = SpinRecv::for_peer(self.rig.pacing == Pacing::Lockstep);
         while !stop.load(Ordering::Relaxed) {
             if self.rig.pacing == Pacing::RealTime {
                 let due = start + Duration::from_secs_f64(tick_s * (self.rig.served.ticks + 1) as f64);
