@@ -91,6 +91,35 @@ fn branching() -> String {
     s + "</robot>"
 }
 
+/// A one-armed torso whose wrist carries a parallel gripper: one DoF
+/// drives both fingers (the second a mimic, turning the other way) and
+/// both fingertips, mimics that keep the tips parallel to the palm, so
+/// they move without turning.
+fn gripper() -> String {
+    let mimic = |name: &str, parent: &str, child: &str, y: f64, z: f64, multiplier: f64| {
+        format!(
+            r#"<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/><origin xyz="0 {y} {z}"/><axis xyz="1 0 0"/><limit lower="-0.5" upper="0.5" velocity="2"/><mimic joint="finger" multiplier="{multiplier}"/></joint>"#
+        )
+    };
+    let mut s = String::from(r#"<robot name="gripper">"#);
+    s += r#"<link name="torso"><collision><geometry><box size="0.3 0.4 0.5"/></geometry></collision></link>"#;
+    s += &joint("shoulder", "torso", "upper", [0.0, 0.25, 0.2], 0.0, "0 1 0");
+    s += &link("upper", 0.05, -0.3, 'z');
+    s += &joint("elbow", "upper", "fore", [0.0, 0.0, -0.3], 0.3, "0 1 0");
+    s += &link("fore", 0.04, -0.25, 'z');
+    s += &joint("wrist", "fore", "palm", [0.0, 0.0, -0.25], 0.0, "1 0 0");
+    s += r#"<link name="palm"><collision><origin xyz="0 0 -0.05"/><geometry><box size="0.06 0.12 0.1"/></geometry></collision></link>"#;
+    s += r#"<joint name="finger" type="revolute"><parent link="palm"/><child link="finger_1"/><origin xyz="0 0.04 -0.1"/><axis xyz="1 0 0"/><limit lower="-0.5" upper="0.5" velocity="2"/></joint>"#;
+    s += &link("finger_1", 0.01, -0.06, 'z');
+    s += &mimic("finger_mimic", "palm", "finger_2", -0.04, -0.1, -1.0);
+    s += &link("finger_2", 0.01, -0.06, 'z');
+    s += &mimic("tip_1_mimic", "finger_1", "tip_1", 0.0, -0.06, -1.0);
+    s += &link("tip_1", 0.012, -0.04, 'z');
+    s += &mimic("tip_2_mimic", "finger_2", "tip_2", 0.0, -0.06, 1.0);
+    s += &link("tip_2", 0.012, -0.04, 'z');
+    s + "</robot>"
+}
+
 fn world(urdf: &str, base: BaseConfig, per_link: usize, seed: u64, noise_scale: f64) -> World {
     let robot = Robot::from_urdf_str(urdf).unwrap();
     let skin = Skin::per_link(&robot, per_link, seed).unwrap();
@@ -196,6 +225,27 @@ fn a_branching_robot_has_its_palm_as_inner_node() {
     assert_eq!(tree.leaves().len(), 4);
     // Head, right arm, left arm up to the palm, and each finger.
     assert_eq!(tree.limbs().len(), 5);
+}
+
+#[test]
+fn a_mimic_gripper_is_undecided_until_a_clearance_bounds_every_cell_it_moves() {
+    for seed in 1..3 {
+        // The fingertips move without turning, so "no gravity change" says
+        // nothing about the cells of the gripper's DoF: undecided, with why.
+        let strict = Trial::run(world(&gripper(), BaseConfig::standing(), 3, seed, 1.0), &ExploreConfig::default());
+        let entries = undecided(&strict);
+        assert!(entries.iter().all(|e| e.dof == "finger" && e.reason.contains("coupled or mimic")), "{entries:?}");
+        // The skin's true clearance declared: the lever, pooled, bounds every
+        // cell the DoF leaves still, and the tree is the true one.
+        let robot = Robot::from_urdf_str(&gripper()).unwrap();
+        let declared = Skin::per_link(&robot, 3, seed).unwrap().min_axis_clearance_m().min(0.02);
+        let trial = Trial::run(world(&gripper(), BaseConfig::standing(), 3, seed, 1.0), &declaring(declared));
+        let warnings = verdict(&trial).unwrap();
+        assert!(warnings.iter().any(|w| w.starts_with("DoF finger:")), "{warnings:?}");
+        let (found, _) = trial.outcome.as_ref().unwrap();
+        // One DoF moves both fingers and both tips: one body part.
+        assert_eq!(found.tree.body_parts().len(), 5, "torso, upper arm, forearm, palm, the gripper's fingers");
+    }
 }
 
 #[test]

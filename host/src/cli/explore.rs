@@ -31,9 +31,11 @@ pub struct Args {
     #[arg(long)]
     paper: bool,
     /// Declare that in the start posture no skin cell lies closer than this
-    /// to the axis line of a joint that moves it, m. Settles cells that show
-    /// no lever to a vertical axis no posture can tilt (a yaw joint on the
-    /// fixed base); without it they are reported as undecided.
+    /// to the axis line of a joint that moves it (and none moves less than
+    /// this per radian of a DoF that drives mimic joints), m. Settles cells
+    /// that show no lever to a vertical axis no posture can tilt (a yaw
+    /// joint on the fixed base) or to a coupled DoF (mimic fingers); without
+    /// it they are reported as undecided.
     #[arg(long, value_name = "M", default_value_t = 0.0, allow_negative_numbers = true)]
     axis_clearance: f64,
     /// Robot time the structural exploration may spend on undecided entries, s.

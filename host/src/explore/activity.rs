@@ -210,7 +210,7 @@ const COUPLED_SPREAD: f64 = 0.25;
 
 /// A lever this many times `lever_threshold_m` is a movement even where
 /// the base rocks: three times the largest rocking seen.
-const SURE_LEVER: f64 = 3.0;
+pub(crate) const SURE_LEVER: f64 = 3.0;
 
 /// What one step says about one cell.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -267,6 +267,16 @@ impl Step {
         Step { evidence, moved_rad }
     }
 
+    /// True when no cell's gravity change could pass the static floor
+    /// however long the averaging: the axis is within about 6 degrees of
+    /// gravity in this posture, and only another posture helps.
+    pub fn surely_blind(&self, cfg: &StructureConfig) -> bool {
+        let floor = cfg.static_fraction * G0 * self.moved_rad.abs();
+        self.evidence
+            .iter()
+            .all(|e| e.static_saturated || e.static_mps2 + cfg.confidence_sigmas * e.static_sigma < floor)
+    }
+
     /// Reads every cell, and tells whether the DoF was static-blind (no
     /// cell showed a gravity change above the paper's threshold: a
     /// revolute axis within about 6 degrees of vertical in this posture, or
@@ -315,12 +325,16 @@ impl Step {
         // Where the static test has power it decides alone: a standing
         // robot rocks with every horizontal joint acceleration, near its
         // resonance enough to fake a lever of a centimetre.
+        // A coupled DoF turns its cells by one, two or more rotations (a
+        // finger's phalanges), so half the median change can exceed a
+        // single one: there any change above the paper's floor is a turn.
+        let moved_above = if coupled { floor } else { threshold };
         let readings = self
             .evidence
             .iter()
             .map(|e| {
                 let static_known = !e.static_saturated && !blind;
-                let static_hi = static_known && e.static_mps2 - k * e.static_sigma > threshold;
+                let static_hi = static_known && e.static_mps2 - k * e.static_sigma > moved_above;
                 let static_lo = static_known && !coupled && e.static_mps2 + k * e.static_sigma < threshold;
                 let lever = e.lever_m - k * e.lever_sigma;
                 let lever_hi = (lever > lever_moved && (blind || e.static_saturated))

@@ -198,7 +198,7 @@ pub fn explore<R: Robot + SampleSource>(
                 (0..cells.len()).filter(|&u| matches!(activity.basis(u, d), Some(Basis::Clearance))).count();
             (by_clearance > 0).then(|| {
                 format!(
-                    "DoF {}: {by_clearance} cells showed no lever to its gravity-aligned axis, which no posture tilted, and are taken as still on the declared mounting clearance of {} m",
+                    "DoF {}: {by_clearance} cells showed no lever (to its gravity-aligned axis, which no posture tilted, or to its coupled joints) and are taken as still on the declared mounting clearance of {} m",
                     dof_names[d], cfg.structure.axis_clearance_m
                 )
             })
@@ -262,7 +262,12 @@ fn reason(outcome: &structure::Outcome, cfg: &StructureConfig, names: &[String],
             outcome.longest_average_s, cfg.budget_s
         ),
         Some(Doubt::Saturated) => "the accelerometer saturated in every measurement (use a larger range)".to_owned(),
-        Some(Doubt::Coupled) => "the DoF turns the cells it moves by different rotations (coupled or mimic joints), so a cell that shows no gravity change may still move with it, and no lever showed".to_owned(),
+        Some(Doubt::Coupled) if cfg.axis_clearance_m > 0.0 => format!(
+            "the DoF turns the cells it moves by different rotations (coupled or mimic joints), so a cell that shows no gravity change may still move with it, and the lever, pooled over {} repeats of the step, is not bounded below the declared clearance of {} mm",
+            outcome.repeats[d] + 1,
+            cfg.axis_clearance_m * 1e3
+        ),
+        Some(Doubt::Coupled) => "the DoF turns the cells it moves by different rotations (coupled or mimic joints), so a cell that shows no gravity change may still move with it, and no lever showed; declaring the skin's mounting clearance (--axis-clearance) settles cells whose lever stays below it".to_owned(),
         None => format!("not measured again: the robot-time budget of {:.0} s is spent", cfg.budget_s),
     }
 }

@@ -12,16 +12,17 @@
 //!   that moves every cell it moves, nearest first) by `tilt_rad`, which
 //!   tilts the axis out of gravity's line, measures again and turns back:
 //!   the paper's "change the posture of the robot", done by the robot;
-//! - *near an axis no posture tilts*, with a mounting clearance declared:
-//!   more repeats of the step, pooled, until each still cell's lever is
-//!   bounded below the clearance.
+//! - *near an axis no posture tilts*, or *on a coupled DoF* (mimic joints,
+//!   where a cell that shows no gravity change may still move), with a
+//!   mounting clearance declared: more repeats of the step, pooled, until
+//!   each still cell's lever is bounded below the clearance.
 //!
 //! Between measurements, entries that the decided ones imply in a
 //! kinematic tree are settled without moving (`infer`): the cells of two
 //! DoFs are nested or disjoint. A cell that no reachable posture decides
 //! stays undecided, with its [`Doubt`], and the exploration says so.
 
-use super::activity::{Activity, ActivityMatrix, Basis, Doubt, Evidence, Reading, Step};
+use super::activity::{Activity, ActivityMatrix, Basis, Doubt, Evidence, Reading, Step, SURE_LEVER};
 use super::session::{Session, Window};
 use super::ExploreError;
 use crate::robot::{DofKind, Robot, SampleSource};
@@ -60,10 +61,12 @@ pub struct StructureConfig {
     pub tilt_rad: f64,
     /// Declared by the user: in the start posture no cell lies closer than
     /// this to the axis line of a joint that moves it, m (0: nothing
-    /// declared). With it, a cell that shows no lever to a gravity-aligned
-    /// axis that no posture can tilt (a yaw joint on the fixed base) is
-    /// still, once pooled repeats bound its lever below the clearance.
-    /// Without it, such a cell is reported as undecided.
+    /// declared); for a DoF that drives coupled (mimic) joints, no cell it
+    /// moves moves less than this per radian. With it, a cell that shows
+    /// no lever to a gravity-aligned axis that no posture can tilt (a yaw
+    /// joint on the fixed base), or no gravity change and no lever with a
+    /// coupled DoF, is still once pooled repeats bound its lever below the
+    /// clearance. Without it, such a cell is reported as undecided.
     pub axis_clearance_m: f64,
 }
 
@@ -198,6 +201,7 @@ pub(crate) fn explore<R: Robot + SampleSource>(
         grow: vec![0; dofs],
         tilt: vec![None; dofs],
         last_blind: false,
+        last_surely_blind: false,
         last_step: None,
         step_before: None,
         pooled: vec![[0.0; 4]; cells * dofs],
@@ -274,8 +278,10 @@ struct Explorer<'x, 'r, R> {
     grow: Vec<u32>,
     /// The carrier whose turn tilted each DoF's axis out of gravity's line.
     tilt: Vec<Option<usize>>,
-    /// The last measurement's static test was blind.
+    /// The last measurement's static test was blind, and surely so: longer
+    /// averaging would not change it.
     last_blind: bool,
+    last_surely_blind: bool,
     /// The DoF of the last step, and of the step before it.
     last_step: Option<usize>,
     step_before: Option<usize>,
@@ -289,7 +295,8 @@ struct Explorer<'x, 'r, R> {
     measured: Vec<bool>,
     /// The last doubt of each entry, cell-major.
     doubts: Vec<Option<Doubt>>,
-    /// Smallest upper bound seen on each entry's lever while its axis was vertical, m.
+    /// Smallest upper bound seen on each entry's lever while its axis was
+    /// vertical or its DoF coupled, m.
     lever_bound: Vec<f64>,
     done: usize,
     total: usize,
@@ -307,7 +314,11 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
         let open = self.open_doubts(m, d);
         let near_axis = open.contains(&Doubt::NearAxis);
         let noisy = open.iter().any(|&doubt| doubt != Doubt::NearAxis);
-        if (near_axis || self.blind[d]) && self.kinds[d] == DofKind::Revolute {
+        let coupled = open.contains(&Doubt::Coupled);
+        // A cell of a coupled DoF that pooling cannot settle may turn about
+        // an axis aligned with gravity: tilted, it shows the turn.
+        let tilt_coupled = coupled && !self.tightens(m, d);
+        if (near_axis || self.blind[d] || tilt_coupled) && self.kinds[d] == DofKind::Revolute {
             // A posture that tilted the axis before, or a new one.
             let carrier = match self.tilt[d] {
                 Some(p) if noisy && self.effort[d] < MAX_EFFORT => {
@@ -322,7 +333,9 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
                 return Ok(true);
             }
         }
-        if (noisy || self.tightens(m, d)) && self.blind[d] && self.tilt[d].is_none() {
+        if ((noisy || self.tightens(m, d)) && self.blind[d] && self.tilt[d].is_none())
+            || (coupled && self.tightens(m, d))
+        {
             // Only the lever can tell: more of the same (larger) step, a
             // batch in a row so the base stops ringing, pooled; longer
             // still windows would not help.
@@ -360,14 +373,15 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
     }
 
     /// More pooled repeats of DoF `d`'s step could settle an entry on the
-    /// declared clearance: it is near an axis no posture tilts, its lever
-    /// bound is still above the clearance, and the pooled lever does not
-    /// already show it farther out (a cell that really turns about the
-    /// axis at a lever between the clearance and `axis_lever_m` stays
-    /// undecided, not pooled forever).
+    /// declared clearance: its lever bound is still above the clearance,
+    /// the pooled lever does not already show it farther out (a cell that
+    /// really moves at a lever between the clearance and what counts as a
+    /// movement stays undecided, not pooled forever), and the entry waits
+    /// for the clearance: near an axis no posture tilts, or on a coupled
+    /// DoF, where gravity cannot say still.
     fn tightens(&self, m: &ActivityMatrix, d: usize) -> bool {
         let clearance = self.cfg.axis_clearance_m;
-        if clearance <= 0.0 || self.kinds[d] != DofKind::Revolute || self.next_carrier(m, d).is_some() {
+        if clearance <= 0.0 {
             return false;
         }
         let (dofs, k) = (m.dofs(), self.cfg.confidence_sigmas);
@@ -376,10 +390,22 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
             let [x, y, z, w] = self.pooled[i];
             let below = w == 0.0 || ((x * x + y * y + z * z).sqrt() / w - k / w.sqrt()) < clearance;
             m.get(u, d) == Activity::Unknown
-                && self.doubts[i] == Some(Doubt::NearAxis)
+                && self.waits_for_clearance(m, d, self.doubts[i])
                 && self.lever_bound[i] >= clearance
                 && below
         })
+    }
+
+    /// An entry of DoF `d` with `doubt` is settled by the declared
+    /// clearance once its lever is bounded below it: a cell that a coupled
+    /// DoF moves without turning it shows no gravity change, and one near a
+    /// revolute axis no posture can tilt any more shows none either.
+    fn waits_for_clearance(&self, m: &ActivityMatrix, d: usize, doubt: Option<Doubt>) -> bool {
+        match doubt {
+            Some(Doubt::Coupled) => true,
+            Some(Doubt::NearAxis) => self.kinds[d] == DofKind::Revolute && self.next_carrier(m, d).is_none(),
+            _ => false,
+        }
     }
 
     /// Turns carrier `p` to tilt DoF `d`'s axis, measures `d` there (with
@@ -395,7 +421,12 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
         // averaging beats the noise.
         let measured = loop {
             let measured = self.measure(m, d);
-            if measured.is_err() || !self.last_blind || self.effort[d] >= MAX_EFFORT || self.out_of_time() {
+            if measured.is_err()
+                || !self.last_blind
+                || self.last_surely_blind
+                || self.effort[d] >= MAX_EFFORT
+                || self.out_of_time()
+            {
                 break measured;
             }
             self.effort[d] += 1;
@@ -476,6 +507,7 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
             self.blind[d] = blind;
         }
         self.last_blind = blind;
+        self.last_surely_blind = blind && step.surely_blind(self.cfg);
         let posture = self.posture;
         let dofs = m.dofs();
         for (u, (reading, e)) in readings.into_iter().zip(&step.evidence).enumerate() {
@@ -486,22 +518,28 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
                     let i = u * dofs + d;
                     let k = self.cfg.confidence_sigmas;
                     let (mut doubt, mut bound) = (doubt, e.lever_m + k * e.lever_sigma);
-                    // Pool only steps that follow a step of the same blind
-                    // DoF: another DoF's step leaves the base ringing.
-                    if blind && posture == 0 && doubt != Doubt::Saturated && self.step_before == Some(d) {
+                    // Pool only steps that follow a step of the same DoF:
+                    // another DoF's step leaves the base ringing.
+                    let pooling = blind || doubt == Doubt::Coupled;
+                    if pooling && posture == 0 && doubt != Doubt::Saturated && self.step_before == Some(d) {
+                        // A coupled DoF's step is not blind: the base may
+                        // rock with it, so only a sure lever is a movement.
+                        let moved_m =
+                            if blind { self.cfg.axis_lever_m } else { SURE_LEVER * self.cfg.lever_threshold_m };
                         match self.pool(i, e) {
-                            Some((lever, sigma)) if lever - k * sigma > self.cfg.axis_lever_m => {
+                            Some((lever, sigma)) if lever - k * sigma > moved_m => {
                                 m.or(u, d, Activity::Moved, Basis::Dynamic { posture });
                                 continue;
                             }
-                            Some((lever, sigma)) if lever + k * sigma < self.cfg.axis_lever_m => {
+                            Some((lever, sigma)) if blind && lever + k * sigma < self.cfg.axis_lever_m => {
                                 (doubt, bound) = (Doubt::NearAxis, bound.min(lever + k * sigma));
                             }
-                            _ => {}
+                            Some((lever, sigma)) => bound = bound.min(lever + k * sigma),
+                            None => {}
                         }
                     }
                     self.doubts[i] = Some(doubt);
-                    if doubt == Doubt::NearAxis {
+                    if matches!(doubt, Doubt::NearAxis | Doubt::Coupled) {
                         self.lever_bound[i] = self.lever_bound[i].min(bound);
                     }
                     continue;
@@ -537,22 +575,23 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
         }
     }
 
-    /// With a declared mounting clearance: a cell with no lever to a
-    /// revolute DoF `d` whose axis no posture can tilt any more is farther
-    /// from the axis than its lever bound, so by the declaration `d` does
-    /// not move it. True if an entry changed.
+    /// With a declared mounting clearance: a cell waiting for it (see
+    /// [`Explorer::waits_for_clearance`]) whose lever is bounded below the
+    /// clearance would move less per radian than any cell the DoF moves,
+    /// so by the declaration the DoF does not move it. True if an entry
+    /// changed.
     fn clear(&mut self, m: &mut ActivityMatrix) -> bool {
         let (cells, dofs) = (m.cells(), m.dofs());
         let mut changed = false;
         for d in 0..dofs {
-            if self.kinds[d] != DofKind::Revolute || !m.column_undecided(d) || self.next_carrier(m, d).is_some() {
+            if !m.column_undecided(d) {
                 continue;
             }
             for u in 0..cells {
                 let i = u * dofs + d;
                 if m.get(u, d) == Activity::Unknown
-                    && self.doubts[i] == Some(Doubt::NearAxis)
                     && self.lever_bound[i] < self.cfg.axis_clearance_m
+                    && self.waits_for_clearance(m, d, self.doubts[i])
                 {
                     changed |= m.or(u, d, Activity::Still, Basis::Clearance);
                 }
