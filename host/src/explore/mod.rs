@@ -263,8 +263,9 @@ fn reason(outcome: &structure::Outcome, cfg: &StructureConfig, names: &[String],
         ),
         Some(Doubt::Saturated) => "the accelerometer saturated in every measurement (use a larger range)".to_owned(),
         Some(Doubt::Coupled) if cfg.axis_clearance_m > 0.0 => format!(
-            "the DoF turns the cells it moves by different rotations (coupled or mimic joints), so a cell that shows no gravity change may still move with it, and the lever, pooled over {} repeats of the step, is not bounded below the declared clearance of {} mm",
+            "the DoF turns the cells it moves by different rotations (coupled or mimic joints), so a cell that shows no gravity change may still move with it, and its lever, pooled over {} repeats of the step, is bounded only below {:.1} mm, not below the declared clearance of {} mm (a floor there that more repeats do not lower is the base rocking with the step)",
             outcome.repeats[d] + 1,
+            outcome.lever_bounds[u * dofs + d] * 1e3,
             cfg.axis_clearance_m * 1e3
         ),
         Some(Doubt::Coupled) => "the DoF turns the cells it moves by different rotations (coupled or mimic joints), so a cell that shows no gravity change may still move with it, and no lever showed; declaring the skin's mounting clearance (--axis-clearance) settles cells whose lever stays below it".to_owned(),

@@ -166,6 +166,9 @@ pub(crate) struct Outcome {
     pub measurements: usize,
     /// Per DoF: repeats of its blind step pooled for the lever.
     pub repeats: Vec<u32>,
+    /// Per entry (cell-major): the smallest bound on its lever seen while
+    /// its axis was vertical or its DoF coupled, m.
+    pub lever_bounds: Vec<f64>,
     /// Every still window with the DoF positions it was taken at: gravity
     /// seen from each link in as many postures, for the calibration.
     pub stills: Vec<(Vec<f64>, Window)>,
@@ -252,6 +255,7 @@ pub(crate) fn explore<R: Robot + SampleSource>(
         longest_average_s: x.longest_average_s,
         measurements: x.done,
         repeats: x.repeats,
+        lever_bounds: x.lever_bound,
         stills: x.stills,
     })
 }
