@@ -171,7 +171,7 @@ impl<M: Meta> Router<M> {
     /// The next upstream frame given up since the last call, with its
     /// metadata (only for metadata that is not zero-sized).
     pub fn take_discarded(&mut self) -> Option<(M, Discard)> {
-        self.discarded.pop_front(&mut self.discarded_slots)
+        self.discarded.pop_front(&self.discarded_slots)
     }
 
     /// The port upstream traffic leaves on.
@@ -190,7 +190,7 @@ impl<M: Meta> Router<M> {
             let q = m.index();
             self.counters.dropped_reroute += self.up[q].len() as u32;
             self.up_total -= self.up[q].len();
-            while let Some((_, meta)) = self.up[q].pop_front(&mut self.up_slots[q]) {
+            while let Some((_, meta)) = self.up[q].pop_front(&self.up_slots[q]) {
                 self.discard(meta, Discard::Reroute);
             }
         }
@@ -297,7 +297,7 @@ impl<M: Meta> Router<M> {
     #[inline]
     pub fn transmit_meta(&mut self, port: Port) -> Option<(Frame, Option<M>)> {
         let p = port.index();
-        if let Some(f) = self.link[p].pop_front(&mut self.link_slots[p]) {
+        if let Some(f) = self.link[p].pop_front(&self.link_slots[p]) {
             self.counters.sent_link += 1;
             if f.kind() != crate::frame::Kind::Probe {
                 self.sent |= 1 << p;
@@ -317,7 +317,7 @@ impl<M: Meta> Router<M> {
         if self.master == Some(port) && self.up_total > 0 {
             for k in 0..self.up.len() {
                 let i = (usize::from(self.next) + k) % self.up.len();
-                if let Some((f, meta)) = self.up[i].pop_front(&mut self.up_slots[i]) {
+                if let Some((f, meta)) = self.up[i].pop_front(&self.up_slots[i]) {
                     self.up_total -= 1;
                     // Below 5.
                     self.next = ((i + 1) % self.up.len()) as u8;
@@ -330,7 +330,7 @@ impl<M: Meta> Router<M> {
                 }
             }
         }
-        let f = self.down[p].pop_front(&mut self.down_slots[p])?;
+        let f = self.down[p].pop_front(&self.down_slots[p])?;
         self.counters.forwarded_down += 1;
         Some((f, None))
     }
