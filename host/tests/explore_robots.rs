@@ -157,6 +157,24 @@ fn declaring(clearance_m: f64) -> ExploreConfig {
     ExploreConfig { structure, ..ExploreConfig::default() }
 }
 
+/// Explores `urdf` with the skin's true clearance (at most `cap_m`)
+/// declared: the tree must be true, with a clearance warning naming `dof`.
+fn declaring_the_true_clearance(
+    urdf: &str,
+    base: BaseConfig,
+    per_link: usize,
+    seed: u64,
+    cap_m: f64,
+    dof: &str,
+) -> Trial {
+    let robot = Robot::from_urdf_str(urdf).unwrap();
+    let declared = Skin::per_link(&robot, per_link, seed).unwrap().min_axis_clearance_m().min(cap_m);
+    let trial = Trial::run(world(urdf, base, per_link, seed, 1.0), &declaring(declared));
+    let warnings = verdict(&trial).unwrap();
+    assert!(warnings.iter().any(|w| w.starts_with(&format!("DoF {dof}:"))), "{warnings:?}");
+    trial
+}
+
 #[test]
 fn a_ur5_like_arm_on_a_level_base_is_undecided_about_its_base_cells_until_a_clearance_is_declared() {
     for seed in 0..2 {
@@ -185,11 +203,7 @@ fn a_clearance_of_a_millimetre_is_reached_by_pooling_more_steps() {
     for seed in 0..2 {
         // One step bounds a still cell's lever to a few millimetres; a
         // declared 1 mm needs the repeats pooled until the bound is below it.
-        let robot = Robot::from_urdf_str(&ur5_like()).unwrap();
-        let declared = Skin::per_link(&robot, 4, seed).unwrap().min_axis_clearance_m().min(0.001);
-        let trial = Trial::run(world(&ur5_like(), BaseConfig::rigid(), 4, seed, 1.0), &declaring(declared));
-        let warnings = verdict(&trial).unwrap();
-        assert!(warnings.iter().any(|w| w.starts_with("DoF shoulder_pan:")), "{warnings:?}");
+        let trial = declaring_the_true_clearance(&ur5_like(), BaseConfig::rigid(), 4, seed, 0.001, "shoulder_pan");
         let (found, _) = trial.outcome.as_ref().unwrap();
         assert!(found.structure_time_s < 120.0, "{} s", found.structure_time_s);
     }
@@ -237,11 +251,7 @@ fn a_mimic_gripper_is_undecided_until_a_clearance_bounds_every_cell_it_moves() {
         assert!(entries.iter().all(|e| e.dof == "finger" && e.reason.contains("coupled or mimic")), "{entries:?}");
         // The skin's true clearance declared: the lever, pooled, bounds every
         // cell the DoF leaves still, and the tree is the true one.
-        let robot = Robot::from_urdf_str(&gripper()).unwrap();
-        let declared = Skin::per_link(&robot, 3, seed).unwrap().min_axis_clearance_m().min(0.02);
-        let trial = Trial::run(world(&gripper(), BaseConfig::standing(), 3, seed, 1.0), &declaring(declared));
-        let warnings = verdict(&trial).unwrap();
-        assert!(warnings.iter().any(|w| w.starts_with("DoF finger:")), "{warnings:?}");
+        let trial = declaring_the_true_clearance(&gripper(), BaseConfig::standing(), 3, seed, 0.02, "finger");
         let (found, _) = trial.outcome.as_ref().unwrap();
         // One DoF moves both fingers and both tips: one body part.
         assert_eq!(found.tree.body_parts().len(), 5, "torso, upper arm, forearm, palm, the gripper's fingers");
