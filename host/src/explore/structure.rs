@@ -282,9 +282,9 @@ struct Explorer<'x, 'r, R> {
     grow: Vec<u32>,
     /// The carrier whose turn tilted each DoF's axis out of gravity's line.
     tilt: Vec<Option<usize>>,
-    /// The last measurement's static test was blind, and surely so: longer
-    /// averaging would not change it.
+    /// The last measurement's static test was blind.
     last_blind: bool,
+    /// ... and surely so: no longer averaging would change it.
     last_surely_blind: bool,
     /// The DoF of the last step, and of the step before it.
     last_step: Option<usize>,
@@ -389,25 +389,24 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
             return false;
         }
         let (dofs, k) = (m.dofs(), self.cfg.confidence_sigmas);
+        let waits = self.waits_for_clearance(m, d);
         (0..m.cells()).any(|u| {
             let i = u * dofs + d;
             let [x, y, z, w] = self.pooled[i];
             let below = w == 0.0 || ((x * x + y * y + z * z).sqrt() / w - k / w.sqrt()) < clearance;
-            m.get(u, d) == Activity::Unknown
-                && self.waits_for_clearance(m, d, self.doubts[i])
-                && self.lever_bound[i] >= clearance
-                && below
+            m.get(u, d) == Activity::Unknown && waits(self.doubts[i]) && self.lever_bound[i] >= clearance && below
         })
     }
 
-    /// An entry of DoF `d` with `doubt` is settled by the declared
-    /// clearance once its lever is bounded below it: a cell that a coupled
-    /// DoF moves without turning it shows no gravity change, and one near a
-    /// revolute axis no posture can tilt any more shows none either.
-    fn waits_for_clearance(&self, m: &ActivityMatrix, d: usize, doubt: Option<Doubt>) -> bool {
-        match doubt {
+    /// Which doubts of DoF `d` the declared clearance settles once a lever
+    /// is bounded below it: a cell that a coupled DoF moves without turning
+    /// it shows no gravity change, and one near a revolute axis no posture
+    /// can tilt any more shows none either.
+    fn waits_for_clearance(&self, m: &ActivityMatrix, d: usize) -> impl Fn(Option<Doubt>) -> bool {
+        let untiltable = self.kinds[d] == DofKind::Revolute && self.next_carrier(m, d).is_none();
+        move |doubt| match doubt {
             Some(Doubt::Coupled) => true,
-            Some(Doubt::NearAxis) => self.kinds[d] == DofKind::Revolute && self.next_carrier(m, d).is_none(),
+            Some(Doubt::NearAxis) => untiltable,
             _ => false,
         }
     }
@@ -591,11 +590,12 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
             if !m.column_undecided(d) {
                 continue;
             }
+            let waits = self.waits_for_clearance(m, d);
             for u in 0..cells {
                 let i = u * dofs + d;
                 if m.get(u, d) == Activity::Unknown
                     && self.lever_bound[i] < self.cfg.axis_clearance_m
-                    && self.waits_for_clearance(m, d, self.doubts[i])
+                    && waits(self.doubts[i])
                 {
                     changed |= m.or(u, d, Activity::Still, Basis::Clearance);
                 }
