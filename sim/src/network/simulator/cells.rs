@@ -47,11 +47,8 @@ impl Trace {
 }
 
 /// A simulated cell: its application while powered, and its store (ID,
-/// offsets, settings), which survives a reboot as flash would. The
-/// application comes first (`repr(C)`): its network stack is what every
-/// event of the cell reads.
+/// offsets, settings), which survives a reboot as flash would.
 #[derive(Debug)]
-#[repr(C)]
 pub struct SimCell {
     pub(super) app: Option<CellApp<MemoryStore, Trace>>,
     /// The store as of the last power-off.
