@@ -267,11 +267,17 @@ impl Step {
         Step { evidence, moved_rad }
     }
 
+    /// The paper's static threshold for this step: a fraction of the
+    /// largest change, `g |step|`.
+    fn floor(&self, cfg: &StructureConfig) -> f64 {
+        cfg.static_fraction * G0 * self.moved_rad.abs()
+    }
+
     /// True when no cell's gravity change could pass the static floor
     /// however long the averaging: the axis is within about 6 degrees of
     /// gravity in this posture, and only another posture helps.
     pub fn surely_blind(&self, cfg: &StructureConfig) -> bool {
-        let floor = cfg.static_fraction * G0 * self.moved_rad.abs();
+        let floor = self.floor(cfg);
         self.evidence
             .iter()
             .all(|e| e.static_saturated || e.static_mps2 + cfg.confidence_sigmas * e.static_sigma < floor)
@@ -283,7 +289,7 @@ impl Step {
     /// a prismatic DoF, which turns nothing).
     pub fn decide(&self, cfg: &StructureConfig, kind: DofKind) -> (Vec<Reading>, bool) {
         let k = cfg.confidence_sigmas;
-        let floor = cfg.static_fraction * G0 * self.moved_rad.abs();
+        let floor = self.floor(cfg);
         let mut changed: Vec<f64> = if kind == DofKind::Prismatic {
             Vec::new()
         } else {

@@ -319,9 +319,10 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
         let near_axis = open.contains(&Doubt::NearAxis);
         let noisy = open.iter().any(|&doubt| doubt != Doubt::NearAxis);
         let coupled = open.contains(&Doubt::Coupled);
+        let tightens = self.tightens(m, d);
         // A cell of a coupled DoF that pooling cannot settle may turn about
         // an axis aligned with gravity: tilted, it shows the turn.
-        let tilt_coupled = coupled && !self.tightens(m, d);
+        let tilt_coupled = coupled && !tightens;
         if (near_axis || self.blind[d] || tilt_coupled) && self.kinds[d] == DofKind::Revolute {
             // A posture that tilted the axis before, or a new one.
             let carrier = match self.tilt[d] {
@@ -337,9 +338,7 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
                 return Ok(true);
             }
         }
-        if ((noisy || self.tightens(m, d)) && self.blind[d] && self.tilt[d].is_none())
-            || (coupled && self.tightens(m, d))
-        {
+        if ((noisy || tightens) && self.blind[d] && self.tilt[d].is_none()) || (coupled && tightens) {
             // Only the lever can tell: more of the same (larger) step, a
             // batch in a row so the base stops ringing, pooled; longer
             // still windows would not help.
