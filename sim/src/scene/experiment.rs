@@ -122,8 +122,8 @@ pub fn body_poses(robot: &Robot, pose: &[f64]) -> Vec<Isometry3<f64>> {
     states.into_iter().map(|s| s.pose).collect()
 }
 
-/// How far a placed object reaches behind its centre, towards the chest, m
-/// (objects do not turn, so this holds while it slides).
+/// How far a placed object reaches behind its centre, towards the chest, m,
+/// as it stands now.
 pub fn back_extent(placed: &Placed) -> f64 {
     placed.object.shape.extent(&(placed.pose.rotation.inverse() * -Vector3::x()))
 }

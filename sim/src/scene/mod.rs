@@ -10,7 +10,9 @@
 //! Objects move quasi-statically: when the horizontal sum of the contact
 //! forces exceeds the support's friction, the object slides in that
 //! direction (viscously, never past the point where the forces balance
-//! friction again), so arms can push and pull it. It does not tip or turn.
+//! friction again), so arms can push and pull it; when their moment about
+//! the vertical through its centre exceeds the support's friction moment,
+//! it turns the same way. It does not tip.
 //! The robot's surface without skin, when given as points, pushes objects
 //! too but feels nothing; the skin does not see the robot's own body.
 
@@ -311,8 +313,8 @@ impl Scene {
                         let into_body = -(placed.pose.rotation * placed.object.shape.normal(&local));
                         let force_n = depth * placed.object.stiffness_n_per_m;
                         self.contacts.push(Contact { cell: bare.cell, point: at, force_n, felt: false });
-                        load.push += force_n * horizontal(&into_body);
-                        load.stiffness += placed.object.stiffness_n_per_m;
+                        let centre = placed.pose.translation.vector;
+                        load.press(&centre, &at, &into_body, force_n, placed.object.stiffness_n_per_m);
                     }
                 }
             }
@@ -343,6 +345,27 @@ struct Load {
     drag: Vector3<f64>,
     /// Sum of the gripping cells' contact forces, N.
     gripping_n: f64,
+    /// Moment of the contact forces about the vertical through the
+    /// object's centre, N m.
+    moment: f64,
+    /// Their stiffness against a turn of the object, N m/rad.
+    turn_stiffness: f64,
+}
+
+impl Load {
+    /// Adds a contact force `force_n` along the horizontal of `into_body`
+    /// at `point`, of stiffness `k` along it, on a body centred at `centre`.
+    fn press(&mut self, centre: &Vector3<f64>, point: &Point3<f64>, into_body: &Vector3<f64>, force_n: f64, k: f64) {
+        let along = horizontal(into_body);
+        self.push += force_n * along;
+        self.stiffness += k;
+        // A turn by a small angle moves the point by (z x r) * angle; the
+        // part of that along the force is the lever.
+        let r = horizontal(&(point.coords - centre));
+        let lever = r.x * along.y - r.y * along.x;
+        self.moment += force_n * lever;
+        self.turn_stiffness += k * lever * lever;
+    }
 }
 
 fn horizontal(v: &Vector3<f64>) -> Vector3<f64> {
@@ -390,9 +413,9 @@ fn touch(
         // The force cell measures the part along its normal.
         sense.force_n[i] += f * into_body.dot(&axis).max(0.0);
         if let Some((load, velocity)) = load.as_mut() {
-            load.push += f * horizontal(&into_body);
-            let k = skin.foam.contact_force(depth + 1e-6, body.stiffness_n_per_m) - f;
-            load.stiffness += k / 1e-6;
+            let k = (skin.foam.contact_force(depth + 1e-6, body.stiffness_n_per_m) - f) / 1e-6;
+            let at = body.pose * p;
+            load.press(&body.pose.translation.vector, &at, &into_body, f, k);
             // The cover grips: its motion along the surface drags the object.
             let sliding = *velocity - into_body * velocity.dot(&into_body);
             load.grip_n += skin.friction * f;
@@ -406,11 +429,12 @@ fn touch(
 /// object along with its own sliding velocity when its grip, with the
 /// push, beats the support's friction; beyond that friction the push makes
 /// it slide, viscously, but never further than where the contact forces
-/// would fall back to the limit.
+/// would fall back to the limit. It turns the same way under the moment.
 fn slide(placed: &mut Placed, load: &Load, damping: f64, dt: f64) {
     if dt <= 0.0 {
         return;
     }
+    turn(placed, load, damping, dt);
     let mut limit = placed.object.friction * placed.object.mass_kg * G;
     if load.gripping_n > 0.0 {
         let carried = load.drag / load.gripping_n;
@@ -431,6 +455,34 @@ fn slide(placed: &mut Placed, load: &Load, damping: f64, dt: f64) {
         step = step.min(excess / load.stiffness);
     }
     placed.pose.translation.vector += load.push / magnitude * step;
+}
+
+/// The farthest a point of a turning object moves in one step, m: a tenth
+/// of the foam under the skin.
+const MAX_TURN_STEP_M: f64 = 0.0005;
+
+/// Quasi-static turn about the vertical through the object's centre: the
+/// support's friction, spread evenly over the face it stands on, resists
+/// with at most two thirds of its force times that face's radius; beyond
+/// that the moment turns it, viscously (the same drag per unit area as a
+/// slide), never past where the moment falls back to the limit, and its
+/// farthest point moves at most [`MAX_TURN_STEP_M`] per step: the
+/// stiffness counts only the contacts it has, and a corner turning
+/// freely must not jump into a cell between two samples.
+fn turn(placed: &mut Placed, load: &Load, damping: f64, dt: f64) {
+    let radius = placed.object.shape.footprint_radius();
+    let limit = 2.0 / 3.0 * placed.object.friction * placed.object.mass_kg * G * radius;
+    let excess = load.moment.abs() - limit;
+    if excess <= 0.0 {
+        return;
+    }
+    let mut angle = excess / (damping * radius * radius / 2.0) * dt;
+    if load.turn_stiffness > 0.0 {
+        angle = angle.min(excess / load.turn_stiffness);
+    }
+    angle = angle.min(MAX_TURN_STEP_M / placed.object.shape.bounding_radius());
+    let about = nalgebra::UnitQuaternion::from_axis_angle(&Vector3::z_axis(), angle.copysign(load.moment));
+    placed.pose.rotation = about * placed.pose.rotation;
 }
 
 #[cfg(test)]
@@ -507,6 +559,30 @@ mod tests {
         let unfelt = scene.contacts();
         assert!(unfelt.iter().all(|c| !c.felt && c.cell == 0 && c.force_n > 0.0) && !unfelt.is_empty());
         assert!(scene.objects()[0].pose.translation.x > start + 0.005, "the lid was pushed away");
+    }
+
+    #[test]
+    fn a_push_beside_the_centre_turns_an_object_one_through_it_does_not() {
+        let yaw = |scene: &Scene| scene.objects()[0].pose.rotation.euler_angles().2;
+        let pushed = |ys: [f64; 5]| {
+            let mut scene = Scene::new(SkinModel::default());
+            scene.place(Object::by_name("box_lid").unwrap(), Isometry3::translation(0.1, 0.0, 0.0));
+            // Bare points 1 cm into the lid's -x face (at x = 0.04).
+            scene.add_bare_surface(0, ys.iter().map(|y| Point3::new(0.05, *y, 0.0)).collect());
+            let mut turns = Vec::new();
+            for k in 0..50 {
+                let before = yaw(&scene);
+                scene.sense(f64::from(k) * 0.004, &[Isometry3::identity()]);
+                turns.push((yaw(&scene) - before).abs());
+            }
+            (scene, turns)
+        };
+        let (scene, _) = pushed([-0.02, -0.01, 0.0, 0.01, 0.02]);
+        assert_eq!(yaw(&scene), 0.0, "pushed square on its centre, it only slides");
+        let (scene, turns) = pushed([0.10, 0.11, 0.12, 0.13, 0.14]);
+        assert!(yaw(&scene) < -0.005, "pushed at its left end, it turns clockwise: {} rad", yaw(&scene));
+        let bound = MAX_TURN_STEP_M / scene.objects()[0].object.shape.bounding_radius();
+        assert!(turns.iter().all(|t| *t <= bound + 1e-12), "no corner jumps: {turns:?}");
     }
 
     #[test]

@@ -13,13 +13,16 @@
 //! the experimenter writes the areas into the host's configuration after
 //! touching each area's cells in `skin monitor`.
 
+use std::cell::Cell;
+
+use nalgebra::UnitQuaternion;
 use skin_protocol::Address;
 
 use super::experiment::{back_extent, intended_pose, object_pose, Setup};
 use super::held::{Arm, ObjectTruth};
 use super::person::{self, Guiding, Teacher};
 use super::placement::ObjectAt;
-use super::SharedScene;
+use super::{Placed, SharedScene};
 use crate::robot::Robot;
 use crate::world::World;
 
@@ -116,10 +119,12 @@ pub struct Operator {
     act: Act,
     /// Since the first [`Order::Place`], every period is reported.
     watching: bool,
-    /// How far the placed object reaches behind its centre, m.
-    back_m: f64,
     /// The arm of each skin cell.
     arms: Vec<Option<Arm>>,
+    /// How far the object reaches behind its centre, m, for the turn it
+    /// had when last asked (a blob's extent is a search: asked again only
+    /// when the object has turned).
+    back: Cell<Option<(UnitQuaternion<f64>, f64)>>,
 }
 
 impl Operator {
@@ -127,7 +132,7 @@ impl Operator {
     /// of `setup`, acting on `scene`, the world's tactile model.
     pub fn new(robot: Robot, setup: Setup, scene: SharedScene) -> Operator {
         let arms = setup.skin.cells().iter().map(|c| Arm::of_link(&c.link)).collect();
-        Operator { robot, setup, scene, act: Act::Idle, watching: false, back_m: 0.0, arms }
+        Operator { robot, setup, scene, act: Act::Idle, watching: false, arms, back: Cell::new(None) }
     }
 
     /// Takes an order at a period boundary; `ids` are the cells' network
@@ -148,10 +153,10 @@ impl Operator {
             Order::Place(object) => {
                 let mut scene = self.scene.get_mut();
                 scene.clear_objects();
+                self.back.set(None);
                 if let Some(ObjectAt { object, placement }) = object {
                     let pose = object_pose(&object, &placement, scene.skin().surface_offset_m);
-                    let u = scene.place(object, pose);
-                    self.back_m = back_extent(&scene.objects()[u]);
+                    scene.place(object, pose);
                 }
                 scene.reset_max_force();
                 self.watching = true;
@@ -216,8 +221,19 @@ impl Operator {
             object: scene
                 .objects()
                 .first()
-                .map(|p| ObjectTruth::observe(p, self.back_m, offset, &self.arms, scene.contacts())),
+                .map(|p| ObjectTruth::observe(p, self.back_m(p), offset, &self.arms, scene.contacts())),
         })
+    }
+
+    fn back_m(&self, placed: &Placed) -> f64 {
+        match self.back.get() {
+            Some((turn, back_m)) if turn == placed.pose.rotation => back_m,
+            _ => {
+                let back_m = back_extent(placed);
+                self.back.set(Some((placed.pose.rotation, back_m)));
+                back_m
+            }
+        }
     }
 }
 

@@ -154,6 +154,16 @@ impl Shape {
         }
     }
 
+    /// Mean half size of the face it stands on, m: the lever of the
+    /// support's friction against turning about the vertical.
+    pub fn footprint_radius(&self) -> f64 {
+        match *self {
+            Shape::Box { half, .. } => 0.5 * (half.x + half.y),
+            Shape::Cylinder { radius, .. } | Shape::Sphere { radius } => radius,
+            Shape::Blob { semi, .. } => 0.5 * (semi.x + semi.y),
+        }
+    }
+
     /// Radius of a sphere around the origin that holds the whole shape, m.
     pub fn bounding_radius(&self) -> f64 {
         match *self {
