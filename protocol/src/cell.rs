@@ -26,8 +26,11 @@ pub enum SendError {
     QueueFull,
 }
 
-/// The network side of one skin cell.
+/// The network side of one skin cell. The organizer and the router's
+/// bookkeeping, which every frame and deadline reads, come first and
+/// together; the router's slots follow (`repr(C)` keeps that order).
 #[derive(Debug)]
+#[repr(C)]
 pub struct Cell<M = ()> {
     organizer: Organizer,
     router: Router<M>,

@@ -18,7 +18,9 @@
 //! metadata ([`Router::take_discarded`]) instead of guessing from queue
 //! lengths.
 
-use heapless::Deque;
+mod ring;
+
+use ring::Ring;
 
 use crate::frame::Frame;
 use crate::message::Port;
@@ -100,25 +102,34 @@ pub struct Counters {
 }
 
 /// The forwarding state of one cell, with metadata `M` on upstream frames.
+///
+/// What every visit reads (the tree, the queues' bookkeeping, the counters)
+/// comes first, in a few cache lines; the slots follow, each touched only
+/// where a frame is. `repr(C)` keeps that order.
 #[derive(Debug)]
+#[repr(C)]
 pub struct Router<M = ()> {
-    up: [Deque<(Frame, M), UP_QUEUE>; 5],
     /// Frames in all of `up`, so the master port's check is one compare.
     up_total: usize,
-    down: [Deque<Frame, DOWN_QUEUE>; 4],
-    link: [Deque<Frame, LINK_QUEUE>; 4],
+    counters: Counters,
+    up: [Ring; 5],
+    down: [Ring; 4],
+    link: [Ring; 4],
+    /// Upstream frames given up, with their metadata, not taken yet.
+    discarded: Ring,
     /// Bit `p`: port `p`'s link-local or downstream queue holds a frame, so
     /// that asking a port for work reads one byte, not two queues.
     waiting: u8,
-    next: usize,
+    next: u8,
     master: Option<Port>,
     children: [bool; 4],
     /// Bit `p`: port `p` sent something other than a probe since the last
     /// [`Router::take_sent`], so the neighbour heard from us anyway.
     sent: u8,
-    counters: Counters,
-    /// Upstream frames given up, with their metadata, not taken yet.
-    discarded: Deque<(M, Discard), DISCARD_LOG>,
+    link_slots: [[Option<Frame>; LINK_QUEUE]; 4],
+    down_slots: [[Option<Frame>; DOWN_QUEUE]; 4],
+    up_slots: [[Option<(Frame, M)>; UP_QUEUE]; 5],
+    discarded_slots: [Option<(M, Discard)>; DISCARD_LOG],
 }
 
 impl<M: Meta> Default for Router<M> {
@@ -131,17 +142,21 @@ impl<M: Meta> Router<M> {
     /// An empty router with no master port and no children.
     pub fn new() -> Router<M> {
         Router {
-            up: Default::default(),
             up_total: 0,
+            counters: Counters::default(),
+            up: Default::default(),
             down: Default::default(),
             link: Default::default(),
+            discarded: Ring::default(),
             waiting: 0,
             next: 0,
             master: None,
             children: [false; 4],
             sent: 0,
-            counters: Counters::default(),
-            discarded: Deque::new(),
+            link_slots: [[None; LINK_QUEUE]; 4],
+            down_slots: [[None; DOWN_QUEUE]; 4],
+            up_slots: [[None; UP_QUEUE]; 5],
+            discarded_slots: [None; DISCARD_LOG],
         }
     }
 
@@ -149,14 +164,14 @@ impl<M: Meta> Router<M> {
     fn discard(&mut self, meta: M, why: Discard) {
         // Without metadata there is nothing to tell: the counters have it.
         if core::mem::size_of::<M>() > 0 {
-            let _ = self.discarded.push_back((meta, why));
+            let _ = self.discarded.push_back(&mut self.discarded_slots, (meta, why));
         }
     }
 
     /// The next upstream frame given up since the last call, with its
     /// metadata (only for metadata that is not zero-sized).
     pub fn take_discarded(&mut self) -> Option<(M, Discard)> {
-        self.discarded.pop_front()
+        self.discarded.pop_front(&self.discarded_slots)
     }
 
     /// The port upstream traffic leaves on.
@@ -172,9 +187,10 @@ impl<M: Meta> Router<M> {
         }
         self.master = master;
         if let Some(m) = master {
-            self.counters.dropped_reroute += self.up[m.index()].len() as u32;
-            self.up_total -= self.up[m.index()].len();
-            while let Some((_, meta)) = self.up[m.index()].pop_front() {
+            let q = m.index();
+            self.counters.dropped_reroute += self.up[q].len() as u32;
+            self.up_total -= self.up[q].len();
+            while let Some((_, meta)) = self.up[q].pop_front(&self.up_slots[q]) {
                 self.discard(meta, Discard::Reroute);
             }
         }
@@ -215,14 +231,14 @@ impl<M: Meta> Router<M> {
             Source::Port(p) => p.index(),
             Source::Own => OWN,
         };
-        if self.up[q].is_full() {
+        if self.up[q].is_full(&self.up_slots[q]) {
             self.counters.dropped_full += 1;
             return self.refuse(meta, Discard::QueueFull);
         }
         let mut meta = meta.unwrap_or_else(|| stamp.made(&frame, from));
         meta.queued(self.up[q].len());
         // Not full: checked above.
-        let _ = self.up[q].push_back((frame, meta));
+        let _ = self.up[q].push_back(&mut self.up_slots[q], (frame, meta));
         self.up_total += 1;
         Ok(())
     }
@@ -239,12 +255,12 @@ impl<M: Meta> Router<M> {
     /// were queued; a full child queue drops its copy.
     pub fn downstream(&mut self, frame: Frame) -> usize {
         let mut queued = 0;
-        for (p, (child, q)) in self.children.iter().zip(self.down.iter_mut()).enumerate() {
-            if !*child {
+        for p in 0..self.children.len() {
+            if !self.children[p] {
                 continue;
             }
             self.waiting |= 1 << p;
-            match q.push_back(frame) {
+            match self.down[p].push_back(&mut self.down_slots[p], frame) {
                 Ok(()) => queued += 1,
                 Err(_) => self.counters.dropped_full += 1,
             }
@@ -254,8 +270,9 @@ impl<M: Meta> Router<M> {
 
     /// Queues a link-local frame (probe, beacon, ...) for one port.
     pub fn link(&mut self, port: Port, frame: Frame) -> Result<(), Discard> {
-        self.waiting |= 1 << port.index();
-        self.link[port.index()].push_back(frame).map_err(|_| {
+        let p = port.index();
+        self.waiting |= 1 << p;
+        self.link[p].push_back(&mut self.link_slots[p], frame).map_err(|_| {
             self.counters.dropped_full += 1;
             Discard::QueueFull
         })
@@ -280,7 +297,7 @@ impl<M: Meta> Router<M> {
     #[inline]
     pub fn transmit_meta(&mut self, port: Port) -> Option<(Frame, Option<M>)> {
         let p = port.index();
-        if let Some(f) = self.link[p].pop_front() {
+        if let Some(f) = self.link[p].pop_front(&self.link_slots[p]) {
             self.counters.sent_link += 1;
             if f.kind() != crate::frame::Kind::Probe {
                 self.sent |= 1 << p;
@@ -299,10 +316,11 @@ impl<M: Meta> Router<M> {
         let p = port.index();
         if self.master == Some(port) && self.up_total > 0 {
             for k in 0..self.up.len() {
-                let i = (self.next + k) % self.up.len();
-                if let Some((f, meta)) = self.up[i].pop_front() {
+                let i = (usize::from(self.next) + k) % self.up.len();
+                if let Some((f, meta)) = self.up[i].pop_front(&self.up_slots[i]) {
                     self.up_total -= 1;
-                    self.next = (i + 1) % self.up.len();
+                    // Below 5.
+                    self.next = ((i + 1) % self.up.len()) as u8;
                     if i == OWN {
                         self.counters.sent_own += 1;
                     } else {
@@ -312,7 +330,7 @@ impl<M: Meta> Router<M> {
                 }
             }
         }
-        let f = self.down[p].pop_front()?;
+        let f = self.down[p].pop_front(&self.down_slots[p])?;
         self.counters.forwarded_down += 1;
         Some((f, None))
     }
@@ -346,8 +364,7 @@ impl<M: Meta> Router<M> {
 
     /// Frames waiting in all queues.
     pub fn queued(&self) -> usize {
-        let lens = self.up.iter().map(Deque::len);
-        lens.chain(self.down.iter().map(Deque::len)).chain(self.link.iter().map(Deque::len)).sum()
+        self.up.iter().chain(&self.down).chain(&self.link).map(|r| r.len()).sum()
     }
 
     /// Frames waiting upstream in all inputs.
@@ -362,7 +379,7 @@ impl<M: Meta> Router<M> {
 
     /// The metadata of every frame waiting upstream.
     pub fn upstream_metas(&self) -> impl Iterator<Item = &M> {
-        self.up.iter().flat_map(|q| q.iter().map(|(_, meta)| meta))
+        self.up.iter().zip(&self.up_slots).flat_map(|(q, slots)| q.iter(slots).map(|(_, meta)| meta))
     }
 
     /// Keeps the metadata of an upstream frame the cell took in as

@@ -40,7 +40,11 @@ pub enum UpdateInput {
 /// processing up to date in between (the simulator's resting cells); an
 /// update message goes back in through [`CellApp::update`] with the
 /// caller's [`Updater`] and slot, which live as long as the board does.
+///
+/// The network stack comes first (`repr(C)`), so that what a frame reads
+/// of it is at the start of the cell, in the same few cache lines.
 #[derive(Debug)]
+#[repr(C)]
 pub struct CellApp<S, M = ()> {
     cell: Cell<M>,
     app: App<S>,
