@@ -20,6 +20,9 @@
 
 mod ring;
 
+use core::mem::MaybeUninit;
+use core::ptr::addr_of_mut;
+
 use ring::Ring;
 
 use crate::frame::Frame;
@@ -132,6 +135,20 @@ pub struct Router<M = ()> {
     discarded_slots: [Option<(M, Discard)>; DISCARD_LOG],
 }
 
+/// Writes `None` into every slot of `slots`, one at a time: an array of
+/// them written whole is built on the stack first.
+///
+/// # Safety
+/// `slots` is valid for writes.
+#[allow(unsafe_code)]
+unsafe fn empty<T, const N: usize>(slots: *mut [Option<T>; N]) {
+    let first = slots.cast::<Option<T>>();
+    for k in 0..N {
+        // SAFETY: slot `k` of the array the caller vouches for.
+        unsafe { first.add(k).write(None) };
+    }
+}
+
 impl<M: Meta> Default for Router<M> {
     fn default() -> Self {
         Router::new()
@@ -140,23 +157,43 @@ impl<M: Meta> Default for Router<M> {
 
 impl<M: Meta> Router<M> {
     /// An empty router with no master port and no children.
+    #[allow(unsafe_code)]
     pub fn new() -> Router<M> {
-        Router {
-            up_total: 0,
-            counters: Counters::default(),
-            up: Default::default(),
-            down: Default::default(),
-            link: Default::default(),
-            discarded: Ring::default(),
-            waiting: 0,
-            next: 0,
-            master: None,
-            children: [false; 4],
-            sent: 0,
-            link_slots: [[None; LINK_QUEUE]; 4],
-            down_slots: [[None; DOWN_QUEUE]; 4],
-            up_slots: [[None; UP_QUEUE]; 5],
-            discarded_slots: [None; DISCARD_LOG],
+        let mut slot = MaybeUninit::uninit();
+        Router::new_in(&mut slot);
+        // SAFETY: `new_in` wrote every field.
+        unsafe { slot.assume_init() }
+    }
+
+    /// [`Router::new`] written in place (see [`crate::app::CellApp::new_in`]):
+    /// its slots are kilobytes, too many for a cell's stack at boot.
+    #[allow(unsafe_code)]
+    pub(crate) fn new_in(slot: &mut MaybeUninit<Router<M>>) -> &mut Router<M> {
+        let r = slot.as_mut_ptr();
+        // SAFETY: each field is written once through a pointer into `slot`
+        // (a field added must be written here), and the router is only
+        // referred to once all are written.
+        unsafe {
+            addr_of_mut!((*r).up_total).write(0);
+            addr_of_mut!((*r).counters).write(Counters::default());
+            addr_of_mut!((*r).up).write(Default::default());
+            addr_of_mut!((*r).down).write(Default::default());
+            addr_of_mut!((*r).link).write(Default::default());
+            addr_of_mut!((*r).discarded).write(Ring::default());
+            addr_of_mut!((*r).waiting).write(0);
+            addr_of_mut!((*r).next).write(0);
+            addr_of_mut!((*r).master).write(None);
+            addr_of_mut!((*r).children).write([false; 4]);
+            addr_of_mut!((*r).sent).write(0);
+            for p in 0..4 {
+                empty(addr_of_mut!((*r).link_slots[p]));
+                empty(addr_of_mut!((*r).down_slots[p]));
+            }
+            for q in 0..5 {
+                empty(addr_of_mut!((*r).up_slots[q]));
+            }
+            empty(addr_of_mut!((*r).discarded_slots));
+            slot.assume_init_mut()
         }
     }
 
