@@ -236,3 +236,23 @@ impl<S: SettingsStore, M: Meta> CellApp<S, M> {
         self.cell.take_discarded()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::MemoryStore;
+
+    /// A cell written in place boots from its store as one built by value:
+    /// its ID and offsets, nothing queued, no master port.
+    #[test]
+    fn a_cell_written_in_place_boots_from_its_store() {
+        let store = MemoryStore { id: Some(Address(7)), offsets: Some([3; 8]), ..MemoryStore::default() };
+        let mut slot = MaybeUninit::uninit();
+        let app: &mut CellApp<MemoryStore> = CellApp::new_in(&mut slot, Config::default(), store, 0);
+        assert_eq!(app.id(), Address(7));
+        assert_eq!(app.store(), &store);
+        assert!(!app.processor().calibrating());
+        assert_eq!(app.cell().router().queued(), 0);
+        assert_eq!(app.cell().router().master(), None);
+    }
+}
