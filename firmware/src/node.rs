@@ -78,7 +78,7 @@ impl<F: NorFlash, S: Slot> Node<F, S> {
         // SAFETY: each field is written once through a pointer into `slot`,
         // and the node is only referred to once all are written.
         unsafe {
-            addr_of_mut!((*node).app).write(CellApp::new(config, store, now_us));
+            CellApp::<_, ()>::new_in(&mut *addr_of_mut!((*node).app).cast(), config, store, now_us);
             addr_of_mut!((*node).rx).write(Default::default());
             addr_of_mut!((*node).update).write(None);
             addr_of_mut!((*node).pending).write([None; PENDING_UPDATES]);

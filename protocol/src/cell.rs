@@ -10,6 +10,9 @@
 //! [`crate::router::Meta`]): `()` in the firmware; every call that may queue
 //! a frame without metadata takes the [`Stamp`] that makes it.
 
+use core::mem::MaybeUninit;
+use core::ptr::addr_of_mut;
+
 use crate::address::Address;
 use crate::frame::{Frame, Header, Kind};
 use crate::message::{Message, Port};
@@ -26,8 +29,11 @@ pub enum SendError {
     QueueFull,
 }
 
-/// The network side of one skin cell.
+/// The network side of one skin cell. The organizer and the router's
+/// bookkeeping, which every frame and deadline reads, come first and
+/// together; the router's slots follow (`repr(C)` keeps that order).
 #[derive(Debug)]
+#[repr(C)]
 pub struct Cell<M = ()> {
     organizer: Organizer,
     router: Router<M>,
@@ -58,8 +64,30 @@ pub struct Received<'a, M> {
 
 impl<M: Meta> Cell<M> {
     /// A cell booting at `now_us` with the ID `store` holds, if any.
+    #[allow(unsafe_code)]
     pub fn new(config: Config, store: &impl IdStore, now_us: u64) -> Cell<M> {
-        Cell { organizer: Organizer::new(config, store, now_us), router: Router::new() }
+        let mut slot = MaybeUninit::uninit();
+        Cell::new_in(&mut slot, config, store, now_us);
+        // SAFETY: `new_in` wrote every field.
+        unsafe { slot.assume_init() }
+    }
+
+    /// [`Cell::new`] written in place (see [`crate::app::CellApp::new_in`]).
+    #[allow(unsafe_code)]
+    pub(crate) fn new_in<'a>(
+        slot: &'a mut MaybeUninit<Cell<M>>,
+        config: Config,
+        store: &impl IdStore,
+        now_us: u64,
+    ) -> &'a mut Cell<M> {
+        let cell = slot.as_mut_ptr();
+        // SAFETY: each field is written once through a pointer into `slot`,
+        // and the cell is only referred to once both are written.
+        unsafe {
+            addr_of_mut!((*cell).organizer).write(Organizer::new(config, store, now_us));
+            Router::<M>::new_in(&mut *addr_of_mut!((*cell).router).cast());
+            slot.assume_init_mut()
+        }
     }
 
     /// Self-organization state.

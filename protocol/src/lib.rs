@@ -22,7 +22,8 @@
 //! - [`interface`]: the UDP datagram between an interface port and the host.
 //! - [`robot_link`]: the UDP datagram between the host and a robot (section 3.2).
 #![cfg_attr(not(feature = "std"), no_std)]
-#![forbid(unsafe_code)]
+// Unsafe only where a cell is written in place (`CellApp::new_in`).
+#![deny(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod address;

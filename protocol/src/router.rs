@@ -18,7 +18,12 @@
 //! metadata ([`Router::take_discarded`]) instead of guessing from queue
 //! lengths.
 
-use heapless::Deque;
+mod ring;
+
+use core::mem::MaybeUninit;
+use core::ptr::addr_of_mut;
+
+use ring::Ring;
 
 use crate::frame::Frame;
 use crate::message::Port;
@@ -100,25 +105,48 @@ pub struct Counters {
 }
 
 /// The forwarding state of one cell, with metadata `M` on upstream frames.
+///
+/// What every visit reads (the tree, the queues' bookkeeping, the counters)
+/// comes first, in a few cache lines; the slots follow, each touched only
+/// where a frame is. `repr(C)` keeps that order.
 #[derive(Debug)]
+#[repr(C)]
 pub struct Router<M = ()> {
-    up: [Deque<(Frame, M), UP_QUEUE>; 5],
     /// Frames in all of `up`, so the master port's check is one compare.
     up_total: usize,
-    down: [Deque<Frame, DOWN_QUEUE>; 4],
-    link: [Deque<Frame, LINK_QUEUE>; 4],
+    counters: Counters,
+    up: [Ring; 5],
+    down: [Ring; 4],
+    link: [Ring; 4],
+    /// Upstream frames given up, with their metadata, not taken yet.
+    discarded: Ring,
     /// Bit `p`: port `p`'s link-local or downstream queue holds a frame, so
     /// that asking a port for work reads one byte, not two queues.
     waiting: u8,
-    next: usize,
+    next: u8,
     master: Option<Port>,
     children: [bool; 4],
     /// Bit `p`: port `p` sent something other than a probe since the last
     /// [`Router::take_sent`], so the neighbour heard from us anyway.
     sent: u8,
-    counters: Counters,
-    /// Upstream frames given up, with their metadata, not taken yet.
-    discarded: Deque<(M, Discard), DISCARD_LOG>,
+    link_slots: [[Option<Frame>; LINK_QUEUE]; 4],
+    down_slots: [[Option<Frame>; DOWN_QUEUE]; 4],
+    up_slots: [[Option<(Frame, M)>; UP_QUEUE]; 5],
+    discarded_slots: [Option<(M, Discard)>; DISCARD_LOG],
+}
+
+/// Writes `None` into every slot of `slots`, one at a time: an array of
+/// them written whole is built on the stack first.
+///
+/// # Safety
+/// `slots` is valid for writes.
+#[allow(unsafe_code)]
+unsafe fn empty<T, const N: usize>(slots: *mut [Option<T>; N]) {
+    let first = slots.cast::<Option<T>>();
+    for k in 0..N {
+        // SAFETY: slot `k` of the array the caller vouches for.
+        unsafe { first.add(k).write(None) };
+    }
 }
 
 impl<M: Meta> Default for Router<M> {
@@ -129,19 +157,43 @@ impl<M: Meta> Default for Router<M> {
 
 impl<M: Meta> Router<M> {
     /// An empty router with no master port and no children.
+    #[allow(unsafe_code)]
     pub fn new() -> Router<M> {
-        Router {
-            up: Default::default(),
-            up_total: 0,
-            down: Default::default(),
-            link: Default::default(),
-            waiting: 0,
-            next: 0,
-            master: None,
-            children: [false; 4],
-            sent: 0,
-            counters: Counters::default(),
-            discarded: Deque::new(),
+        let mut slot = MaybeUninit::uninit();
+        Router::new_in(&mut slot);
+        // SAFETY: `new_in` wrote every field.
+        unsafe { slot.assume_init() }
+    }
+
+    /// [`Router::new`] written in place (see [`crate::app::CellApp::new_in`]):
+    /// its slots are kilobytes, too many for a cell's stack at boot.
+    #[allow(unsafe_code)]
+    pub(crate) fn new_in(slot: &mut MaybeUninit<Router<M>>) -> &mut Router<M> {
+        let r = slot.as_mut_ptr();
+        // SAFETY: each field is written once through a pointer into `slot`
+        // (a field added must be written here), and the router is only
+        // referred to once all are written.
+        unsafe {
+            addr_of_mut!((*r).up_total).write(0);
+            addr_of_mut!((*r).counters).write(Counters::default());
+            addr_of_mut!((*r).up).write(Default::default());
+            addr_of_mut!((*r).down).write(Default::default());
+            addr_of_mut!((*r).link).write(Default::default());
+            addr_of_mut!((*r).discarded).write(Ring::default());
+            addr_of_mut!((*r).waiting).write(0);
+            addr_of_mut!((*r).next).write(0);
+            addr_of_mut!((*r).master).write(None);
+            addr_of_mut!((*r).children).write([false; 4]);
+            addr_of_mut!((*r).sent).write(0);
+            for p in 0..4 {
+                empty(addr_of_mut!((*r).link_slots[p]));
+                empty(addr_of_mut!((*r).down_slots[p]));
+            }
+            for q in 0..5 {
+                empty(addr_of_mut!((*r).up_slots[q]));
+            }
+            empty(addr_of_mut!((*r).discarded_slots));
+            slot.assume_init_mut()
         }
     }
 
@@ -149,14 +201,14 @@ impl<M: Meta> Router<M> {
     fn discard(&mut self, meta: M, why: Discard) {
         // Without metadata there is nothing to tell: the counters have it.
         if core::mem::size_of::<M>() > 0 {
-            let _ = self.discarded.push_back((meta, why));
+            let _ = self.discarded.push_back(&mut self.discarded_slots, (meta, why));
         }
     }
 
     /// The next upstream frame given up since the last call, with its
     /// metadata (only for metadata that is not zero-sized).
     pub fn take_discarded(&mut self) -> Option<(M, Discard)> {
-        self.discarded.pop_front()
+        self.discarded.pop_front(&self.discarded_slots)
     }
 
     /// The port upstream traffic leaves on.
@@ -172,9 +224,10 @@ impl<M: Meta> Router<M> {
         }
         self.master = master;
         if let Some(m) = master {
-            self.counters.dropped_reroute += self.up[m.index()].len() as u32;
-            self.up_total -= self.up[m.index()].len();
-            while let Some((_, meta)) = self.up[m.index()].pop_front() {
+            let q = m.index();
+            self.counters.dropped_reroute += self.up[q].len() as u32;
+            self.up_total -= self.up[q].len();
+            while let Some((_, meta)) = self.up[q].pop_front(&self.up_slots[q]) {
                 self.discard(meta, Discard::Reroute);
             }
         }
@@ -215,14 +268,14 @@ impl<M: Meta> Router<M> {
             Source::Port(p) => p.index(),
             Source::Own => OWN,
         };
-        if self.up[q].is_full() {
+        if self.up[q].is_full(&self.up_slots[q]) {
             self.counters.dropped_full += 1;
             return self.refuse(meta, Discard::QueueFull);
         }
         let mut meta = meta.unwrap_or_else(|| stamp.made(&frame, from));
         meta.queued(self.up[q].len());
         // Not full: checked above.
-        let _ = self.up[q].push_back((frame, meta));
+        let _ = self.up[q].push_back(&mut self.up_slots[q], (frame, meta));
         self.up_total += 1;
         Ok(())
     }
@@ -239,12 +292,12 @@ impl<M: Meta> Router<M> {
     /// were queued; a full child queue drops its copy.
     pub fn downstream(&mut self, frame: Frame) -> usize {
         let mut queued = 0;
-        for (p, (child, q)) in self.children.iter().zip(self.down.iter_mut()).enumerate() {
-            if !*child {
+        for p in 0..self.children.len() {
+            if !self.children[p] {
                 continue;
             }
             self.waiting |= 1 << p;
-            match q.push_back(frame) {
+            match self.down[p].push_back(&mut self.down_slots[p], frame) {
                 Ok(()) => queued += 1,
                 Err(_) => self.counters.dropped_full += 1,
             }
@@ -254,8 +307,9 @@ impl<M: Meta> Router<M> {
 
     /// Queues a link-local frame (probe, beacon, ...) for one port.
     pub fn link(&mut self, port: Port, frame: Frame) -> Result<(), Discard> {
-        self.waiting |= 1 << port.index();
-        self.link[port.index()].push_back(frame).map_err(|_| {
+        let p = port.index();
+        self.waiting |= 1 << p;
+        self.link[p].push_back(&mut self.link_slots[p], frame).map_err(|_| {
             self.counters.dropped_full += 1;
             Discard::QueueFull
         })
@@ -280,7 +334,7 @@ impl<M: Meta> Router<M> {
     #[inline]
     pub fn transmit_meta(&mut self, port: Port) -> Option<(Frame, Option<M>)> {
         let p = port.index();
-        if let Some(f) = self.link[p].pop_front() {
+        if let Some(f) = self.link[p].pop_front(&self.link_slots[p]) {
             self.counters.sent_link += 1;
             if f.kind() != crate::frame::Kind::Probe {
                 self.sent |= 1 << p;
@@ -299,10 +353,11 @@ impl<M: Meta> Router<M> {
         let p = port.index();
         if self.master == Some(port) && self.up_total > 0 {
             for k in 0..self.up.len() {
-                let i = (self.next + k) % self.up.len();
-                if let Some((f, meta)) = self.up[i].pop_front() {
+                let i = (usize::from(self.next) + k) % self.up.len();
+                if let Some((f, meta)) = self.up[i].pop_front(&self.up_slots[i]) {
                     self.up_total -= 1;
-                    self.next = (i + 1) % self.up.len();
+                    // Below 5.
+                    self.next = ((i + 1) % self.up.len()) as u8;
                     if i == OWN {
                         self.counters.sent_own += 1;
                     } else {
@@ -312,7 +367,7 @@ impl<M: Meta> Router<M> {
                 }
             }
         }
-        let f = self.down[p].pop_front()?;
+        let f = self.down[p].pop_front(&self.down_slots[p])?;
         self.counters.forwarded_down += 1;
         Some((f, None))
     }
@@ -346,8 +401,7 @@ impl<M: Meta> Router<M> {
 
     /// Frames waiting in all queues.
     pub fn queued(&self) -> usize {
-        let lens = self.up.iter().map(Deque::len);
-        lens.chain(self.down.iter().map(Deque::len)).chain(self.link.iter().map(Deque::len)).sum()
+        self.up.iter().chain(&self.down).chain(&self.link).map(|r| r.len()).sum()
     }
 
     /// Frames waiting upstream in all inputs.
@@ -362,7 +416,7 @@ impl<M: Meta> Router<M> {
 
     /// The metadata of every frame waiting upstream.
     pub fn upstream_metas(&self) -> impl Iterator<Item = &M> {
-        self.up.iter().flat_map(|q| q.iter().map(|(_, meta)| meta))
+        self.up.iter().zip(&self.up_slots).flat_map(|(q, slots)| q.iter(slots).map(|(_, meta)| meta))
     }
 
     /// Keeps the metadata of an upstream frame the cell took in as

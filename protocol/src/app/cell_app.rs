@@ -1,6 +1,9 @@
 //! The application on a cell's network stack: what the firmware's main
 //! loop and the simulator's cells drive.
 
+use core::mem::MaybeUninit;
+use core::ptr::{addr_of, addr_of_mut};
+
 use super::{App, Losses, SettingsStore, Uplink};
 use crate::address::Address;
 use crate::cell::{Arrived, Cell, Received, SendError};
@@ -40,7 +43,11 @@ pub enum UpdateInput {
 /// processing up to date in between (the simulator's resting cells); an
 /// update message goes back in through [`CellApp::update`] with the
 /// caller's [`Updater`] and slot, which live as long as the board does.
+///
+/// The network stack comes first (`repr(C)`), so that what a frame reads
+/// of it is at the start of the cell, in the same few cache lines.
 #[derive(Debug)]
+#[repr(C)]
 pub struct CellApp<S, M = ()> {
     cell: Cell<M>,
     app: App<S>,
@@ -64,9 +71,29 @@ impl<M: Meta, T: Stamp<M>, F: FnMut(&Message, Result<(), SendError>)> Uplink for
 
 impl<S: SettingsStore, M: Meta> CellApp<S, M> {
     /// Boots at `now_us` with what `store` keeps: ID, offsets, settings.
+    #[allow(unsafe_code)]
     pub fn new(config: Config, store: S, now_us: u64) -> CellApp<S, M> {
-        let app = App::new(store);
-        CellApp { cell: Cell::new(config, app.store(), now_us), app }
+        let mut slot = MaybeUninit::uninit();
+        CellApp::new_in(&mut slot, config, store, now_us);
+        // SAFETY: `new_in` wrote every field.
+        unsafe { slot.assume_init() }
+    }
+
+    /// [`CellApp::new`] written in place, into the firmware's static: the
+    /// router's slots are kilobytes, and a cell built on the boot stack and
+    /// then moved would need that much more stack than the main loop does.
+    #[allow(unsafe_code)]
+    pub fn new_in(slot: &mut MaybeUninit<CellApp<S, M>>, config: Config, store: S, now_us: u64) -> &mut CellApp<S, M> {
+        let cell_app = slot.as_mut_ptr();
+        // SAFETY: each field is written once through a pointer into `slot`,
+        // `app` before the cell reads its store, and the whole is only
+        // referred to once both are written.
+        unsafe {
+            addr_of_mut!((*cell_app).app).write(App::new(store));
+            let store = (*addr_of!((*cell_app).app)).store();
+            Cell::<M>::new_in(&mut *addr_of_mut!((*cell_app).cell).cast(), config, store, now_us);
+            slot.assume_init_mut()
+        }
     }
 
     /// This cell's address.
@@ -207,5 +234,25 @@ impl<S: SettingsStore, M: Meta> CellApp<S, M> {
     /// The next upstream frame given up, with its metadata.
     pub fn take_discarded(&mut self) -> Option<(M, Discard)> {
         self.cell.take_discarded()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::MemoryStore;
+
+    /// A cell written in place boots from its store as one built by value:
+    /// its ID and offsets, nothing queued, no master port.
+    #[test]
+    fn a_cell_written_in_place_boots_from_its_store() {
+        let store = MemoryStore { id: Some(Address(7)), offsets: Some([3; 8]), ..MemoryStore::default() };
+        let mut slot = MaybeUninit::uninit();
+        let app: &mut CellApp<MemoryStore> = CellApp::new_in(&mut slot, Config::default(), store, 0);
+        assert_eq!(app.id(), Address(7));
+        assert_eq!(app.store(), &store);
+        assert!(!app.processor().calibrating());
+        assert_eq!(app.cell().router().queued(), 0);
+        assert_eq!(app.cell().router().master(), None);
     }
 }

@@ -47,8 +47,11 @@ impl Trace {
 }
 
 /// A simulated cell: its application while powered, and its store (ID,
-/// offsets, settings), which survives a reboot as flash would.
+/// offsets, settings), which survives a reboot as flash would. The
+/// application comes first (`repr(C)`): its network stack is what every
+/// event of the cell reads.
 #[derive(Debug)]
+#[repr(C)]
 pub struct SimCell {
     pub(super) app: Option<CellApp<MemoryStore, Trace>>,
     /// The store as of the last power-off.
