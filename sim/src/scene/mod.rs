@@ -585,6 +585,33 @@ mod tests {
         assert!(turns.iter().all(|t| *t <= bound + 1e-12), "no corner jumps: {turns:?}");
     }
 
+    proptest::proptest! {
+        /// Any pinch of bare points, on any of the five objects turned any
+        /// way: the pose stays finite, the object stays upright, and no step
+        /// turns it faster than the bound.
+        #[test]
+        fn turning_stays_upright_finite_and_bounded(
+            which in 0usize..5,
+            yaw in -3.1f64..3.1,
+            points in proptest::collection::vec((-0.25f64..0.25, -0.25f64..0.25, -0.1f64..0.1), 1..8),
+        ) {
+            let object = Object::figure_16().swap_remove(which);
+            let bound = MAX_TURN_STEP_M / object.shape.bounding_radius();
+            let mut scene = Scene::new(SkinModel::default());
+            let turned = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw);
+            scene.place(object, Isometry3::from_parts(nalgebra::Translation3::identity(), turned));
+            scene.add_bare_surface(0, points.iter().map(|&(x, y, z)| Point3::new(x, y, z)).collect());
+            for k in 0..30 {
+                let before = scene.objects()[0].pose.rotation;
+                scene.sense(f64::from(k) * 0.004, &[Isometry3::identity()]);
+                let pose = scene.objects()[0].pose;
+                proptest::prop_assert!(pose.translation.vector.iter().all(|v| v.is_finite()));
+                proptest::prop_assert!((pose.rotation * Vector3::z() - Vector3::z()).norm() < 1e-9, "tipped");
+                proptest::prop_assert!(pose.rotation.angle_to(&before) <= bound + 1e-12);
+            }
+        }
+    }
+
     #[test]
     fn gripping_skin_carries_an_object_along() {
         let mut scene = Scene::new(SkinModel::default());
