@@ -317,8 +317,12 @@ fn a_skin_that_stops_sending_mid_run_ends_skin_run_naming_its_ports() {
     stop(&mut other);
     // Above it, the warnings that named the other sender as it came.
     let err = failure(code, &stderr);
-    let says = "error: the skin stopped sending: interface ports 0, 1 sent nothing for 0.05 s of robot time while the robot answered; ";
+    let says = "error: the skin stopped sending: interface ports 0, 1 sent nothing for ";
     assert!(err.starts_with(says), "{err}");
+    // At least the bound (50 ms); more when a loaded machine checks late.
+    let silent_s: f64 = err[says.len()..].split(' ').next().and_then(|s| s.parse().ok()).expect("seconds");
+    assert!((0.05..1.0).contains(&silent_s), "{err}");
+    assert!(err.contains(" s of robot time while the robot answered; "), "{err}");
     assert!(err.contains(" datagrams from other addresses were dropped as spoofed (a skin endpoint that restarts sends from new ones)"), "{err}");
     assert!(err.ends_with("then start the run again: its measurements would have gaps)"), "{err}");
     assert!(took < Duration::from_secs(1), "ended {took:?} after the skin stopped");
