@@ -403,7 +403,8 @@ fn touch(
     }
     let mut load = load;
     for (i, [x, y]) in skin.force.positions().into_iter().enumerate() {
-        let p = body.pose.inverse_transform_point(&(cell * Point3::new(x, y, skin.surface_offset_m)));
+        let at = cell * Point3::new(x, y, skin.surface_offset_m);
+        let p = body.pose.inverse_transform_point(&at);
         let depth = -body.shape.distance(&p);
         if depth <= 0.0 {
             continue;
@@ -414,7 +415,6 @@ fn touch(
         sense.force_n[i] += f * into_body.dot(&axis).max(0.0);
         if let Some((load, velocity)) = load.as_mut() {
             let k = (skin.foam.contact_force(depth + 1e-6, body.stiffness_n_per_m) - f) / 1e-6;
-            let at = body.pose * p;
             load.press(&body.pose.translation.vector, &at, &into_body, f, k);
             // The cover grips: its motion along the surface drags the object.
             let sliding = *velocity - into_body * velocity.dot(&into_body);
