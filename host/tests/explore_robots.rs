@@ -9,6 +9,7 @@
 use std::fmt::Write;
 
 use proptest::prelude::*;
+use skin_host::explore::activity::{Activity, Basis};
 use skin_host::explore::check::Trial;
 use skin_host::explore::smm::Evaluation;
 use skin_host::explore::{explore, ExploreConfig, ExploreError, SmmConfig, StructureConfig, TreeError, Undecided};
@@ -347,14 +348,14 @@ fn the_sensory_motor_map_matches_the_tangential_directions() {
 /// A skin file with one cell on the shoulder link `distance` m from the
 /// vertical first axis, facing up, plus three cells per link elsewhere.
 fn near_axis_skin(robot: &Robot, distance: f64, seed: u64) -> Skin {
-    with_one_more_cell(robot, seed, "shoulder_link", [distance, 0.0, 0.06])
+    with_one_more_cell(robot, 3, seed, "shoulder_link", [distance, 0.0, 0.06])
 }
 
-/// Three cells per link for `seed`, written as a skin file, and one more
-/// cell on `link` at `xyz` (link frame, facing along the link's z).
-fn with_one_more_cell(robot: &Robot, seed: u64, link: &str, xyz: [f64; 3]) -> Skin {
+/// `per_link` cells per link for `seed`, written as a skin file, and one
+/// more cell on `link` at `xyz` (link frame, facing along the link's z).
+fn with_one_more_cell(robot: &Robot, per_link: usize, seed: u64, link: &str, xyz: [f64; 3]) -> Skin {
     let mut toml = String::new();
-    for c in Skin::per_link(robot, 3, seed).unwrap().cells() {
+    for c in Skin::per_link(robot, per_link, seed).unwrap().cells() {
         let in_link = robot.link(&c.link).unwrap().in_body.inverse() * c.pose;
         let p = in_link.translation.vector;
         let (roll, pitch, yaw) = in_link.rotation.euler_angles();
@@ -391,11 +392,56 @@ fn a_cell_on_or_near_a_vertical_axis_is_unknown_never_still() {
 }
 
 #[test]
+fn a_cell_a_millimetre_from_an_untiltable_yaw_axis_moves_against_the_floor_of_the_still_cells() {
+    // Nothing tilts the first axis, and the cell's lever (1 mm) is below
+    // what one step can tell from "on the axis"; pooled, it stands far
+    // above what the base cells, decided still on the declared (true)
+    // clearance, show: the base's own motion. Standing or bolted down.
+    let robot = Robot::from_urdf_str(&ur5_like()).unwrap();
+    let shoulder_cell = 4 * 7 + 1;
+    for (seed, base) in [(4, BaseConfig::rigid()), (5, BaseConfig::standing())] {
+        let skin = with_one_more_cell(&robot, 4, seed, "shoulder_link", [0.001, 0.0, 0.06]);
+        assert_eq!(skin.cells().last().unwrap().id.0, shoulder_cell);
+        let declared = skin.min_axis_clearance_m();
+        assert!((0.0009..=0.001).contains(&declared), "{declared} m");
+        let world = World::new(robot.clone(), skin, WorldConfig { base, seed, ..WorldConfig::default() });
+        let trial = Trial::run(world, &declaring(declared));
+        verdict(&trial).unwrap();
+        let (found, _) = trial.outcome.as_ref().unwrap();
+        let pan = found.dof_names.iter().position(|n| n == "shoulder_pan").unwrap();
+        let cell = found.cells.iter().position(|c| c.0 == shoulder_cell).unwrap();
+        assert_eq!(found.activity.get(cell, pan), Activity::Moved);
+        assert!(matches!(found.activity.basis(cell, pan), Some(Basis::Dynamic { .. })));
+    }
+}
+
+#[test]
+fn pr2s_grippers_are_learned_with_the_rocking_they_cause_regressed_out() {
+    // Each step of a gripper rocks the whole standing PR2, and the cells it
+    // leaves still show 0.8-1.3 mm of lever however many steps are pooled,
+    // above the 0.7 mm this skin truly keeps from every axis. Regressed on
+    // the rocking that the cells already decided still record, their
+    // lever bounds go below it.
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../sim/tests/fixtures/robots/pr2.urdf");
+    let robot = Robot::from_urdf_file(&path).unwrap();
+    let seed = 1;
+    let skin = Skin::per_link(&robot, 4, seed).unwrap();
+    let declared = skin.min_axis_clearance_m();
+    assert!(declared < 0.001, "{declared} m");
+    let cfg = WorldConfig { base: BaseConfig::standing(), seed, ..WorldConfig::default() };
+    let trial = Trial::run(World::new(robot, skin, cfg), &declaring(declared));
+    let warnings = verdict(&trial).unwrap();
+    for gripper in ["l_gripper_l_finger_joint", "r_gripper_l_finger_joint"] {
+        assert!(warnings.iter().any(|w| w.starts_with(&format!("DoF {gripper}:"))), "{warnings:?}");
+    }
+}
+
+#[test]
 fn a_one_millimetre_lever_on_a_tiltable_axis_is_decided_by_tilting() {
     // The fifth axis of the UR5-like arm is vertical at home, and the
     // DoFs before it can tilt it: a cell 1 mm from it is decided.
     let robot = Robot::from_urdf_str(&ur5_like()).unwrap();
-    let skin = with_one_more_cell(&robot, 8, "wrist_2_link", [0.001, 0.0, 0.06]);
+    let skin = with_one_more_cell(&robot, 3, 8, "wrist_2_link", [0.001, 0.0, 0.06]);
     let world = World::new(robot, skin, WorldConfig { base: BaseConfig::rigid(), ..WorldConfig::default() });
     let trial = Trial::run(world, &declaring(0.02));
     verdict(&trial).unwrap();

@@ -159,7 +159,7 @@ fn the_reference_robots_load_with_their_dofs() {
 #[test]
 fn the_fixture_robots_load_with_their_dofs_and_take_skin() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/robots");
-    for (file, revolute, prismatic) in [("ur5_robot", 6, 0), ("panda", 7, 1), ("baxter", 15, 2)] {
+    for (file, revolute, prismatic) in [("ur5_robot", 6, 0), ("panda", 7, 1), ("baxter", 15, 2), ("pr2", 19, 1)] {
         let r = Robot::from_urdf_file(&dir.join(format!("{file}.urdf"))).unwrap();
         let count = |k| r.dofs().iter().filter(|d| d.kind == k).count();
         assert_eq!((count(DofKind::Revolute), count(DofKind::Prismatic)), (revolute, prismatic), "{file}");

@@ -197,6 +197,8 @@ pub(crate) struct Evidence {
     pub lever: [f64; 3],
     /// Standard deviation of one axis of the lever estimate, m.
     pub lever_sigma: f64,
+    /// Variance of one sample on the noisiest axis, (m/s^2)^2.
+    pub noise_var: f64,
     /// The still windows saturated: no static evidence.
     pub static_saturated: bool,
     /// The motion saturated: the lever is underestimated, never "still".
@@ -259,6 +261,7 @@ impl Step {
                     lever_m: lever.map_or(0.0, |l| norm(&l)),
                     lever: lever.unwrap_or([0.0; 3]),
                     lever_sigma: (worst_var * regressors.alpha_variance()).sqrt(),
+                    noise_var: worst_var,
                     static_saturated: pre.saturated[u] || post.saturated[u],
                     trace_saturated: trace.saturated[u] || lever.is_none(),
                 }
@@ -407,13 +410,19 @@ impl Regressors {
         let mut lever = [0.0; 3];
         for (a, l) in lever.iter_mut().enumerate() {
             let residual = (0..trace.len()).map(|k| {
-                let turned = if moved != 0.0 { (g1[a] - g0[a]) * self.phi[k] / moved } else { 0.0 };
-                f64::from(trace.accel[k * cells + u][a]) - g0[a] - turned
+                let turned = if moved != 0.0 { self.phi[k] / moved } else { 0.0 };
+                unexplained(trace.accel[k * cells + u], g0, g1, turned)[a]
             });
             *l = fit.fit(residual)?[1];
         }
         Some(lever)
     }
+}
+
+/// A sample's acceleration less gravity, turned from `g0` a fraction
+/// `turned` of the way to `g1` with the DoF, m/s^2.
+pub(crate) fn unexplained(sample: [f32; 3], g0: &[f64; 3], g1: &[f64; 3], turned: f64) -> [f64; 3] {
+    std::array::from_fn(|a| f64::from(sample[a]) - g0[a] - (g1[a] - g0[a]) * turned)
 }
 
 fn norm(v: &[f64; 3]) -> f64 {

@@ -16,6 +16,7 @@ pub mod check;
 mod fit;
 pub mod lowpass;
 pub mod merge;
+mod rocking;
 pub(crate) mod session;
 pub mod smm;
 pub mod structure;

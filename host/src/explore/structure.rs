@@ -15,7 +15,11 @@
 //! - *near an axis no posture tilts*, or *on a coupled DoF* (mimic joints,
 //!   where a cell that shows no gravity change may still move), with a
 //!   mounting clearance declared: more repeats of the step, pooled, until
-//!   each still cell's lever is bounded below the clearance.
+//!   each still cell's lever is bounded below the clearance. Near the axis,
+//!   a cell whose pooled lever stands far above what the cells decided
+//!   still show moves, however close to the axis; a coupled DoF's step
+//!   rocks the base, and the rocking those cells record is regressed out
+//!   of the others' ([`rocking`](super::rocking)).
 //!
 //! Between measurements, entries that the decided ones imply in a
 //! kinematic tree are settled without moving (`infer`): the cells of two
@@ -23,6 +27,7 @@
 //! stays undecided, with its [`Doubt`], and the exploration says so.
 
 use super::activity::{Activity, ActivityMatrix, Basis, Doubt, Evidence, Reading, Step, SURE_LEVER};
+use super::rocking::Sums;
 use super::session::{Session, Window};
 use super::ExploreError;
 use crate::robot::{DofKind, Robot, SampleSource};
@@ -105,6 +110,11 @@ const MAX_GROWTH_EFFORT: u32 = 4;
 const MAX_TILTS: usize = 3;
 /// Halvings of a step that meets a limit both ways before the DoF counts as stuck.
 const MAX_HALVINGS: u32 = 4;
+/// A pooled lever this many times the floor of the cells a DoF leaves
+/// still is that DoF's own (see [`Explorer::still_floor`]).
+const FLOOR_RATIO: f64 = 5.0;
+/// Cells decided still that a floor is taken from, at least.
+const MIN_FLOOR_CELLS: usize = 4;
 
 impl StructureConfig {
     /// The paper's HRP-2 setting: 0.1 rad steps, 0.5 s settling, 1.0 s
@@ -208,6 +218,7 @@ pub(crate) fn explore<R: Robot + SampleSource>(
         last_step: None,
         step_before: None,
         pooled: vec![[0.0; 4]; cells * dofs],
+        sums: (0..dofs).map(|_| None).collect(),
         direction: vec![1.0; dofs],
         tilted_by: vec![Vec::new(); dofs],
         blind: vec![true; dofs],
@@ -292,6 +303,9 @@ struct Explorer<'x, 'r, R> {
     /// Per entry, the inverse-variance weighted sum of the lever vectors of
     /// blind steps in the start posture and the sum of weights.
     pooled: Vec<[f64; 4]>,
+    /// Per coupled DoF, its repeated steps summed, for the lever with the
+    /// base's rocking regressed out.
+    sums: Vec<Option<Sums>>,
     /// Direction of each DoF's next step, alternating.
     direction: Vec<f64>,
     tilted_by: Vec<Vec<usize>>,
@@ -391,8 +405,8 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
         let waits = self.waits_for_clearance(m, d);
         (0..m.cells()).any(|u| {
             let i = u * dofs + d;
-            let [x, y, z, w] = self.pooled[i];
-            let below = w == 0.0 || ((x * x + y * y + z * z).sqrt() / w - k / w.sqrt()) < clearance;
+            let lever = self.sums[d].as_ref().and_then(|s| s.lever(u)).or_else(|| self.pooled_lever(i));
+            let below = lever.is_none_or(|(lever, sigma)| lever - k * sigma < clearance);
             m.get(u, d) == Activity::Unknown && waits(self.doubts[i]) && self.lever_bound[i] >= clearance && below
         })
     }
@@ -549,6 +563,30 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
             };
             m.or(u, d, activity, basis);
         }
+        self.unrock(m, d);
+    }
+
+    /// Lowers the lever bounds of DoF `d`'s coupled cells with the base's
+    /// rocking regressed out (see [`Sums`]), the cells decided still
+    /// serving as the reference.
+    fn unrock(&mut self, m: &ActivityMatrix, d: usize) {
+        let Some(sums) = self.sums[d].as_mut() else { return };
+        let (cells, dofs) = (m.cells(), m.dofs());
+        let open: Vec<usize> = (0..cells)
+            .filter(|&u| m.get(u, d) == Activity::Unknown && self.doubts[u * dofs + d] == Some(Doubt::Coupled))
+            .collect();
+        if open.is_empty() {
+            return;
+        }
+        let still: Vec<usize> = (0..cells).filter(|&u| m.get(u, d) == Activity::Still).collect();
+        sums.update(&still, &open, MIN_FLOOR_CELLS);
+        let k = self.cfg.confidence_sigmas;
+        for u in open {
+            if let Some((lever, sigma)) = sums.lever(u) {
+                let bound = &mut self.lever_bound[u * dofs + d];
+                *bound = bound.min(lever + k * sigma);
+            }
+        }
     }
 
     /// Pools a blind step's lever of entry `i` with the earlier ones (in
@@ -564,8 +602,7 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
             *sum += w * l;
         }
         p[3] += w;
-        let mean = [p[0] / p[3], p[1] / p[3], p[2] / p[3]];
-        Some(((mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2]).sqrt(), 1.0 / p[3].sqrt()))
+        self.pooled_lever(i)
     }
 
     /// Settles what decided entries imply, then what the declared mounting
@@ -580,10 +617,16 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
     /// With a declared mounting clearance: a cell waiting for it (see
     /// [`Explorer::waits_for_clearance`]) whose lever is bounded below the
     /// clearance would move less per radian than any cell the DoF moves,
-    /// so by the declaration the DoF does not move it. True if an entry
-    /// changed.
+    /// so by the declaration the DoF does not move it. Near an axis aligned
+    /// with gravity, those cells measure the floor of what still cells
+    /// show (see [`Explorer::still_floor`]): a waiting cell whose pooled
+    /// lever stands surely above [`FLOOR_RATIO`] times it moved, however
+    /// close to the axis it sits. (A coupled DoF's step rocks the base,
+    /// more at some cells than at others; there the rocking is regressed
+    /// out instead, see [`Sums`].) True if an entry changed.
     fn clear(&mut self, m: &mut ActivityMatrix) -> bool {
         let (cells, dofs) = (m.cells(), m.dofs());
+        let clearance = self.cfg.axis_clearance_m;
         let mut changed = false;
         for d in 0..dofs {
             if !m.column_undecided(d) {
@@ -592,15 +635,48 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
             let waits = self.waits_for_clearance(m, d);
             for u in 0..cells {
                 let i = u * dofs + d;
-                if m.get(u, d) == Activity::Unknown
-                    && self.lever_bound[i] < self.cfg.axis_clearance_m
-                    && waits(self.doubts[i])
-                {
+                if m.get(u, d) == Activity::Unknown && self.lever_bound[i] < clearance && waits(self.doubts[i]) {
                     changed |= m.or(u, d, Activity::Still, Basis::Clearance);
+                }
+            }
+            let Some(floor) = self.still_floor(m, d) else { continue };
+            let moved_m = FLOOR_RATIO * floor;
+            for u in 0..cells {
+                let i = u * dofs + d;
+                let surely_above = self
+                    .pooled_lever(i)
+                    .is_some_and(|(lever, sigma)| lever - self.cfg.confidence_sigmas * sigma > moved_m);
+                if m.get(u, d) == Activity::Unknown && self.doubts[i] == Some(Doubt::NearAxis) && surely_above {
+                    changed |= m.or(u, d, Activity::Moved, Basis::Dynamic { posture: 0 });
                 }
             }
         }
         changed
+    }
+
+    /// The most lever that the pooled steps of DoF `d` show, with its
+    /// margin, on a cell decided still for `d`: at least
+    /// [`MIN_FLOOR_CELLS`] of them, or `None`. During the step every link
+    /// the DoF does not move is held rigidly to the base, so what those
+    /// cells show is one rigid body's acceleration field, affine in the
+    /// place; a turn about a vertical axis does not rock the robot on its
+    /// feet, so what remains is noise and sway, measured small over the
+    /// cells of a whole robot and not many times larger at another cell of
+    /// it. A lever far above it is the DoF's own.
+    fn still_floor(&self, m: &ActivityMatrix, d: usize) -> Option<f64> {
+        let (dofs, k) = (m.dofs(), self.cfg.confidence_sigmas);
+        let bounds: Vec<f64> = (0..m.cells())
+            .filter(|&u| m.get(u, d) == Activity::Still)
+            .filter_map(|u| self.pooled_lever(u * dofs + d))
+            .map(|(lever, sigma)| lever + k * sigma)
+            .collect();
+        (bounds.len() >= MIN_FLOOR_CELLS).then(|| bounds.into_iter().fold(0.0, f64::max))
+    }
+
+    /// Entry `i`'s pooled lever and its standard deviation, m, if any step was pooled.
+    fn pooled_lever(&self, i: usize) -> Option<(f64, f64)> {
+        let [x, y, z, w] = self.pooled[i];
+        (w > 0.0).then(|| ((x * x + y * y + z * z).sqrt() / w, 1.0 / w.sqrt()))
     }
 
     /// Turns DoF `p` by about `delta` (the other way if it is at a limit),
@@ -643,6 +719,14 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
         let trace = self.s.trace(d, move_s + self.cfg.settle_s, |t| raised_cosine(delta, move_s, t))?;
         let post = self.still(average_s)?;
         let step = Step::measure(&self.pre, &post, &trace, self.s.tick_s(), self.s.lsb_mps2());
+        let dofs = self.s.dofs();
+        let coupled = self.doubts.iter().skip(d).step_by(dofs).any(|&doubt| doubt == Some(Doubt::Coupled));
+        if coupled && self.posture == 0 && self.step_before == Some(d) {
+            let (_, _, alpha) = trace.motion(self.s.tick_s());
+            let noise: Vec<f64> = step.evidence.iter().map(|e| e.noise_var).collect();
+            let cells = noise.len();
+            self.sums[d].get_or_insert_with(|| Sums::new(cells)).add(&self.pre, &post, &trace, &alpha, &noise);
+        }
         self.pre = post;
         self.pre_s = average_s;
         Ok(step)
