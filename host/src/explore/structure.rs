@@ -19,7 +19,7 @@
 //!   a cell whose pooled lever stands far above what the cells decided
 //!   still show moves, however close to the axis; a coupled DoF's step
 //!   rocks the base, and the rocking those cells record is regressed out
-//!   of the others' ([`rocking`](super::rocking)).
+//!   of the others' (`rocking.rs`).
 //!
 //! Between measurements, entries that the decided ones imply in a
 //! kinematic tree are settled without moving (`infer`): the cells of two
