@@ -118,8 +118,12 @@ fn a_robot_clock_that_freezes_ends_skin_run_on_the_wall_clock() {
     // It stops at 40 ms, long before the 30 s organization timeout.
     let (code, err) = run_against(robot(true, |seq, _| 4000 * u64::from(seq.min(10)), 1.0), &[]);
     assert_eq!(code, Some(1), "{err}");
-    assert!(err.starts_with("error: the robot's clock stood still at 0.04"), "{err}");
-    assert!(err.contains("s for 2.0 s of wall-clock time while it answered commands"), "{err}");
+    let says = "error: the robot's clock stood still at 0.04 s for ";
+    assert!(err.starts_with(says), "{err}");
+    // At least the 2 s bound; more when a loaded machine checks late.
+    let still_s: f64 = err[says.len()..].split(' ').next().and_then(|s| s.parse().ok()).expect("seconds");
+    assert!((2.0..3.0).contains(&still_s), "{err}");
+    assert!(err.contains(" s of wall-clock time while it answered commands"), "{err}");
 }
 
 #[test]
