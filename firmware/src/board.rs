@@ -230,7 +230,7 @@ impl<B: Board, F: NorFlash> Firmware<B, F> {
     /// messages are handled here, at the top of the stack: the signature
     /// check needs about 4 KiB of it, which the byte path (in
     /// [`Firmware::step`]) must not add to its own. Every pass feeds the
-    /// watchdog: the tick wakes the loop at least every millisecond.
+    /// watchdog: the clock's tick (1 ms; 4 ms on QEMU) wakes the loop.
     pub fn run(&mut self) -> ! {
         loop {
             self.board.feed_watchdog();
