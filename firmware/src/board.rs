@@ -51,8 +51,10 @@ pub const QEMU_TRIAL_US: u64 = 10_000_000;
 
 /// Received bytes taken from a port at a time: a few frames.
 const RX_CHUNK: usize = 64;
+/// Frames one chunk of bytes can end (with a frame's start already in).
+const RX_FRAMES: usize = RX_CHUNK.div_ceil(FRAME_LEN);
 // Every update message a chunk can end waits in the node.
-const _: () = assert!(RX_CHUNK.div_ceil(FRAME_LEN) <= crate::node::PENDING_UPDATES);
+const _: () = assert!(RX_FRAMES <= crate::node::PENDING_UPDATES);
 
 /// One cell-2-cell port: bytes in, whole frames out.
 pub trait SerialPort {
@@ -182,6 +184,9 @@ impl<B: Board, F: NorFlash> Firmware<B, F> {
         let mut chunk = [0u8; RX_CHUNK];
         for k in 0..Port::ALL.len() {
             let p = Port::ALL[(self.first_port + k) % Port::ALL.len()];
+            if !self.node.can_take(p, RX_FRAMES) {
+                continue;
+            }
             let n = self.board.port(p).read(&mut chunk);
             busy |= n > 0;
             for byte in &chunk[..n] {
@@ -230,7 +235,7 @@ impl<B: Board, F: NorFlash> Firmware<B, F> {
     /// messages are handled here, at the top of the stack: the signature
     /// check needs about 4 KiB of it, which the byte path (in
     /// [`Firmware::step`]) must not add to its own. Every pass feeds the
-    /// watchdog: the tick wakes the loop at least every millisecond.
+    /// watchdog: the clock's tick (1 ms; 4 ms on QEMU) wakes the loop.
     pub fn run(&mut self) -> ! {
         loop {
             self.board.feed_watchdog();

@@ -155,6 +155,18 @@ impl<F: NorFlash, S: Slot> Node<F, S> {
         }
     }
 
+    /// True when `frames` more received on `port` drop nothing here. What
+    /// comes down the master port is copied to every child port, so while a
+    /// child's queue is nearly full the master port is left unread: its
+    /// bytes wait on the link (a QEMU UART holds its sender back; a DMA
+    /// ring holds them for a while), and an update's broadcast flows at the
+    /// pace of the slowest child instead of being dropped and asked for
+    /// again. Upstream ports are always read: sensor data never waits.
+    pub fn can_take(&self, port: Port, frames: usize) -> bool {
+        let cell = self.app.cell();
+        cell.organizer().master() != Some(port) || cell.router().downstream_room() >= frames
+    }
+
     /// True when update messages wait for [`Node::handle_updates`].
     pub fn has_updates(&self) -> bool {
         self.pending.iter().any(Option::is_some)

@@ -305,6 +305,20 @@ impl<M: Meta> Router<M> {
         queued
     }
 
+    /// Downstream frames every child port's queue still takes: the most a
+    /// cell may take from its master port without dropping a copy (a cell
+    /// without children takes any number). A cell that reads its master
+    /// port only while this is enough leaves the rest on the link, where
+    /// the sender waits (a QEMU UART's socket) instead of this cell
+    /// dropping copies its children cannot take yet.
+    pub fn downstream_room(&self) -> usize {
+        (0..self.children.len())
+            .filter(|p| self.children[*p])
+            .map(|p| DOWN_QUEUE - self.down[p].len())
+            .min()
+            .unwrap_or(usize::MAX)
+    }
+
     /// Queues a link-local frame (probe, beacon, ...) for one port.
     pub fn link(&mut self, port: Port, frame: Frame) -> Result<(), Discard> {
         let p = port.index();
@@ -545,6 +559,20 @@ mod tests {
         assert_eq!(r.transmit(Port::P3), None);
         assert_eq!(r.counters().dropped_reroute, 1);
         assert_eq!(r.queued(), 0);
+    }
+
+    #[test]
+    fn downstream_room_is_the_fullest_child_queues_room() {
+        let mut r: Router = Router::new();
+        assert_eq!(r.downstream_room(), usize::MAX, "no child: nothing is dropped");
+        r.set_child(Port::P1, true);
+        r.set_child(Port::P2, true);
+        r.downstream(frame(1));
+        r.downstream(frame(2));
+        r.transmit(Port::P2);
+        assert_eq!(r.downstream_room(), DOWN_QUEUE - 2, "port 1 holds two");
+        while r.downstream(frame(3)) > 0 {}
+        assert_eq!((r.downstream_room(), r.counters().dropped_full), (0, 3), "port 1 full first, then both");
     }
 
     /// A frame's tag, and how many frames were ahead of it when queued.

@@ -53,6 +53,8 @@ pub mod ports;
 
 /// Core clock.
 const SYSCLK_HZ: u32 = 64_000_000;
+/// The clock's tick: every millisecond.
+const TICK_US: u32 = 1_000;
 /// Cell-2-cell bit rate (Table 2).
 const PORT_BAUD: u32 = 4_000_000;
 /// VCNL4010 LED current: 100 mA.
@@ -142,7 +144,7 @@ impl Stm32f4 {
                 t.is_ok()
             ),
         };
-        let clock = Clock::start(&mut cp.SYST, SYSCLK_HZ);
+        let clock = Clock::start(&mut cp.SYST, SYSCLK_HZ, TICK_US);
         // Started by the bootloader; only fed here.
         let watchdog = IndependentWatchdog::new(dp.IWDG);
         (Stm32f4 { ports, chips, clock, stack: PeakWatch::new(), watchdog }, CellFlash(LockedFlash::new(dp.FLASH)))
@@ -250,7 +252,7 @@ impl NorFlash for CellFlash {
     }
 }
 
-defmt::timestamp!("{=u64:us}", Clock::log_time_us(SYSCLK_HZ));
+defmt::timestamp!("{=u64:us}", Clock::log_time_us(SYSCLK_HZ, TICK_US));
 
 #[exception]
 unsafe fn HardFault(frame: &ExceptionFrame) -> ! {

@@ -1,12 +1,22 @@
 //! The host's side of an update, as a pure state machine: it offers the
-//! image, broadcasts every chunk once, resends to each cell the runs that
-//! cell reports missing (selective repeat), tells the ready cells to boot
-//! the image on trial once none is still receiving and confirms each one heard running it, and keeps every
-//! cell's outcome for the result table. Time in, frames out: the caller
+//! image, broadcasts every chunk once, resends the runs cells report
+//! missing (selective repeat: only what a cell asked for, each chunk once
+//! however many cells asked for it), tells the ready cells to boot the
+//! image on trial once none is still receiving and confirms each one heard
+//! running it, and keeps every cell's outcome for the result table. Chunks
+//! go in [`Rounds`], each once the cells answered the last, so the update
+//! goes at the pace of the slowest tree. Time in, frames out: the caller
 //! sends what [`Distributor::next`] gives as fast as its links take it.
+//!
+//! A resent chunk goes to every cell: a cell's router copies whatever comes
+//! down its master port to all its children (it does not know where an
+//! address lives), so a chunk sent to one cell crosses the whole tree
+//! anyway, and sent to all it costs no more and serves every cell that
+//! missed it at once.
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
+use super::rounds::Rounds;
 use super::REPAIR_WINDOW;
 use crate::address::Address;
 use crate::image::{ImageError, ImageHeader};
@@ -52,7 +62,9 @@ pub struct Distributor {
     chunks: Vec<ImageChunk>,
     cells: BTreeMap<Address, Option<UpdateReport>>,
     next_chunk: usize,
-    repairs: VecDeque<(Address, u16)>,
+    /// Chunks some cell asked for again, sent lowest first.
+    repairs: BTreeSet<u16>,
+    rounds: Rounds,
     confirms: VecDeque<Address>,
     last_offer_us: Option<u64>,
     last_boot_us: Option<u64>,
@@ -81,7 +93,8 @@ impl Distributor {
             chunks,
             cells: cells.into_iter().map(|c| (c, None)).collect(),
             next_chunk: 0,
-            repairs: VecDeque::new(),
+            repairs: BTreeSet::new(),
+            rounds: Rounds::default(),
             confirms: VecDeque::new(),
             last_offer_us: None,
             last_boot_us: None,
@@ -112,15 +125,15 @@ impl Distributor {
     /// A report from a cell; a cell not in the list is added.
     pub fn handle(&mut self, from: Address, report: UpdateReport) {
         self.cells.insert(from, Some(report));
+        self.rounds.heard(from);
         match report.state {
             UpdateState::Receiving if report.version == self.version => {
-                // Only what the broadcast pass has already sent is missed.
+                // Only what the broadcast pass has already sent, and not
+                // in this round, is missed.
                 let end = report.first_missing.saturating_add(report.missing.min(REPAIR_WINDOW));
-                for i in report.first_missing..end.min(self.next_chunk as u16) {
-                    if !self.repairs.contains(&(from, i)) {
-                        self.repairs.push_back((from, i));
-                    }
-                }
+                let missed =
+                    (report.first_missing..end.min(self.next_chunk as u16)).filter(|i| !self.rounds.in_flight(*i));
+                self.repairs.extend(missed);
             }
             // Every trial report is confirmed: the confirm itself may be lost.
             UpdateState::Trial if report.version == self.version && !self.confirms.contains(&from) => {
@@ -190,11 +203,22 @@ impl Distributor {
             self.last_boot_us = Some(now_us);
             return Some((Address::BROADCAST, command(UpdateAction::Boot)));
         }
-        if let Some((cell, i)) = self.repairs.pop_front() {
-            return Some((cell, Message::ImageChunk(self.chunks[usize::from(i)])));
+        let receiving = self.cells.iter().filter_map(|(a, r)| {
+            r.is_some_and(|r| r.version == self.version && r.state == UpdateState::Receiving).then_some(*a)
+        });
+        if !self.rounds.open(now_us, receiving) {
+            return None;
         }
-        let chunk = self.chunks.get(self.next_chunk)?;
-        self.next_chunk += 1;
-        Some((Address::BROADCAST, Message::ImageChunk(*chunk)))
+        let index = match self.repairs.pop_first() {
+            Some(i) => usize::from(i),
+            None if self.next_chunk < self.chunks.len() => {
+                self.next_chunk += 1;
+                self.next_chunk - 1
+            }
+            None => return None,
+        };
+        let chunk = self.chunks[index];
+        self.rounds.sent(chunk.index, now_us);
+        Some((Address::BROADCAST, Message::ImageChunk(chunk)))
     }
 }

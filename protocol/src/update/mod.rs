@@ -4,7 +4,7 @@
 //! the cell's spare [`Slot`]; the cell checks the header's signature as soon
 //! as the header is in (a forged image is refused before its body is
 //! written), asks for the chunk runs it missed (selective repeat: the host
-//! resends them to this cell alone), verifies the whole body against its
+//! resends what cells asked for, each chunk once), verifies the whole body against its
 //! signed SHA-256, and then waits for the host to tell it to boot the image
 //! on trial, confirm it or roll it back ([`BootAction`], done by the board
 //! and its bootloader).
@@ -17,11 +17,15 @@
 mod bitmap;
 #[cfg(feature = "std")]
 pub mod distributor;
+#[cfg(feature = "std")]
+pub mod rounds;
 mod updater;
 
 pub use bitmap::Bitmap;
 #[cfg(feature = "std")]
 pub use distributor::{Distributor, Outcome};
+#[cfg(feature = "std")]
+pub use rounds::{Rounds, ROUND_FRAMES, ROUND_TIMEOUT_US};
 pub use updater::{BootAction, BootState, Updater, QUIET_US, REPAIR_WINDOW, TRIAL_REPORT_US, TRIAL_US};
 
 use crate::app::StoreFailed;

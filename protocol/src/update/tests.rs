@@ -1,6 +1,7 @@
 use proptest::prelude::*;
 
 use super::*;
+use crate::address::Address;
 use crate::image::{Board, HEADER_LEN};
 use crate::message::{
     ImageChunk, Refusal, UpdateAction, UpdateCommand, UpdateOffer, UpdateReport, UpdateState, CHUNK_LEN,
@@ -79,6 +80,25 @@ fn a_cell_asks_for_the_runs_it_missed_and_only_after_a_quiet_time() {
     assert_eq!(state(u.chunk(&chunks[40], &mut slot, 300_000)), Some(UpdateState::Ready));
     assert_eq!(&slot.bytes()[..bytes.len()], &bytes[..]);
     assert_eq!(u.poll(10_000_000), None, "a ready cell asks for nothing");
+}
+
+#[test]
+fn a_cell_that_hears_no_chunk_reports_ever_later_and_any_chunk_restarts_the_quiet_time() {
+    let (_, chunks) = image(Board::Mps2An386, 2, 1000, 1);
+    let (mut u, mut slot) = (cell(), TestSlot::default());
+    u.offer(offer_of(2, &chunks), &mut slot, 0);
+    u.chunk(&chunks[0], &mut slot, 0);
+    let mut at = Vec::new();
+    for t in (0..2_000_000).step_by(1_000) {
+        if u.poll(t).is_some() {
+            at.push(t / 1_000);
+        }
+    }
+    assert_eq!(at, [20, 60, 140, 300, 620, 1260, 1900], "ms: twice as long each time, up to 640 ms");
+    // A chunk the cell has is news too: the host is sending again.
+    u.chunk(&chunks[0], &mut slot, 2_000_000);
+    assert_eq!(u.poll(2_000_000 + QUIET_US - 1), None);
+    assert!(u.poll(2_000_000 + QUIET_US).is_some());
 }
 
 #[test]
@@ -241,6 +261,64 @@ proptest! {
                     prop_assert_eq!(&slot.bytes()[..bytes.len()], &bytes[..]);
                 }
             }
+        }
+    }
+
+    /// However many cells ask for a run, each of its chunks goes once, to
+    /// every cell; and with nobody answering, at most one round of chunk
+    /// frames goes per round timeout, whenever the host asks.
+    #[test]
+    fn resends_go_once_for_all_and_rounds_wait_for_answers(
+        asking in proptest::collection::btree_set(1u16..40, 1..20),
+        first in 0u16..60,
+        missing in 1u16..80,
+        calls in proptest::collection::vec(0u64..200_000, 1..400),
+    ) {
+        let (bytes, chunks) = image(Board::Mps2An386, 2, 1000, 1);
+        let cells: Vec<Address> = asking.iter().map(|a| Address(*a)).collect();
+        let mut d = Distributor::new(&bytes, cells.iter().copied()).unwrap();
+        let sent_chunk = |m: Option<(Address, crate::message::Message)>| match m {
+            Some((to, crate::message::Message::ImageChunk(c))) => Some((to, c.index)),
+            _ => None,
+        };
+        // The whole broadcast pass, every round answered by every cell.
+        let mut now = 0;
+        let mut pass = Vec::new();
+        while pass.len() < chunks.len() {
+            match sent_chunk(d.next(now)) {
+                Some((to, i)) => { prop_assert_eq!(to, Address::BROADCAST); pass.push(i) }
+                None => {
+                    for c in &cells {
+                        let r = UpdateReport { version: 2, state: UpdateState::Receiving, first_missing: 200, missing: 0 };
+                        d.handle(*c, r);
+                    }
+                }
+            }
+            now += 1;
+        }
+        prop_assert_eq!(pass, (0..chunks.len() as u16).collect::<Vec<_>>());
+        let asked = UpdateReport { version: 2, state: UpdateState::Receiving, first_missing: first, missing };
+        for c in &cells {
+            d.handle(*c, asked);
+        }
+        let end = (first + missing.min(REPAIR_WINDOW)).min(chunks.len() as u16);
+        let mut resent = Vec::new();
+        let mut at = now + 1;
+        let mut times = Vec::new();
+        for dt in calls {
+            at += dt;
+            while let Some((to, i)) = sent_chunk(d.next(at)) {
+                prop_assert_eq!(to, Address::BROADCAST);
+                resent.push(i);
+                times.push(at);
+            }
+        }
+        let want: Vec<u16> = (first..end).collect();
+        prop_assert_eq!(&resent[..resent.len().min(want.len())], &want[..resent.len().min(want.len())]);
+        prop_assert!(resent.len() <= want.len(), "nothing beyond what was asked, once");
+        // Nobody answers the resends: each round after the first waits out its timeout.
+        for k in (ROUND_FRAMES..times.len()).step_by(ROUND_FRAMES) {
+            prop_assert!(times[k] - times[k - 1] >= ROUND_TIMEOUT_US, "round at {} after {}", times[k], times[k - 1]);
         }
     }
 }

@@ -10,6 +10,12 @@ use crate::message::{
 /// Quiet time after the last chunk before a receiving cell reports what it
 /// misses, and the least time between two of its reports.
 pub const QUIET_US: u64 = 20_000;
+/// Doublings of the time between the reports of a receiving cell that hears
+/// no chunk at all: 20 ms, 40 ms, ... up to 640 ms. Every report crosses
+/// every cell between it and the host, so a patch of cells waiting (the
+/// host waits for a cell that is off, or for its own pace) would otherwise
+/// spend its links on reports, 50 a second from each cell.
+const MAX_BACKOFF: u8 = 5;
 /// Chunks a report's missing span covers at most: what the host resends for it.
 pub const REPAIR_WINDOW: u16 = 64;
 /// How often a cell on trial reports until the host confirms it.
@@ -72,6 +78,8 @@ pub struct Updater {
     header_checked: bool,
     last_chunk_us: u64,
     last_report_us: Option<u64>,
+    /// Reports since the last chunk: each one waits twice as long.
+    quiet_reports: u8,
 }
 
 impl Updater {
@@ -87,6 +95,7 @@ impl Updater {
             header_checked: false,
             last_chunk_us: 0,
             last_report_us: None,
+            quiet_reports: 0,
         }
     }
 
@@ -150,7 +159,7 @@ impl Updater {
             let progress = if self.have.reset(offer.chunks) { progress } else { Progress::Refused(Refusal::TooLong) };
             self.offer = Some((offer, progress));
             self.header_checked = false;
-            self.last_chunk_us = now_us;
+            self.heard_chunk(now_us);
         }
         self.reported(now_us)
     }
@@ -158,10 +167,12 @@ impl Updater {
     /// A chunk of the offered image; reports when the image is complete or refused.
     pub fn chunk(&mut self, chunk: &ImageChunk, slot: &mut impl Slot, now_us: u64) -> Option<UpdateReport> {
         let Some((offer, Progress::Receiving)) = self.offer else { return None };
+        // A chunk this cell has is still news: the host is sending, and
+        // the cell answers once it stops (the host paces itself on that).
+        self.heard_chunk(now_us);
         if !self.have.insert(chunk.index) {
             return None;
         }
-        self.last_chunk_us = now_us;
         let offset = u32::from(chunk.index) * CHUNK_LEN as u32;
         let progress = if slot.write(offset, &chunk.data).is_err() {
             Some(Progress::Refused(Refusal::SlotFailed))
@@ -179,6 +190,12 @@ impl Updater {
         })?;
         self.offer = Some((offer, progress));
         self.reported(now_us)
+    }
+
+    /// The host is sending: the next report comes after [`QUIET_US`] without.
+    fn heard_chunk(&mut self, now_us: u64) {
+        self.last_chunk_us = now_us;
+        self.quiet_reports = 0;
     }
 
     /// The header in the slot, checked against the offer, the board and the key.
@@ -205,20 +222,23 @@ impl Updater {
     }
 
     /// Lets time pass: a receiving cell that heard no chunk for
-    /// [`QUIET_US`] reports the first run it misses; a cell on trial
-    /// reports every [`TRIAL_REPORT_US`] until it is confirmed.
+    /// [`QUIET_US`] reports the first run it misses, and again while it
+    /// hears none, each time twice as late (up to 32 times); a cell on
+    /// trial reports every [`TRIAL_REPORT_US`] until it is confirmed.
     pub fn poll(&mut self, now_us: u64) -> Option<UpdateReport> {
         let since = |t: Option<u64>, period: u64| t.is_none_or(|t| now_us.saturating_sub(t) >= period);
-        let due = match self.offer {
+        match self.offer {
             Some((_, Progress::Receiving)) => {
-                now_us.saturating_sub(self.last_chunk_us) >= QUIET_US && since(self.last_report_us, QUIET_US)
+                let wait = QUIET_US << self.quiet_reports.min(MAX_BACKOFF);
+                let due = now_us.saturating_sub(self.last_chunk_us) >= QUIET_US && since(self.last_report_us, wait);
+                if !due {
+                    return None;
+                }
+                self.quiet_reports = self.quiet_reports.saturating_add(1);
+                self.reported(now_us)
             }
-            _ => self.boot == BootState::Trial && since(self.last_report_us, TRIAL_REPORT_US),
-        };
-        if due {
-            self.reported(now_us)
-        } else {
-            None
+            _ if self.boot == BootState::Trial && since(self.last_report_us, TRIAL_REPORT_US) => self.reported(now_us),
+            _ => None,
         }
     }
 

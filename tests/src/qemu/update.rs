@@ -143,11 +143,12 @@ pub struct Patch {
     pub organize_s: f64,
 }
 
-/// Frames the host sends per second. A QEMU UART holds one byte and
-/// interrupts for each, so a QEMU cell takes a few hundred to a few
-/// thousand frames a second, as the machine's load allows; faster, most
-/// chunks are dropped on the way down and asked for again 64 at a time,
-/// which is far slower than sending them at a pace the cells keep.
+/// Frames the host sends per second at most. A QEMU UART holds one byte
+/// and interrupts for each, so a QEMU patch takes a few dozen to a few
+/// hundred frames a second, as its size and the machine's load allow; the
+/// [`Distributor`] keeps to that pace itself (its rounds wait for the
+/// cells' answers), this only spreads a round over a few tens of
+/// milliseconds.
 pub const FRAMES_PER_S: u64 = 500;
 
 impl Patch {
