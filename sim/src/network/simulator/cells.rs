@@ -170,16 +170,8 @@ impl Network {
             return;
         }
         if n.deadline_ns > n.poll_ns {
-            // Each beacon wave puts the route's deadline off by one period:
-            // that wake-up waits in a lane, as frames do, rather than in a
-            // cold bucket of the calendar (its place is the same).
-            let delay_ns = n.deadline_ns - n.poll_ns;
             n.poll_ns = n.deadline_ns;
-            if delay_ns == self.config.organize.beacon_period_us * 1000 {
-                self.events.after(delay_ns, Event::Poll(i, epoch));
-            } else {
-                self.events.at(n.poll_ns, Event::Poll(i, epoch));
-            }
+            self.events.at(n.poll_ns, Event::Poll(i, epoch));
             return;
         }
         n.poll_ns = u64::MAX;
