@@ -11,9 +11,10 @@
 //!   ceiling of any simulator that runs the real protocol code.
 //!
 //! Each network is organized first; the benchmark then times further
-//! virtual time and prints the speed-up with the run's quality (latency,
-//! losses, the ledger) and its events and frame arrivals per virtual second
-//! beside it.
+//! virtual time and prints the speed-up (by wall time, and by the CPU time
+//! of the simulating thread, which leaves out the time it waited for a core
+//! on a busy machine) with the run's quality (latency, losses, the ledger)
+//! and its events and frame arrivals per virtual second beside it.
 //!
 //! `cargo bench -p skin-sim --bench network`
 
@@ -31,6 +32,14 @@ use skin_sim::network::scenario::pump;
 use skin_sim::network::stimulus::StimulusKind;
 use skin_sim::network::transport::Transport;
 use skin_sim::network::{Network, NetworkConfig, Topology};
+
+/// CPU time of this thread in ns, where the system tells it (Linux). On a
+/// machine shared with other builds, wall time also counts the time the
+/// thread waited for a core; the CPU time does not.
+fn thread_cpu_ns() -> Option<u64> {
+    let stat = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    stat.split_whitespace().next()?.parse().ok()
+}
 
 /// Builds and organizes a network, then reports speed over `slice_s`
 /// slices; returns the frame arrivals per virtual second.
@@ -50,17 +59,18 @@ fn speed(
     let ids = (0..net.cells()).filter(|i| net.cell(*i).is_some_and(|c| c.id().is_cell())).count();
     net.measure_from();
     let received_before = net.measurements().ledger.received;
-    let (mut simulated, mut spent) = (0.0, 0.0);
+    let (mut simulated, mut spent, mut cpu_ns) = (0.0, 0.0, Some(0));
     let mut group = c.benchmark_group("network");
     group.sampling_mode(SamplingMode::Flat);
     group.bench_function(name, |b| {
         b.iter_custom(|iters| {
-            let start = Instant::now();
+            let (start, cpu_start) = (Instant::now(), thread_cpu_ns());
             for _ in 0..iters {
                 let until = net.now_ns() + (slice_s * 1e9) as u64;
                 pump(&mut net, &mut host, until).expect("in-memory host");
             }
             let t = start.elapsed();
+            cpu_ns = cpu_ns.zip(cpu_start).zip(thread_cpu_ns()).map(|((sum, a), b)| sum + b - a);
             simulated += iters as f64 * slice_s;
             spent += t.as_secs_f64();
             t
@@ -71,10 +81,14 @@ fn speed(
     let lat = m.latency.quantiles();
     let virtual_s = m.measured_ns as f64 * 1e-9;
     let arrivals = (m.ledger.received - received_before) as f64 / virtual_s;
+    let cpu = cpu_ns.map_or("unknown".into(), |ns| {
+        let s = ns as f64 * 1e-9;
+        format!("{:.2}x, {:.0} ns per event", simulated / s, s * 1e9 / m.events as f64)
+    });
     println!(
         "{name}: {cells} cells, {ids} with IDs after {organize_s} s virtual ({organize_wall:.2} s wall); \
          {simulated:.2} s simulated in {spent:.2} s wall = {x:.2}x real time \
-         ({events:.2}M events and {arrivals_m:.2}M frame arrivals per virtual s, {ns:.0} ns per event); \
+         (per second of the thread's CPU time: {cpu}) ({events:.2}M events and {arrivals_m:.2}M frame arrivals per virtual s, {ns:.0} ns per event); \
          sensor latency p99 {p99} us max {max} us; sensor frames lost {lost}; balanced {bal}",
         cells = net.cells(),
         x = simulated / spent,

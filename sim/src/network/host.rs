@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 
 use skin_protocol::address::Address;
-use skin_protocol::frame::Frame;
+use skin_protocol::frame::{Frame, Kind};
 use skin_protocol::interface::{self, Datagram, DatagramHeader, MAX_DATAGRAM, MAX_FRAMES};
 use skin_protocol::message::{Message, Neighbour};
 use skin_protocol::organize::Allocator;
@@ -19,7 +19,8 @@ pub struct Host {
     /// One bit per address the allocator has observed (observing one
     /// again changes nothing, and most frames come from known cells).
     observed: Vec<u64>,
-    /// Datagrams or frames from the skin that did not parse.
+    /// Datagrams or frames from the skin that did not parse (of a known
+    /// cell's frames, only those of the kinds the host acts on are decoded).
     pub rejected: u64,
 }
 
@@ -50,14 +51,24 @@ impl Host {
         };
         let mut replies: Vec<Frame> = Vec::new();
         for frame in d.frames() {
-            let Ok((frame, message)) = frame.and_then(|f| Ok((f, f.message()?))) else {
+            let Ok(frame) = frame else {
                 self.rejected += 1;
                 continue;
             };
             let src = usize::from(frame.src().0);
             let word = self.observed.get_mut(src / 64).expect("the bitmap covers every address");
-            if *word & 1 << (src % 64) == 0 {
-                *word |= 1 << (src % 64);
+            let bit = 1 << (src % 64);
+            // A known cell's sample or event (nearly all of the traffic)
+            // tells the host nothing: its payload is not decoded.
+            if *word & bit != 0 && !matches!(frame.kind(), Kind::IdRequest | Kind::NeighbourReport) {
+                continue;
+            }
+            let Ok(message) = frame.message() else {
+                self.rejected += 1;
+                continue;
+            };
+            if *word & bit == 0 {
+                *word |= bit;
                 self.allocator.observe(frame.src());
             }
             match message {

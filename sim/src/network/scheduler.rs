@@ -321,6 +321,7 @@ impl<E> Scheduler<E> {
 
     /// Where the next event is: `Some(lane)` or `None` for the calendar,
     /// and its time.
+    #[inline]
     fn next(&mut self) -> Option<(Option<usize>, u64)> {
         let mut best = (None, self.calendar.first_key().unwrap_or(NONE));
         for (k, head) in self.heads.iter().enumerate() {
@@ -338,6 +339,7 @@ impl<E> Scheduler<E> {
 
     /// Takes the next event if it is due at or before `until_ns`, and
     /// moves the clock to it.
+    #[inline]
     pub fn pop_until(&mut self, until_ns: u64) -> Option<E> {
         let (at, t) = self.next()?;
         if t > until_ns {

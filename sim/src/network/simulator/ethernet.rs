@@ -3,8 +3,8 @@
 
 use std::collections::VecDeque;
 
-use skin_protocol::frame::{Frame, Kind};
-use skin_protocol::interface::{self, Datagram, DatagramHeader, MAX_DATAGRAM, MAX_FRAMES};
+use skin_protocol::frame::{Frame, Kind, FRAME_LEN};
+use skin_protocol::interface::{self, Datagram, DatagramHeader, HEADER_LEN, MAX_FRAMES};
 use skin_protocol::organize::Sink;
 
 use super::super::topology::PortRef;
@@ -103,11 +103,12 @@ impl Network {
         }
         let header = DatagramHeader { interface: k as u8, seq: i.seq, timestamp_us: now_ns / 1000 };
         i.seq = i.seq.wrapping_add(1);
-        let mut buf = [0u8; MAX_DATAGRAM];
-        let len = interface::encode(header, frames, &mut buf).expect("1..=72 frames fit a datagram");
+        // Written in place at its length: most datagrams carry one frame.
+        let mut bytes = vec![0; HEADER_LEN + frames.len() * FRAME_LEN];
+        interface::encode(header, frames, &mut bytes).expect("1..=72 frames fit a datagram");
         self.ethernet_busy_until_ns = at_ns;
         self.followed_on_ethernet += followed;
-        self.events.after(delay_ns, Event::ToHost { bytes: buf[..len].to_vec(), followed });
+        self.events.after(delay_ns, Event::ToHost { bytes, followed });
         if !self.ethernet_waking && self.interfaces.iter().any(|i| !i.up.is_empty()) {
             self.ethernet_waking = true;
             self.events.after(delay_ns, Event::EthernetFree);

@@ -148,8 +148,9 @@ impl Network {
                 }
                 self.m.ledger.received += 1;
                 self.count_corruption(corrupted, valid);
+                let master = self.master_port(i);
                 let upstream = match signal {
-                    Signal::Intact(f) => !f.kind().is_link_local() && self.master_port(i) & 1 << p.index() == 0,
+                    Signal::Intact(f) => !f.kind().is_link_local() && master & 1 << p.index() == 0,
                     Signal::Corrupted(_) => false,
                 };
                 // A followed frame the router refuses comes back from it,
@@ -165,7 +166,7 @@ impl Network {
                 }
                 // A frame from below only ever waits for the master port
                 // (which it cannot change); anything else may go anywhere.
-                let ports = if upstream { self.master_port(i) } else { ALL_PORTS };
+                let ports = if upstream { master } else { ALL_PORTS };
                 self.settle(i, ports);
             }
             End::Interface(k) => {
