@@ -99,8 +99,7 @@ fn a_skin_wired_across_the_shoulders_places_the_shoulder_cells_in_3d() {
     // chest: blind along its axis) are wired to the upper arms' cells,
     // which the motion places in 3D.
     let robot = hrp2::robot();
-    let skin =
-        Skin::patches(&robot, |l| hrp2::SKIN.iter().filter(|(n, _)| *n == l.name).map(|(_, c)| c).sum(), 1).unwrap();
+    let skin = Skin::patches(&robot, |l| hrp2::skin_cells_on(&l.name), 1).unwrap();
     let tables = skin.neighbour_tables();
     let world = World::new(robot.clone(), skin, WorldConfig { seed: 1, ..WorldConfig::default() });
     let mut rig = SimRobot::new(world);

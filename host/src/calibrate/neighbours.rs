@@ -449,11 +449,11 @@ mod tests {
         /// given it is within five of its claimed standard deviations.
         #[test]
         fn a_true_wire_never_misleads(
-            tilt in 0.0f64..1.5, azimuth in 0.0f64..6.28, heading in 0.0f64..6.28, stretch in -1.0f64..1.0,
+            tilt in 0.0f64..1.5, azimuth in 0.0..std::f64::consts::TAU, heading in 0.0..std::f64::consts::TAU, stretch in -1.0f64..1.0,
         ) {
             let n = Rotation3::from_axis_angle(&Vector3::z_axis(), azimuth) * Rotation3::from_axis_angle(&Vector3::y_axis(), tilt) * Vector3::z();
-            let (e1, e2) = (n.cross(&Vector3::x()).try_normalize(1e-9).unwrap_or(Vector3::y()), Vector3::zeros());
-            let e2 = if e2 == Vector3::zeros() { n.cross(&e1) } else { e2 };
+            let e1 = n.cross(&Vector3::x()).try_normalize(1e-9).unwrap_or(Vector3::y());
+            let e2 = n.cross(&e1);
             let chord_truth = (e1 * heading.cos() + e2 * heading.sin()) * P * (1.0 + 0.05 * stretch);
             let offset = Vector3::new(chord_truth.x, chord_truth.y, 0.0);
             match step(&chord(offset, [n, n]), &cfg()) {

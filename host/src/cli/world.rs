@@ -96,7 +96,7 @@ impl SimArgs {
         let robot = self.robot()?;
         let count = |link: &Link| match (self.cells_per_link, &self.urdf) {
             (Some(n), _) => n,
-            (None, None) => hrp2::SKIN.iter().filter(|(name, _)| *name == link.name).map(|(_, n)| n).sum(),
+            (None, None) => hrp2::skin_cells_on(&link.name),
             (None, Some(_)) => 4,
         };
         let skin = match &self.skin {

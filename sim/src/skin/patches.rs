@@ -191,9 +191,7 @@ mod tests {
 
     fn hrp2_patches(seed: u64) -> (Robot, Skin) {
         let robot = hrp2::robot();
-        let skin =
-            Skin::patches(&robot, |l| hrp2::SKIN.iter().filter(|(n, _)| *n == l.name).map(|(_, c)| c).sum(), seed)
-                .unwrap();
+        let skin = Skin::patches(&robot, |l| hrp2::skin_cells_on(&l.name), seed).unwrap();
         (robot, skin)
     }
 
