@@ -6,6 +6,7 @@ use std::path::Path;
 
 use skin_host::calibrate::check::{check, CalibrationTruth};
 use skin_host::calibrate::export::{skin_toml, urdf_with_skin};
+use skin_host::calibrate::neighbours::{resolve, NeighbourConfig};
 use skin_host::calibrate::{calibrate, CalibrateConfig, CalibrateError, Calibration};
 use skin_host::explore::{explore, ExploreConfig, StructureConfig};
 use skin_host::robot::SimRobot;
@@ -90,6 +91,35 @@ fn the_built_in_robot_meets_the_goals_with_datasheet_noise() {
     // come out within 10 mg wherever gravity turns the cell.
     assert!(t.offset_error_max_mps2 < 0.1, "{t:?}");
     assert!(c.warnings.is_empty(), "{:?}", c.warnings);
+}
+
+#[test]
+fn a_skin_wired_across_the_shoulders_places_the_shoulder_cells_in_3d() {
+    // Laid in patches, the shoulder links' cells (one joint from the
+    // chest: blind along its axis) are wired to the upper arms' cells,
+    // which the motion places in 3D.
+    let robot = hrp2::robot();
+    let skin = Skin::patches(&robot, |l| hrp2::skin_cells_on(&l.name), 1).unwrap();
+    let tables = skin.neighbour_tables();
+    let world = World::new(robot.clone(), skin, WorldConfig { seed: 1, ..WorldConfig::default() });
+    let mut rig = SimRobot::new(world);
+    let explore_cfg = ExploreConfig {
+        structure: StructureConfig { axis_clearance_m: 0.01, ..StructureConfig::default() },
+        ..ExploreConfig::default()
+    };
+    let found = explore(&mut rig, &explore_cfg, &mut |_| {}).expect("the exploration succeeds");
+    let cfg = CalibrateConfig { seed: 1, ..CalibrateConfig::default() };
+    let mut c = calibrate(&mut rig, &robot, &found, &cfg, &mut |_| {}).expect("calibrated");
+    let partial = |c: &Calibration| c.cells.iter().filter(|p| p.unobservable.len() == 1).count();
+    assert_eq!(partial(&c), 4, "two cells on each shoulder link");
+    let r = resolve(&mut c.cells, &robot, &c.description_start, &tables, &NeighbourConfig::default());
+    let t = check(&c, rig.world());
+    assert_eq!((r.cells, partial(&c)), (4, 0), "{r:?}");
+    assert!(c.cells.iter().filter(|p| !p.from_neighbours.is_empty()).all(|p| p.link.ends_with("LINK0")));
+    assert_eq!(t.from_neighbours_m.cells, 4);
+    // Within a centimetre, never confidently wrong; the whole skin keeps its goals.
+    assert!(t.from_neighbours_m.p95 <= 0.010, "{:?}", t.from_neighbours_m);
+    assert_goals("hrp2 in patches", &t);
 }
 
 #[test]

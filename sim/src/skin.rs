@@ -5,7 +5,11 @@
 //! skin file (TOML or JSON) listing the cells of each link with their poses.
 //! A cell frame has z along the outward surface normal, as the force and
 //! proximity sensors face. Where a cell is (link, pose) is ground truth:
-//! the host never sees it.
+//! the host never sees it. A skin laid in wired patches ([`Skin::patches`])
+//! also knows which cell is wired to which: the neighbour tables its
+//! self-organization would report.
+
+mod patches;
 
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -15,7 +19,10 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Deserialize;
+use skin_protocol::message::{Neighbour, NeighbourReport};
 use skin_protocol::Address;
+
+pub use patches::{CELL_PITCH_M, PITCH_TOLERANCE};
 
 use crate::robot::{DofKind, Link, Robot, Shape, Surface};
 
@@ -87,6 +94,8 @@ pub enum SkinError {
 #[derive(Clone, Debug)]
 pub struct Skin {
     cells: Vec<Cell>,
+    /// Per cell, who is on each port (empty: the skin was not laid wired).
+    wires: Vec<patches::Wires>,
 }
 
 impl Skin {
@@ -123,13 +132,43 @@ impl Skin {
                 });
             }
         }
+        Skin::numbered(cells, Vec::new(), &mut rng)
+    }
+
+    /// `count(link)` cells on each link laid in wired patches at
+    /// [`CELL_PITCH_M`], deterministic for `seed`: neighbours follow the
+    /// geometry (see [`Skin::neighbour_tables`]). A link whose surface has
+    /// no room for its count's patch gets its remaining cells wherever
+    /// they fit, unwired.
+    pub fn patches(robot: &Robot, count: impl Fn(&Link) -> usize, seed: u64) -> Result<Skin, SkinError> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let (cells, wires) = patches::lay(robot, count, &mut rng);
+        Skin::numbered(cells, wires, &mut rng)
+    }
+
+    /// The skin with IDs a seeded shuffle of `1..=U`, so nothing can be
+    /// read from their order.
+    fn numbered(mut cells: Vec<Cell>, wires: Vec<patches::Wires>, rng: &mut ChaCha8Rng) -> Result<Skin, SkinError> {
         check_count(cells.len())?;
         let mut ids: Vec<u16> = (1..=cells.len() as u16).collect();
-        ids.shuffle(&mut rng);
+        ids.shuffle(rng);
         for (c, id) in cells.iter_mut().zip(ids) {
             c.id = Address(id);
         }
-        Ok(Skin { cells })
+        Ok(Skin { cells, wires })
+    }
+
+    /// Each cell's neighbour table, as its self-organization reports it
+    /// (IDs and ports only); empty for a skin not laid wired.
+    pub fn neighbour_tables(&self) -> Vec<(Address, NeighbourReport)> {
+        self.wires
+            .iter()
+            .zip(&self.cells)
+            .map(|(w, c)| {
+                let neighbours = w.map(|end| end.map(|(i, port)| Neighbour { id: self.cells[i].id, port }));
+                (c.id, NeighbourReport { neighbours, master: None })
+            })
+            .collect()
     }
 
     /// Cells from a skin file, TOML or JSON by its extension.
@@ -192,7 +231,7 @@ impl Skin {
             }
         }
         let cells = self.cells.iter().zip(ids).map(|(c, id)| Cell { id: *id, ..c.clone() }).collect();
-        Ok(Skin { cells })
+        Ok(Skin { cells, wires: self.wires.clone() })
     }
 }
 
@@ -262,7 +301,7 @@ impl SkinFile {
         for c in cells.iter_mut().filter(|c| c.id == Address::UNASSIGNED) {
             c.id = Address(free.next().expect("check_count leaves enough free IDs"));
         }
-        Ok(Skin { cells })
+        Ok(Skin { cells, wires: Vec::new() })
     }
 }
 

@@ -3,7 +3,8 @@
 //! really turned (the cell frame and the chip's mounting error together).
 //!
 //! Positions are compared along what the calibration calls observable
-//! (the whole error, or the part perpendicular to an unobservable axis);
+//! (the whole error, or the part perpendicular to an unobservable axis;
+//! a part the neighbours gave is judged with the rest);
 //! frames where the calibration says they are known. A cell put on the
 //! wrong link counts as wrong, whatever its numbers.
 
@@ -49,6 +50,9 @@ impl Spread {
 pub struct CalibrationTruth {
     /// Position error over cells with an observable part, m.
     pub position_m: Spread,
+    /// Position error (3D) over the cells whose along-axis part came from
+    /// their neighbours, m (also counted in `position_m`).
+    pub from_neighbours_m: Spread,
     /// Frame error over cells with an observable frame, degrees.
     pub orientation_deg: Spread,
     /// Cells whose position the calibration called wholly unobservable.
@@ -72,7 +76,7 @@ pub fn check(calibration: &Calibration, world: &World) -> CalibrationTruth {
     let cells = world.skin().cells();
     let index: HashMap<_, _> = cells.iter().enumerate().map(|(i, c)| (c.id, i)).collect();
     let mut truth = CalibrationTruth::default();
-    let (mut positions, mut frames) = (Vec::new(), Vec::new());
+    let (mut positions, mut frames, mut from_neighbours) = (Vec::new(), Vec::new(), Vec::new());
     for c in &calibration.cells {
         let Some(&i) = index.get(&c.id) else {
             truth.unknown_cells += 1;
@@ -92,6 +96,9 @@ pub fn check(calibration: &Calibration, world: &World) -> CalibrationTruth {
             let claimed: f64 = c.position_sigma_m.iter().filter(|s| s.is_finite()).map(|s| s * s).sum::<f64>().sqrt();
             truth.overconfident += usize::from(e.norm() > OVERCONFIDENT_SIGMAS * claimed + OVERCONFIDENT_FLOOR_M);
             positions.push(e.norm());
+            if !c.from_neighbours.is_empty() {
+                from_neighbours.push(e.norm());
+            }
         } else {
             truth.position_unobservable += 1;
         }
@@ -104,6 +111,7 @@ pub fn check(calibration: &Calibration, world: &World) -> CalibrationTruth {
         }
     }
     truth.position_m = Spread::of(positions);
+    truth.from_neighbours_m = Spread::of(from_neighbours);
     truth.orientation_deg = Spread::of(frames);
     truth
 }

@@ -97,6 +97,8 @@ pub struct LeverFit {
     /// Standard deviation along each observable direction's coordinate
     /// share, m (link axes; `inf` for an axis the motion never showed).
     pub sigma_m: Vector3<f64>,
+    /// Covariance of the position along the observable directions, m^2.
+    pub covariance_m2: Matrix3<f64>,
     /// Unit directions (link frame) along which the motion showed nothing.
     pub unobservable: Vec<Vector3<f64>>,
     /// Root mean square residual of the equations, m/s^2.
@@ -300,6 +302,7 @@ fn joint_fit(info: &Mat12, rhs: &Vec12, var: f64, still: &Mat9, observable_sigma
     ok.then(|| LeverFit {
         position,
         sigma_m,
+        covariance_m2: covariance,
         unobservable,
         rms_mps2: 0.0,
         turn: sensor.fixed_rows::<3>(0).into_owned(),

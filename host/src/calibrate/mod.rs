@@ -24,9 +24,10 @@ pub mod gravity;
 pub mod lever;
 pub mod matching;
 mod motion;
+pub mod neighbours;
 mod plan;
 
-use nalgebra::{Isometry3, Rotation3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Rotation3, Vector3};
 use skin_protocol::message::AccelRange;
 use skin_protocol::Address;
 use skin_sim::robot::kinematics::{self, BodyState, DofMotion};
@@ -180,8 +181,14 @@ pub struct CellPose {
     pub frame: Rotation3<f64>,
     /// Standard deviation per link axis, m; `inf` where unobservable.
     pub position_sigma_m: Vector3<f64>,
+    /// Covariance of the position's known part, m^2 (nothing along unobservable directions).
+    pub position_covariance_m2: Matrix3<f64>,
     /// Unit directions (link frame) the motion did not show.
     pub unobservable: Vec<Vector3<f64>>,
+    /// Unit directions (link frame) the motion did not show and the
+    /// skin's geometry did: the position along them comes from the cell's
+    /// neighbours ([`neighbours`]).
+    pub from_neighbours: Vec<Vector3<f64>>,
     /// Worst standard deviation of the frame, rad.
     pub orientation_sigma_rad: f64,
     /// Whether the frame is known to within the configured spread.
@@ -199,7 +206,8 @@ pub struct CellPose {
 }
 
 impl CellPose {
-    /// Which link axes (x, y, z) of the position the motion showed.
+    /// Which link axes (x, y, z) of the position are known: shown by the
+    /// motion, or along a blind axis given by the neighbours.
     pub fn observable(&self) -> [bool; 3] {
         self.position_sigma_m.map(f64::is_finite).into()
     }
@@ -392,17 +400,21 @@ fn still_noise(stills: &[(Vec<f64>, Window)]) -> Vec<f64> {
 
 /// Every body at rest for interface positions `q`, the root upright at the origin.
 fn at_rest(model: &Model, urdf_dof: &[usize], q: &[f64]) -> Vec<BodyState> {
-    let n = model.dofs().len();
-    let mut full = vec![0.0; n];
+    let mut full = vec![0.0; model.dofs().len()];
     for (d, &m) in urdf_dof.iter().enumerate() {
         full[m] = q[d];
     }
-    let zero = vec![0.0; n];
+    at_rest_full(model, &full)
+}
+
+/// Every body at rest for positions `full` in the description's DoF order.
+fn at_rest_full(model: &Model, full: &[f64]) -> Vec<BodyState> {
+    let zero = vec![0.0; full.len()];
     let mut states = Vec::new();
     kinematics::forward(
         model,
         &BodyState::at_rest(Isometry3::identity()),
-        DofMotion { q: &full, qd: &zero, qdd: &zero },
+        DofMotion { q: full, qd: &zero, qdd: &zero },
         &mut states,
     );
     states
@@ -435,14 +447,21 @@ fn pose_of(model: &Model, id: Address, candidates: &[Candidate], noise: f64, cfg
         .map(|c| model.bodies()[c.body].name.clone())
         .collect();
     let inconsistent = residual.is_finite() && residual > INCONSISTENT_NOISE * noise + INCONSISTENT_FLOOR_MPS2;
-    let unknown = || (Vector3::zeros(), Vector3::repeat(f64::INFINITY), vec![Vector3::x(), Vector3::y(), Vector3::z()]);
+    let unknown = || {
+        (
+            Vector3::zeros(),
+            Vector3::repeat(f64::INFINITY),
+            Matrix3::zeros(),
+            vec![Vector3::x(), Vector3::y(), Vector3::z()],
+        )
+    };
     let still = best.and_then(|c| c.gravity);
     let (mut frame, mut gain, mut offset_mps2, mut orientation_sigma_rad) = match still {
         Some(f) => (f.frame, f.gain, f.offset, f.orientation_sigma_rad),
         None => (Rotation3::identity(), Vector3::repeat(1.0), Vector3::zeros(), f64::INFINITY),
     };
     let solved = best.zip(still).and_then(|(c, f)| c.lever.solve(cfg.observable_sigma_m, &f.information));
-    let (position, position_sigma_m, unobservable) = match solved {
+    let (position, position_sigma_m, position_covariance_m2, unobservable) = match solved {
         // Nothing is claimed for a cell whose body is in doubt.
         _ if inconsistent || !ambiguous_with.is_empty() => unknown(),
         // Position and sensor were fitted together: the motion sharpens the
@@ -461,7 +480,7 @@ fn pose_of(model: &Model, id: Address, candidates: &[Candidate], noise: f64, cfg
             if orientation_sigma_rad > cfg.observable_sigma_rad {
                 unknown()
             } else {
-                (l.position, l.sigma_m, l.unobservable)
+                (l.position, l.sigma_m, l.covariance_m2, l.unobservable)
             }
         }
         None => unknown(),
@@ -473,7 +492,9 @@ fn pose_of(model: &Model, id: Address, candidates: &[Candidate], noise: f64, cfg
         position,
         frame,
         position_sigma_m,
+        position_covariance_m2,
         unobservable,
+        from_neighbours: Vec::new(),
         orientation_sigma_rad,
         orientation_observable: orientation_sigma_rad <= cfg.observable_sigma_rad
             && !inconsistent

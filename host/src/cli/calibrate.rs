@@ -14,6 +14,7 @@ use nalgebra::{Isometry3, Point3};
 use serde_json::{json, Value};
 use skin_host::calibrate::check::{check, CalibrationTruth};
 use skin_host::calibrate::export::{picture, skin_toml, urdf_with_skin};
+use skin_host::calibrate::neighbours::{resolve, NeighbourConfig, Resolved};
 use skin_host::calibrate::{calibrate, CalibrateConfig, Calibration};
 use skin_host::explore::{explore, ExploreConfig, Progress, StructureConfig};
 use skin_host::report::check_folder;
@@ -109,25 +110,37 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         ..ExploreConfig::default()
     };
     let found = explore(&mut rig, &explore_cfg, &mut show("exploring"))?;
-    let calibration = calibrate(&mut rig, &model, &found, &cfg, &mut show("calibrating"))?;
+    let mut calibration = calibrate(&mut rig, &model, &found, &cfg, &mut show("calibrating"))?;
+    // The simulated skin's neighbour tables (IDs and ports, as its
+    // self-organization reports them; none unless laid in patches).
+    let tables = rig.world().skin().neighbour_tables();
+    let neighbours =
+        resolve(&mut calibration.cells, &model, &calibration.description_start, &tables, &NeighbourConfig::default());
     let wall_time_s = wall.elapsed().as_secs_f64();
     bar.finish_and_clear();
 
     let truth = check(&calibration, rig.world());
-    let report = report(&name, &calibration, &truth, found.exploration_time_s(), wall_time_s);
+    let report = report(&name, &calibration, &neighbours, &truth, found.exploration_time_s(), wall_time_s);
     if let Some(dir) = &args.out {
         write_files(dir, &urdf, &model, &calibration, rig.world(), &report)?;
     }
     let text = if args.json {
         format!("{report:#}")
     } else {
-        summary(&name, &calibration, &truth, found.exploration_time_s(), wall_time_s)
+        summary(&name, &calibration, &neighbours, &truth, found.exploration_time_s(), wall_time_s)
     };
     println!("{text}");
     Ok(ExitCode::SUCCESS)
 }
 
-fn report(name: &str, c: &Calibration, truth: &CalibrationTruth, exploration_s: f64, wall_time_s: f64) -> Value {
+fn report(
+    name: &str,
+    c: &Calibration,
+    neighbours: &Resolved,
+    truth: &CalibrationTruth,
+    exploration_s: f64,
+    wall_time_s: f64,
+) -> Value {
     let cells = cells_json(c);
     json!({
         "robot": name,
@@ -140,11 +153,19 @@ fn report(name: &str, c: &Calibration, truth: &CalibrationTruth, exploration_s: 
         "robot_time_s": { "exploration": exploration_s, "calibration": c.robot_time_s, "total": exploration_s + c.robot_time_s },
         "wall_time_s": wall_time_s,
         "warnings": c.warnings,
+        "neighbours": neighbours,
         "truth": truth,
     })
 }
 
-fn summary(name: &str, c: &Calibration, t: &CalibrationTruth, exploration_s: f64, wall_time_s: f64) -> String {
+fn summary(
+    name: &str,
+    c: &Calibration,
+    n: &Resolved,
+    t: &CalibrationTruth,
+    exploration_s: f64,
+    wall_time_s: f64,
+) -> String {
     let full = c.cells.iter().filter(|p| p.unobservable.is_empty()).count();
     let none = c.cells.iter().filter(|p| p.unobservable.len() == 3).count();
     let mut s = format!("robot {name}: {} cells calibrated on its description\n", c.cells.len());
@@ -166,6 +187,18 @@ fn summary(name: &str, c: &Calibration, t: &CalibrationTruth, exploration_s: f64
         "  positions: {full} in 3D, {} in part (along a lone joint axis unobservable), {none} unobservable (on the fixed base, on a link that only turns about a vertical axis, or on a doubted body)\n",
         c.cells.len() - full - none
     );
+    if n.wires + n.ambiguous + n.dropped + n.one_sided > 0 {
+        s += &format!(
+            "  neighbours: {} cells in 3D with the along-axis part from {} wires (error {:.2} mm mean, {:.2} mm max); {} wires of undecided sign, {} dropped, {} one-sided\n",
+            n.cells,
+            n.wires,
+            t.from_neighbours_m.mean * 1e3,
+            t.from_neighbours_m.max * 1e3,
+            n.ambiguous,
+            n.dropped,
+            n.one_sided
+        );
+    }
     let frames = c.cells.iter().filter(|p| p.orientation_observable).count();
     s += &format!(
         "  frames: {frames} known, {} not (a link gravity always meets the same way)\n",

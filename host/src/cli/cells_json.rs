@@ -18,6 +18,7 @@ pub fn cells_json(c: &Calibration) -> Vec<Value> {
                 "rpy": p.rpy(),
                 "observable": observable,
                 "unobservable_directions": p.unobservable.iter().map(|v| v.as_slice().to_vec()).collect::<Vec<_>>(),
+                "from_neighbours_directions": p.from_neighbours.iter().map(|v| v.as_slice().to_vec()).collect::<Vec<_>>(),
                 "position_sigma_m": p.position_sigma_m.iter().map(|&s| finite_or_null(s)).collect::<Vec<_>>(),
                 "orientation_observable": p.orientation_observable,
                 "orientation_sigma_deg": finite_or_null(p.orientation_sigma_rad.to_degrees()),

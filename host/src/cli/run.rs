@@ -15,6 +15,7 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use skin_host::calibrate::export::{picture, ros_poses, skin_toml, urdf_with_skin};
+use skin_host::calibrate::neighbours::{resolve, NeighbourConfig};
 use skin_host::calibrate::{calibrate, CalibrateConfig};
 use skin_host::config::{Config, Traffic};
 use skin_host::explore::ExploreConfig;
@@ -184,11 +185,15 @@ fn calibrate_skin(
     let bar = job::bar("{msg:24} [{bar:30}] {pos}/{len} postures and excitations");
     bar.set_message("skin calibration");
     let cfg = CalibrateConfig { range, ..CalibrateConfig::default() };
-    let c = calibrate(remote, model, &found.exploration, &cfg, &mut |p| {
+    let mut c = calibrate(remote, model, &found.exploration, &cfg, &mut |p| {
         bar.set_length(p.total as u64);
         bar.set_position(p.done as u64);
     })?;
     bar.finish_and_clear();
+    // The skin's own neighbour tables place what the motion left blind.
+    let tables: Vec<_> =
+        remote.interface().registry().cells().filter_map(|r| r.neighbours().map(|n| (r.id(), *n))).collect();
+    resolve(&mut c.cells, model, &c.description_start, &tables, &NeighbourConfig::default());
     let with_skin = urdf_with_skin(text, model, &c)?;
     let mut files = Vec::new();
     for (file, content) in [("skin.toml", skin_toml(model, &c)), ("robot_with_skin.urdf", with_skin.clone())] {

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::ValueEnum;
 use skin_sim::accel::Bma250Config;
-use skin_sim::robot::{hrp2, Robot, UrdfError};
+use skin_sim::robot::{hrp2, Link, Robot, UrdfError};
 use skin_sim::skin::{Skin, SkinError};
 use skin_sim::world::{BaseConfig, World, WorldConfig};
 
@@ -21,6 +21,10 @@ pub struct SimArgs {
     /// Skin file (TOML or JSON) listing the cells of each link with their poses.
     #[arg(long, value_name = "FILE")]
     skin: Option<PathBuf>,
+    /// Lay the cells in wired patches one cell pitch apart, so the skin's
+    /// neighbour tables follow its geometry (`skin calibrate` uses them).
+    #[arg(long, conflicts_with = "skin")]
+    patches: bool,
     /// Seed of everything random: skin placement, sensor errors, noise, sway.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -90,11 +94,15 @@ impl SimArgs {
             return Err(Error::NoiseScale(self.noise_scale));
         }
         let robot = self.robot()?;
-        let skin = match (&self.skin, self.cells_per_link, &self.urdf) {
-            (Some(path), _, _) => Skin::from_file(&robot, path),
-            (None, Some(n), _) => Skin::per_link(&robot, n, self.seed),
-            (None, None, None) => Skin::with_counts(&robot, &hrp2::SKIN, self.seed),
-            (None, None, Some(_)) => Skin::per_link(&robot, 4, self.seed),
+        let count = |link: &Link| match (self.cells_per_link, &self.urdf) {
+            (Some(n), _) => n,
+            (None, None) => hrp2::skin_cells_on(&link.name),
+            (None, Some(_)) => 4,
+        };
+        let skin = match &self.skin {
+            Some(path) => Skin::from_file(&robot, path),
+            None if self.patches => Skin::patches(&robot, count, self.seed),
+            None => Skin::on_surfaces(&robot, count, self.seed),
         }?;
         let base = match self.base {
             Base::Standing => BaseConfig::standing(),

@@ -34,6 +34,11 @@ pub const SKIN: [(&str, usize); 15] = [
     ("LARM_LINK6", 2),
 ];
 
+/// Cells of the built-in skin on the link named `link`.
+pub fn skin_cells_on(link: &str) -> usize {
+    SKIN.iter().filter(|(name, _)| *name == link).map(|(_, n)| n).sum()
+}
+
 /// One arm joint: axis, origin in the parent link, limits (right arm),
 /// velocity limit, and the child link's shape, mass and home angle.
 struct ArmJoint {

@@ -1,0 +1,595 @@
+//! The along-axis part of a cell's position from the skin's own geometry.
+//!
+//! On a link moved by a single joint the motion shows every cell's
+//! position except along that joint's axis, and all cells of the link
+//! share that blind direction: neighbours on the same link only tell the
+//! patch's shape along the axis, never where it sits. What anchors it is a
+//! neighbour whose position is known, on another link (a patch wired
+//! across a joint), related to this link by the known kinematics in the
+//! start posture (the posture the skin was laid in).
+//!
+//! Two wired cells are one cell pitch apart (within the connectors'
+//! tolerance), and the chord between them lies in the surface: on a
+//! surface of constant curvature it is perpendicular to the mean of the two
+//! normals, which the gravity fit knows well. The pitch gives the
+//! along-axis step up to its sign, the chord's tangency gives it directly
+//! where the normals lean on the axis; where neither settles it, or no
+//! chain of wires reaches a known cell, the direction stays unobservable.
+//! Neighbour tables are trusted only where both cells name each other on
+//! the same ports, and a wire that cannot be a pitch long is dropped.
+
+use std::collections::HashMap;
+
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Point3, Vector3};
+use skin_protocol::message::NeighbourReport;
+use skin_protocol::Address;
+use skin_sim::robot::Robot as Model;
+
+use super::{at_rest_full, CellPose};
+
+/// Bounds are taken this many standard deviations out.
+const BOUND_SIGMAS: f64 = 3.0;
+/// A step that disagrees with another estimate of it by more than this
+/// many standard deviations is a wrong wire (or the wrong sign).
+const CONFLICT_SIGMAS: f64 = 4.0;
+/// The other sign of the pitch's step is ruled out beyond this many.
+const EXCLUDE_SIGMAS: f64 = 5.0;
+/// How far the chord may lean out of the normals' bisector per unit of
+/// half the turn between them (0 on a surface of constant curvature, up to
+/// 1 across a sharp edge), as a standard deviation.
+const CURVATURE_SHARE: f64 = 0.5;
+/// The accelerometer's z axis is the cell's normal to within its mounting
+/// error, rad (datasheet misalignment, as one standard deviation and more).
+const MOUNT_SIGMA_RAD: f64 = 0.035;
+/// Cells of one link whose blind directions differ more than this are not
+/// chained, rad.
+const AXIS_AGREEMENT_RAD: f64 = 0.02;
+
+/// What the skin's geometry is taken to be.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NeighbourConfig {
+    /// Centre-to-centre distance of wired cells, m.
+    pub pitch_m: f64,
+    /// The pitch varies by up to this fraction either way.
+    pub pitch_tolerance: f64,
+    /// An along-axis position is given when its standard deviation is at most this, m.
+    pub max_sigma_m: f64,
+}
+
+impl Default for NeighbourConfig {
+    fn default() -> Self {
+        NeighbourConfig {
+            pitch_m: skin_sim::skin::CELL_PITCH_M,
+            pitch_tolerance: skin_sim::skin::PITCH_TOLERANCE,
+            max_sigma_m: 0.005,
+        }
+    }
+}
+
+/// The chord from a cell `a` to a wired neighbour `b` in `a`'s link frame:
+/// `offset + step * axis`, `step` unknown.
+#[derive(Clone, Copy, Debug)]
+pub struct Chord {
+    /// The known part of the chord, m.
+    pub offset: Vector3<f64>,
+    /// Its covariance, m^2.
+    pub offset_covariance: Matrix3<f64>,
+    /// The blind direction (unit).
+    pub axis: Vector3<f64>,
+    /// Outward normals of the two cells (unit).
+    pub normals: [Vector3<f64>; 2],
+    /// Standard deviation of each normal's direction, rad.
+    pub normal_sigma_rad: f64,
+}
+
+/// What a wire says of its chord's unknown step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Step {
+    /// The step, m, and its standard deviation.
+    Known(f64, f64),
+    /// Two steps fit (the pitch's sign) and the normals cannot choose.
+    Ambiguous,
+    /// No step makes the cells a pitch apart along the surface: a wrong wire.
+    Impossible,
+}
+
+/// The step of `chord` that puts its cells a pitch apart along their surface.
+pub fn step(chord: &Chord, cfg: &NeighbourConfig) -> Step {
+    let u = chord.axis;
+    let c = chord.offset.dot(&u);
+    let h = (chord.offset - c * u).norm();
+    let offset_sigma = chord.offset_covariance.symmetric_eigenvalues().max().max(0.0).sqrt();
+    let along_sigma = (u.transpose() * chord.offset_covariance * u)[0].max(0.0).sqrt();
+    let pitch_sigma = cfg.pitch_m * cfg.pitch_tolerance / 3f64.sqrt();
+    let d_sigma = pitch_sigma.hypot(offset_sigma);
+    let (lo, hi) = (cfg.pitch_m - BOUND_SIGMAS * d_sigma, cfg.pitch_m + BOUND_SIGMAS * d_sigma);
+    if h > hi {
+        return Step::Impossible;
+    }
+    let root = |d: f64| (d * d - h * h).max(0.0).sqrt();
+    let (s_lo, s_hi) = (if lo > h { root(lo) } else { 0.0 }, root(hi));
+    // The pitch: one interval about -c when the two signs meet, else two.
+    let pitch: Vec<(f64, f64)> = if s_lo == 0.0 {
+        vec![(-c, (s_hi / 3f64.sqrt()).hypot(along_sigma))]
+    } else {
+        let sigma = ((s_hi - s_lo) / (2.0 * BOUND_SIGMAS)).hypot(along_sigma);
+        let s = (s_lo + s_hi) / 2.0;
+        vec![(-c + s, sigma), (-c - s, sigma)]
+    };
+    // The chord lies across the normals' bisector.
+    let [na, nb] = chord.normals;
+    let bisector = (na + nb).try_normalize(1e-9);
+    let tangent = bisector.and_then(|m| {
+        let lean = u.dot(&m);
+        let turn = na.angle(&nb);
+        let angle_sigma = chord.normal_sigma_rad.hypot(CURVATURE_SHARE * (turn / 2.0).sin());
+        let sigma = (cfg.pitch_m * angle_sigma).hypot((m.transpose() * chord.offset_covariance * m)[0].max(0.0).sqrt())
+            / lean.abs();
+        (lean.abs() > 1e-6).then(|| (-chord.offset.dot(&m) / lean, sigma))
+    });
+    let apart = |(a, sa): (f64, f64), (b, sb): (f64, f64)| (a - b).abs() / sa.hypot(sb);
+    let better = |a: (f64, f64), b: (f64, f64)| if a.1 <= b.1 { a } else { b };
+    match (pitch.as_slice(), tangent) {
+        (&[one], None) => Step::Known(one.0, one.1),
+        (&[one], Some(t)) if apart(one, t) <= CONFLICT_SIGMAS => {
+            let (v, s) = better(one, t);
+            Step::Known(v, s)
+        }
+        (&[plus, minus], Some(t)) => {
+            let (zp, zm) = (apart(plus, t), apart(minus, t));
+            let (near, far) = if zp <= zm { (plus, zm) } else { (minus, zp) };
+            if zp.min(zm) > CONFLICT_SIGMAS {
+                Step::Impossible
+            } else if far >= EXCLUDE_SIGMAS {
+                let (v, s) = better(near, t);
+                Step::Known(v, s)
+            } else if t.1 <= cfg.max_sigma_m {
+                // Both signs fit: the tangency alone says where.
+                Step::Known(t.0, t.1)
+            } else {
+                Step::Ambiguous
+            }
+        }
+        (&[_, _], None) => Step::Ambiguous,
+        _ => Step::Impossible,
+    }
+}
+
+/// What resolving the cells' blind directions did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Resolved {
+    /// Cells whose along-axis position now comes from their neighbours.
+    pub cells: usize,
+    /// Wires used.
+    pub wires: usize,
+    /// Wires one cell reports and its neighbour does not (ignored).
+    pub one_sided: usize,
+    /// Wires that cannot be a pitch long, or contradict the others (dropped).
+    pub dropped: usize,
+    /// Wires whose step's sign the normals could not choose.
+    pub ambiguous: usize,
+}
+
+/// A cell with one blind direction, on `body`.
+struct Node {
+    cell: usize,
+    axis: Vector3<f64>,
+}
+
+/// One equation of a link's steps: `t[b] - t[a] = step` (`a` `None`: `t[b]` itself).
+struct Equation {
+    a: Option<usize>,
+    b: usize,
+    step: f64,
+    sigma: f64,
+}
+
+/// Gives the cells of `cells` whose position is blind along one direction
+/// that direction from the neighbour `tables`, where a chain of wires
+/// anchors it on a cell known in 3D; `start` is the posture (description
+/// DoF order) in which wires across joints are a pitch long.
+pub fn resolve(
+    cells: &mut [CellPose],
+    model: &Model,
+    start: &[f64],
+    tables: &[(Address, NeighbourReport)],
+    cfg: &NeighbourConfig,
+) -> Resolved {
+    let mut out = Resolved::default();
+    let index: HashMap<Address, usize> = cells.iter().enumerate().map(|(i, c)| (c.id, i)).collect();
+    let wires = mutual_wires(tables, &index, &mut out);
+    let poses: Vec<Isometry3<f64>> = at_rest_full(model, start).iter().map(|s| s.pose).collect();
+    let known = |c: &CellPose| c.unobservable.is_empty() && c.from_neighbours.is_empty() && usable(c);
+    let mut bodies: Vec<usize> = cells.iter().filter(|c| blind_once(c)).map(|c| c.body).collect();
+    bodies.sort_unstable();
+    bodies.dedup();
+    for body in bodies {
+        // The link's blind direction, every node's sign turned to agree.
+        let mut nodes: Vec<Node> = Vec::new();
+        for (i, c) in cells.iter().enumerate().filter(|(_, c)| c.body == body && blind_once(c)) {
+            let mut axis = c.unobservable[0];
+            if let Some(first) = nodes.first() {
+                axis *= axis.dot(&first.axis).signum();
+                if axis.angle(&first.axis) > AXIS_AGREEMENT_RAD {
+                    continue;
+                }
+            }
+            nodes.push(Node { cell: i, axis });
+        }
+        let node_of: HashMap<usize, usize> = nodes.iter().enumerate().map(|(k, n)| (n.cell, k)).collect();
+        let mut equations = Vec::new();
+        for &(i, j) in &wires {
+            for (a, b) in [(i, j), (j, i)] {
+                let Some(&ka) = node_of.get(&a) else { continue };
+                let (ca, cb) = (&cells[a], &cells[b]);
+                let axis = nodes[ka].axis;
+                let to_link = poses[body].inverse() * poses[cb.body];
+                let (offset, covariance, unknown_b) = match node_of.get(&b) {
+                    // Both on this link: each cell's own blind part is zero.
+                    Some(&kb) if ka < kb => {
+                        (cb.position - ca.position, cb.position_covariance_m2 + ca.position_covariance_m2, Some(kb))
+                    }
+                    Some(_) => continue,
+                    None if known(cb) && cb.body != body => {
+                        let r = to_link.rotation.to_rotation_matrix().into_inner();
+                        let x = to_link * Point3::from(cb.position);
+                        (
+                            x.coords - ca.position,
+                            r * cb.position_covariance_m2 * r.transpose() + ca.position_covariance_m2,
+                            None,
+                        )
+                    }
+                    None => continue,
+                };
+                let chord = Chord {
+                    offset,
+                    offset_covariance: covariance,
+                    axis,
+                    normals: [ca.frame * Vector3::z(), to_link.rotation * (cb.frame * Vector3::z())],
+                    normal_sigma_rad: ca.orientation_sigma_rad.max(cb.orientation_sigma_rad).hypot(MOUNT_SIGMA_RAD),
+                };
+                match step(&chord, cfg) {
+                    // The chord is offset + (t_b - t_a) axis; for a known b, -t_a.
+                    Step::Known(v, sigma) => equations.push(match unknown_b {
+                        Some(kb) => Equation { a: Some(ka), b: kb, step: v, sigma },
+                        None => Equation { a: None, b: ka, step: -v, sigma },
+                    }),
+                    Step::Ambiguous => out.ambiguous += 1,
+                    Step::Impossible => out.dropped += 1,
+                }
+            }
+        }
+        out.wires += equations.len();
+        let (along, dropped) = solve(nodes.len(), &equations);
+        out.dropped += dropped;
+        out.wires -= dropped;
+        for (node, t) in nodes.iter().zip(along) {
+            let Some((t, sigma)) = t.filter(|(_, s)| *s <= cfg.max_sigma_m) else { continue };
+            let c = &mut cells[node.cell];
+            c.position += node.axis * t;
+            c.position_covariance_m2 += node.axis * node.axis.transpose() * (sigma * sigma);
+            c.position_sigma_m = c.position_covariance_m2.diagonal().map(|v| v.max(0.0).sqrt());
+            c.unobservable.clear();
+            c.from_neighbours = vec![node.axis];
+            out.cells += 1;
+        }
+    }
+    out
+}
+
+/// A cell whose link and frame are trusted.
+fn usable(c: &CellPose) -> bool {
+    c.orientation_observable && !c.inconsistent && c.ambiguous_with.is_empty()
+}
+
+/// A trusted cell blind along exactly one direction.
+fn blind_once(c: &CellPose) -> bool {
+    c.unobservable.len() == 1 && usable(c)
+}
+
+/// Pairs of cells (indices) that name each other on matching ports; a
+/// wire only one end reports is counted and left out.
+fn mutual_wires(
+    tables: &[(Address, NeighbourReport)],
+    index: &HashMap<Address, usize>,
+    out: &mut Resolved,
+) -> Vec<(usize, usize)> {
+    let table: HashMap<Address, &NeighbourReport> = tables.iter().map(|(id, r)| (*id, r)).collect();
+    let mut wires = Vec::new();
+    for (id, report) in tables {
+        for (port, n) in report.neighbours.iter().enumerate() {
+            let Some(n) = n else { continue };
+            let back = table.get(&n.id).and_then(|r| r.neighbours[n.port as usize]);
+            let mutual = back.is_some_and(|b| b.id == *id && b.port as usize == port);
+            match (index.get(id), index.get(&n.id)) {
+                (Some(&a), Some(&b)) if mutual && a < b => wires.push((a, b)),
+                (Some(_), Some(_)) if !mutual => out.one_sided += 1,
+                _ => {}
+            }
+        }
+    }
+    wires
+}
+
+/// Least squares of the nodes' steps from `equations`, per chain of wires
+/// anchored on a known cell; `None` for a node no anchored chain reaches,
+/// and for every node of a chain whose wires contradict each other beyond
+/// chance (which of them is wrong cannot be told). Returns the
+/// steps and the wires of contradicted chains.
+fn solve(nodes: usize, equations: &[Equation]) -> (Vec<Option<(f64, f64)>>, usize) {
+    let chain = chains(nodes, equations);
+    let mut out = vec![None; nodes];
+    let mut dropped = 0;
+    for id in 0..nodes {
+        let members: Vec<usize> = (0..nodes).filter(|&k| chain[k] == id).collect();
+        let used: Vec<&Equation> = equations.iter().filter(|e| chain[e.b] == id).collect();
+        if members.is_empty() || !used.iter().any(|e| e.a.is_none()) {
+            continue;
+        }
+        let col: HashMap<usize, usize> = members.iter().enumerate().map(|(c, &k)| (k, c)).collect();
+        let mut info = DMatrix::<f64>::zeros(members.len(), members.len());
+        let mut rhs = DVector::<f64>::zeros(members.len());
+        for e in &used {
+            let w = e.sigma.powi(-2);
+            let b = col[&e.b];
+            info[(b, b)] += w;
+            rhs[b] += w * e.step;
+            if let Some(a) = e.a.map(|a| col[&a]) {
+                info[(a, a)] += w;
+                info[(a, b)] -= w;
+                info[(b, a)] -= w;
+                rhs[a] -= w * e.step;
+            }
+        }
+        let Some(chol) = info.cholesky() else { continue };
+        let t = chol.solve(&rhs);
+        let value = |k: Option<usize>| k.map_or(0.0, |k| t[col[&k]]);
+        // Spare wires that disagree beyond chance: a wrong wire pulls the
+        // fit toward it, so the whole chain's misfit is judged, not each wire's.
+        let chi2: f64 = used.iter().map(|e| ((value(Some(e.b)) - value(e.a) - e.step) / e.sigma).powi(2)).sum();
+        let spare = used.len().saturating_sub(members.len()) as f64;
+        if chi2 > spare + CONFLICT_SIGMAS * (2.0 * spare).sqrt() + CONFLICT_SIGMAS {
+            dropped += used.len();
+            continue;
+        }
+        let covariance = chol.inverse();
+        for (&k, &c) in &col {
+            out[k] = Some((t[c], covariance[(c, c)].max(0.0).sqrt()));
+        }
+    }
+    (out, dropped)
+}
+
+/// The chain (lowest node index in it) each node belongs to.
+fn chains(nodes: usize, equations: &[Equation]) -> Vec<usize> {
+    let mut chain: Vec<usize> = (0..nodes).collect();
+    let mut merged = true;
+    while merged {
+        merged = false;
+        for e in equations {
+            if let Some(a) = e.a {
+                let low = chain[a].min(chain[e.b]);
+                if chain[a] != low || chain[e.b] != low {
+                    let (old_a, old_b) = (chain[a], chain[e.b]);
+                    chain.iter_mut().filter(|c| **c == old_a || **c == old_b).for_each(|c| *c = low);
+                    merged = true;
+                }
+            }
+        }
+    }
+    chain
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Rotation3;
+    use proptest::prelude::*;
+    use skin_protocol::message::{Neighbour, Port};
+
+    const P: f64 = 0.025;
+    const SIGMA: f64 = 5e-4;
+
+    fn cfg() -> NeighbourConfig {
+        NeighbourConfig { pitch_m: P, pitch_tolerance: 0.05, max_sigma_m: 0.005 }
+    }
+
+    fn chord(offset: Vector3<f64>, normals: [Vector3<f64>; 2]) -> Chord {
+        Chord {
+            offset,
+            offset_covariance: Matrix3::identity() * SIGMA * SIGMA,
+            axis: Vector3::z(),
+            normals,
+            normal_sigma_rad: MOUNT_SIGMA_RAD,
+        }
+    }
+
+    #[test]
+    fn the_normals_choose_the_pitchs_sign_where_they_lean_on_the_axis() {
+        // A chamfer: the surface leans 45 degrees on the axis, the chord runs up it.
+        let n = Vector3::new(1.0, 0.0, 1.0).normalize();
+        let up = Vector3::new(-1.0, 0.0, 1.0).normalize() * P;
+        let Step::Known(v, s) = step(&chord(Vector3::new(up.x, 0.0, 0.0), [n, n]), &cfg()) else { panic!("no step") };
+        assert!((v - up.z).abs() < 3.0 * s && s < 0.002, "{v} {s} against {}", up.z);
+        // Down the chamfer: the other sign.
+        let Step::Known(v, _) = step(&chord(Vector3::new(-up.x, 0.0, 0.0), [n, n]), &cfg()) else { panic!("no step") };
+        assert!((v + up.z).abs() < 0.002, "{v}");
+    }
+
+    #[test]
+    fn normals_square_to_the_axis_leave_the_sign_undecided() {
+        // A cylinder about the axis: every normal is square to it, and a
+        // neighbour a pitch away could be above or below.
+        let (a, b) = (Vector3::x(), Vector3::new(1.0, 0.3, 0.0).normalize());
+        assert_eq!(step(&chord(Vector3::new(0.0, 0.5 * P, 0.0), [a, b]), &cfg()), Step::Ambiguous);
+    }
+
+    #[test]
+    fn a_neighbour_exactly_on_the_axis_plane_says_little() {
+        // The chord's known part is already a pitch long: the step is about
+        // zero but the pitch's tolerance lets it be a centimetre either way.
+        let n = Vector3::x();
+        let Step::Known(v, s) = step(&chord(Vector3::new(0.0, P, 0.0), [n, n]), &cfg()) else { panic!("no step") };
+        assert_eq!(v, 0.0);
+        assert!(s > cfg().max_sigma_m, "{s}: a narrow claim from a chord square to the axis");
+        // Leaning normals pin it down.
+        let lean = Vector3::new(1.0, 0.0, 1.0).normalize();
+        let Step::Known(v, s) = step(&chord(Vector3::new(0.0, P, 0.0), [lean, lean]), &cfg()) else { panic!() };
+        assert!(v.abs() < 3.0 * s && s < 0.002, "{v} {s}");
+    }
+
+    #[test]
+    fn a_wire_longer_than_any_pitch_is_impossible() {
+        let n = Vector3::new(1.0, 0.0, 1.0).normalize();
+        assert_eq!(step(&chord(Vector3::new(0.0, 2.0 * P, 0.0), [n, n]), &cfg()), Step::Impossible);
+    }
+
+    proptest! {
+        /// On any plane, a true wire's step is never impossible, and when
+        /// given it is within five of its claimed standard deviations.
+        #[test]
+        fn a_true_wire_never_misleads(
+            tilt in 0.0f64..1.5, azimuth in 0.0..std::f64::consts::TAU, heading in 0.0..std::f64::consts::TAU, stretch in -1.0f64..1.0,
+        ) {
+            let n = Rotation3::from_axis_angle(&Vector3::z_axis(), azimuth) * Rotation3::from_axis_angle(&Vector3::y_axis(), tilt) * Vector3::z();
+            let e1 = n.cross(&Vector3::x()).try_normalize(1e-9).unwrap_or(Vector3::y());
+            let e2 = n.cross(&e1);
+            let chord_truth = (e1 * heading.cos() + e2 * heading.sin()) * P * (1.0 + 0.05 * stretch);
+            let offset = Vector3::new(chord_truth.x, chord_truth.y, 0.0);
+            match step(&chord(offset, [n, n]), &cfg()) {
+                Step::Known(v, s) => prop_assert!((v - chord_truth.z).abs() <= 5.0 * s + 1e-9, "{} vs {} (sigma {})", v, chord_truth.z, s),
+                Step::Ambiguous => {}
+                Step::Impossible => prop_assert!(false, "a true wire called impossible"),
+            }
+        }
+    }
+
+    /// A base, link `a` turned by one joint about z, and link `b` beyond it
+    /// (about x, 0.1 m up): cells on `a` are blind along z.
+    fn model() -> Model {
+        Model::from_urdf_str(
+            r#"<robot name="t"><link name="base"/><link name="a"/><link name="b"/>
+            <joint name="j1" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+            <joint name="j2" type="revolute"><parent link="a"/><child link="b"/><origin xyz="0 0 0.1"/><axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"#,
+        )
+        .unwrap()
+    }
+
+    /// A cell at `p` (link frame) facing `n`, blind along z unless `known`.
+    fn cell(id: u16, body: usize, p: Vector3<f64>, n: Vector3<f64>, known: bool) -> CellPose {
+        let frame = Rotation3::rotation_between(&Vector3::z(), &n).unwrap();
+        let position = if known { p } else { Vector3::new(p.x, p.y, 0.0) };
+        let covariance =
+            if known { Matrix3::identity() } else { Matrix3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0) };
+        CellPose {
+            id: Address(id),
+            body,
+            link: String::new(),
+            position,
+            frame,
+            position_sigma_m: if known { Vector3::repeat(SIGMA) } else { Vector3::new(SIGMA, SIGMA, f64::INFINITY) },
+            position_covariance_m2: covariance * SIGMA * SIGMA,
+            unobservable: if known { vec![] } else { vec![Vector3::z()] },
+            from_neighbours: vec![],
+            orientation_sigma_rad: 0.005,
+            orientation_observable: true,
+            gain: Vector3::repeat(1.0),
+            offset_mps2: Vector3::zeros(),
+            motion_residual_mps2: 0.0,
+            inconsistent: false,
+            ambiguous_with: vec![],
+        }
+    }
+
+    /// Tables wiring each pair on the first free ports of both.
+    fn tables(ids: &[u16], wires: &[(u16, u16)]) -> Vec<(Address, NeighbourReport)> {
+        let mut t: Vec<(Address, NeighbourReport)> =
+            ids.iter().map(|&i| (Address(i), NeighbourReport::default())).collect();
+        for &(a, b) in wires {
+            let free = |t: &Vec<(Address, NeighbourReport)>, id: u16| {
+                let k = t.iter().position(|(i, _)| i.0 == id).unwrap();
+                (k, t[k].1.neighbours.iter().position(Option::is_none).unwrap())
+            };
+            let ((ka, pa), (kb, pb)) = (free(&t, a), free(&t, b));
+            t[ka].1.neighbours[pa] = Some(Neighbour { id: Address(b), port: Port::ALL[pb] });
+            t[kb].1.neighbours[pb] = Some(Neighbour { id: Address(a), port: Port::ALL[pa] });
+        }
+        t
+    }
+
+    /// Three cells up a chamfer of link `a` and one on `b` below them.
+    fn chamfer() -> (Model, Vec<CellPose>, Vec<Vector3<f64>>) {
+        let model = model();
+        let (a, b) = (model.link("a").unwrap().body, model.link("b").unwrap().body);
+        let n = Vector3::new(1.0, 0.0, 1.0).normalize();
+        let up = Vector3::new(-1.0, 0.0, 1.0).normalize() * P;
+        let origin = Vector3::new(0.05, 0.0, 0.05);
+        let truth: Vec<Vector3<f64>> = (0..3).map(|k| origin + up * f64::from(k)).collect();
+        let mut cells: Vec<CellPose> =
+            truth.iter().enumerate().map(|(k, p)| cell(k as u16 + 1, a, *p, n, false)).collect();
+        // The anchor: a pitch down the chamfer, on `b` (0.1 m up the axis from `a`).
+        cells.push(cell(9, b, origin - up - Vector3::new(0.0, 0.0, 0.1), n, true));
+        (model, cells, truth)
+    }
+
+    #[test]
+    fn a_chain_anchored_across_the_joint_places_the_whole_patch() {
+        let (model, mut cells, truth) = chamfer();
+        let t = tables(&[1, 2, 3, 9], &[(9, 1), (1, 2), (2, 3)]);
+        let r = resolve(&mut cells, &model, &[0.0, 0.0], &t, &cfg());
+        assert_eq!((r.cells, r.wires, r.dropped, r.one_sided), (3, 3, 0, 0));
+        for (c, p) in cells.iter().zip(&truth) {
+            let e = (c.position - p).norm();
+            let claimed = c.position_sigma_m.norm();
+            assert!(c.unobservable.is_empty() && c.from_neighbours == [Vector3::z()], "{c:?}");
+            assert!(e < 5.0 * claimed && claimed < 0.004, "cell {}: {e} m off, {claimed} m claimed", c.id.0);
+        }
+        // Farther along the chain, less certain.
+        assert!(cells[2].position_sigma_m.z > cells[0].position_sigma_m.z);
+    }
+
+    #[test]
+    fn neighbours_on_the_same_link_alone_leave_it_unobservable() {
+        let (model, mut cells, _) = chamfer();
+        let t = tables(&[1, 2, 3, 9], &[(1, 2), (2, 3)]);
+        let before = cells.clone();
+        let r = resolve(&mut cells, &model, &[0.0, 0.0], &t, &cfg());
+        assert_eq!(r.cells, 0);
+        assert_eq!(cells, before);
+    }
+
+    #[test]
+    fn a_one_sided_or_impossible_wire_anchors_nothing() {
+        let (model, mut cells, _) = chamfer();
+        // The anchor names cell 1, which does not name it back.
+        let mut t = tables(&[1, 2, 3, 9], &[(9, 1), (1, 2)]);
+        t[0].1.neighbours[0] = None;
+        let before = cells.clone();
+        let r = resolve(&mut cells, &model, &[0.0, 0.0], &t, &cfg());
+        assert_eq!((r.cells, r.one_sided), (0, 1));
+        assert_eq!(cells, before);
+        // Cell 3 (two pitches from the anchor) wired to it by mistake.
+        let t = tables(&[1, 2, 3, 9], &[(9, 3), (1, 2), (2, 3)]);
+        let r = resolve(&mut cells, &model, &[0.0, 0.0], &t, &cfg());
+        assert_eq!((r.cells, r.dropped), (0, 1));
+        assert_eq!(cells, before);
+    }
+
+    #[test]
+    fn a_wrong_wire_beside_true_ones_is_outvoted_or_dropped() {
+        let (model, mut cells, truth) = chamfer();
+        // A true anchor for cell 1, and a false one for cell 3: a pitch
+        // beside it square to the chamfer, but 12 mm up the axis.
+        let mut false_anchor = cells[3].clone();
+        false_anchor.id = Address(10);
+        false_anchor.position = truth[2] + Vector3::new(0.0, P, 0.012) - Vector3::new(0.0, 0.0, 0.1);
+        cells.push(false_anchor);
+        let t = tables(&[1, 2, 3, 9, 10], &[(9, 1), (1, 2), (2, 3), (10, 3)]);
+        let r = resolve(&mut cells, &model, &[0.0, 0.0], &t, &cfg());
+        assert!(r.dropped > 0, "{r:?}");
+        for (c, p) in cells.iter().zip(&truth).filter(|(c, _)| c.unobservable.is_empty()) {
+            let e = (c.position - p).norm();
+            assert!(e < 5.0 * c.position_sigma_m.norm() + 0.001, "cell {} confidently {e} m off ({r:?})", c.id.0);
+        }
+    }
+}
