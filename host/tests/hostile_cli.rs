@@ -49,6 +49,17 @@ fn seconds_no_clock_holds_are_refused_naming_the_flag() {
 }
 
 #[test]
+fn a_cell_pitch_no_skin_has_is_refused_before_the_robot_is_asked() {
+    let robot = free_addr();
+    for value in ["0", "-0.025", "NaN", "inf", "0.5"] {
+        refused(
+            &["run", "--robot", &robot, &format!("--cell-pitch={value}")],
+            &format!("--cell-pitch must lie in [0.005, 0.2] m, not {}", value.parse::<f64>().unwrap()),
+        );
+    }
+}
+
+#[test]
 fn sim_endpoint_stops_after_its_duration_and_says_what_it_served() {
     let out = skin(&["sim-endpoint", "--duration", "0.2", "--robot", "127.0.0.1:0", "--host", &free_addr()]);
     let err = String::from_utf8_lossy(&out.stderr);

@@ -61,6 +61,11 @@ pub struct Args {
     /// skin.toml and robot_with_skin.urdf (one frame per cell) into the report folder.
     #[arg(long, value_name = "FILE")]
     urdf: Option<PathBuf>,
+    /// With `--urdf`: the skin is laid in patches whose wired neighbours sit this far apart, m (centre to
+    /// centre); their neighbour tables then place what the motion leaves blind (a cell's position along
+    /// its link's only joint axis). Without it the tables say nothing about distance and are not used.
+    #[arg(long, value_name = "M")]
+    cell_pitch: Option<f64>,
     /// Record the run into this MCAP file: interface datagrams, robot link, ROS 2 topics (`skin replay` reads it).
     #[arg(long, value_name = "FILE.mcap")]
     record: Option<PathBuf>,
@@ -78,6 +83,9 @@ pub enum Error {
     /// A robot timeout of zero.
     #[error("--robot-timeout-ms must be at least 1")]
     RobotTimeout,
+    /// A cell pitch no skin has.
+    #[error("--cell-pitch must lie in [0.005, 0.2] m, not {0}")]
+    CellPitch(f64),
 }
 
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
@@ -86,6 +94,10 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     if args.robot_timeout_ms == 0 {
         return Err(Error::RobotTimeout.into());
     }
+    let pitch_m = match args.cell_pitch {
+        Some(p) if !(0.005..=0.2).contains(&p) => return Err(Error::CellPitch(p).into()),
+        p => p,
+    };
     check_folder(&args.out)?;
     // A description that cannot be used is refused before the robot moves.
     let description = match &args.urdf {
@@ -147,7 +159,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     }
     let found = job::run(&mut remote, &steps).map_err(Box::<dyn std::error::Error>::from).and_then(|found| {
         let calibration = match &description {
-            Some((text, model)) => Some(calibrate_skin(&mut remote, text, model, &found, range, &args.out)?),
+            Some((text, model)) => Some(calibrate_skin(&mut remote, text, model, &found, range, pitch_m, &args.out)?),
             None => None,
         };
         Ok((found, calibration))
@@ -172,7 +184,8 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
 }
 
 /// Calibrates the skin on the robot's description `text` (parsed into
-/// `model`), writes skin.toml and robot_with_skin.urdf into `out`, and
+/// `model`), with the neighbour tables where the skin's `pitch_m` is
+/// declared, writes skin.toml and robot_with_skin.urdf into `out`, and
 /// gives the recording, if any, the calibrated frames.
 fn calibrate_skin(
     remote: &mut Remote,
@@ -180,6 +193,7 @@ fn calibrate_skin(
     model: &Robot,
     found: &job::Found,
     range: AccelRange,
+    pitch_m: Option<f64>,
     out: &Path,
 ) -> Result<CalibrationSection, Box<dyn std::error::Error>> {
     let bar = job::bar("{msg:24} [{bar:30}] {pos}/{len} postures and excitations");
@@ -190,10 +204,14 @@ fn calibrate_skin(
         bar.set_position(p.done as u64);
     })?;
     bar.finish_and_clear();
-    // The skin's own neighbour tables place what the motion left blind.
-    let tables: Vec<_> =
-        remote.interface().registry().cells().filter_map(|r| r.neighbours().map(|n| (r.id(), *n))).collect();
-    resolve(&mut c.cells, model, &c.description_start, &tables, &NeighbourConfig::default());
+    // Wires a declared pitch long place what the motion left blind; a
+    // skin wired without regard to where its cells sit would place them wrong.
+    if let Some(pitch_m) = pitch_m {
+        let tables: Vec<_> =
+            remote.interface().registry().cells().filter_map(|r| r.neighbours().map(|n| (r.id(), *n))).collect();
+        let cfg = NeighbourConfig { pitch_m, ..NeighbourConfig::default() };
+        resolve(&mut c.cells, model, &c.description_start, &tables, &cfg);
+    }
     let with_skin = urdf_with_skin(text, model, &c)?;
     let mut files = Vec::new();
     for (file, content) in [("skin.toml", skin_toml(model, &c)), ("robot_with_skin.urdf", with_skin.clone())] {
