@@ -218,6 +218,7 @@ fn skin_flash_updates_the_simulated_skin_and_a_forged_image_is_refused_everywher
         let text = String::from_utf8_lossy(&out.stdout);
         assert_eq!(out.status.code(), Some(exit), "{text}{}", String::from_utf8_lossy(&out.stderr));
         assert!(text.lines().last().is_some_and(|l| l.starts_with(summary)), "{text}");
+        println!("{}", text.lines().last().unwrap_or_default());
     }
     fs::remove_dir_all(&dir).unwrap();
 }

@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use skin_host::config::InterfaceConfig;
 use skin_host::interface::{EventKind, Interface};
-use skin_protocol::update::{Distributor, Outcome};
+use skin_protocol::update::{Distributor, Outcome, Outgoing};
 use skin_protocol::Address;
 
 use super::seconds;
@@ -120,20 +120,16 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         // The rate per millisecond, for the time since the last send.
         let budget = (last_send.elapsed().as_micros() as usize * args.rate / 1000).clamp(1, 72);
         last_send = Instant::now();
-        let mut batch: Vec<(Address, skin_protocol::message::Message)> = Vec::new();
-        while batch.len() < budget {
-            let Some(next) = distributor.next(now_us) else { break };
-            batch.push(next);
-        }
-        // Consecutive frames to one destination go in one datagram.
-        for group in batch.chunk_by(|a, b| a.0 == b.0) {
-            let messages: Vec<_> = group.iter().map(|(_, m)| *m).collect();
-            interface.send_update(group[0].0, &messages)?;
+        let batch: Vec<Outgoing> = std::iter::from_fn(|| distributor.next(now_us)).take(budget).collect();
+        // Consecutive frames one way to one destination go in one datagram.
+        for group in batch.chunk_by(|a, b| (a.via, a.to) == (b.via, b.to)) {
+            let messages: Vec<_> = group.iter().map(|o| o.message).collect();
+            interface.send_update(group[0].via, group[0].to, &messages)?;
         }
         interface.poll(Duration::from_millis(1), &mut events)?;
         for e in events.drain(..) {
             if let EventKind::UpdateReport(r) = e.kind {
-                distributor.handle(e.cell, r);
+                distributor.handle(e.cell, e.interface, r);
             }
         }
         let outcomes: Vec<(Address, Outcome)> = distributor.outcomes().collect();

@@ -35,6 +35,7 @@ use std::time::{Duration, Instant};
 
 use skin_protocol::interface::{MAX_DATAGRAM, MAX_FRAMES};
 use skin_protocol::message::{ConfigWrite, Setting};
+use skin_protocol::update::Via;
 use skin_protocol::{Address, Frame, Message};
 
 pub use counters::{DatagramCounters, DatagramReject, FrameCounters, FrameReject, InterfaceCounters};
@@ -207,14 +208,16 @@ impl Interface {
     }
 
     /// Sends update messages (see [`skin_protocol::update::Distributor`])
-    /// to `target`: down the port a known cell is heard through, or down
-    /// every port whose address is known.
-    pub fn send_update(&mut self, target: Address, messages: &[Message]) -> Result<(), Error> {
+    /// to `target` down `via`: one interface port by its number, or (for
+    /// [`Via::Every`]) the port a known cell is heard through, else every
+    /// port whose address is known.
+    pub fn send_update(&mut self, via: Via, target: Address, messages: &[Message]) -> Result<(), Error> {
         let known = |i: &usize| self.ingest.ports().get(*i).address().is_some();
         let cell_port = self.ingest.registry().get(target).and_then(|c| self.ingest.ports().index_of(c.interface()));
-        let ports: Vec<usize> = match cell_port {
-            Some(p) => vec![p],
-            None => (0..self.ingest.ports().len()).filter(known).collect(),
+        let ports: Vec<usize> = match (via, cell_port) {
+            (Via::Port(number), _) => self.ingest.ports().index_of(number).filter(known).into_iter().collect(),
+            (Via::Every, Some(p)) => vec![p],
+            (Via::Every, None) => (0..self.ingest.ports().len()).filter(known).collect(),
         };
         if ports.is_empty() {
             return Err(Error::NoPortAddress);

@@ -8,11 +8,12 @@
 //! goes at the pace of the slowest tree. Time in, frames out: the caller
 //! sends what [`Distributor::next`] gives as fast as its links take it.
 //!
-//! A resent chunk goes to every cell: a cell's router copies whatever comes
-//! down its master port to all its children (it does not know where an
-//! address lives), so a chunk sent to one cell crosses the whole tree
-//! anyway, and sent to all it costs no more and serves every cell that
-//! missed it at once.
+//! A resent chunk goes as a broadcast down only the interface ports whose
+//! trees hold a cell that asked for it, once per port: a cell's router
+//! copies whatever comes down its master port to all its children (it does
+//! not know where an address lives), so a chunk sent to one cell crosses
+//! its whole tree anyway, and broadcast there it serves every cell of that
+//! tree that missed it at once, while the other trees are spared.
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
@@ -55,6 +56,33 @@ impl Outcome {
     }
 }
 
+/// Which interface ports a frame of the update goes down.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Via {
+    /// Every interface port: offers, commands and the first pass of chunks.
+    Every,
+    /// Only this interface port: a chunk some cell of its tree asked for.
+    Port(u8),
+}
+
+impl Via {
+    /// True when the frame goes down interface port `port`.
+    pub fn includes(self, port: u8) -> bool {
+        self == Via::Every || self == Via::Port(port)
+    }
+}
+
+/// One frame of the update to send: down `via`, to `to`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Outgoing {
+    /// The interface ports it goes down.
+    pub via: Via,
+    /// Its destination (a cell, or [`Address::BROADCAST`]).
+    pub to: Address,
+    /// The message.
+    pub message: Message,
+}
+
 /// The host's update of every cell it knows to one image.
 #[derive(Clone, Debug)]
 pub struct Distributor {
@@ -62,8 +90,9 @@ pub struct Distributor {
     chunks: Vec<ImageChunk>,
     cells: BTreeMap<Address, Option<UpdateReport>>,
     next_chunk: usize,
-    /// Chunks some cell asked for again, sent lowest first.
-    repairs: BTreeSet<u16>,
+    /// Chunks some cell asked for again, with the interface port its report
+    /// came up, sent lowest first, each once per port.
+    repairs: BTreeSet<(u16, u8)>,
     rounds: Rounds,
     confirms: VecDeque<Address>,
     last_offer_us: Option<u64>,
@@ -122,8 +151,9 @@ impl Distributor {
         UpdateOffer { version: self.version, chunks: self.chunks.len() as u16 }
     }
 
-    /// A report from a cell; a cell not in the list is added.
-    pub fn handle(&mut self, from: Address, report: UpdateReport) {
+    /// A report from a cell that came up interface port `port`; a cell not
+    /// in the list is added.
+    pub fn handle(&mut self, from: Address, port: u8, report: UpdateReport) {
         self.cells.insert(from, Some(report));
         self.rounds.heard(from);
         match report.state {
@@ -131,8 +161,9 @@ impl Distributor {
                 // Only what the broadcast pass has already sent, and not
                 // in this round, is missed.
                 let end = report.first_missing.saturating_add(report.missing.min(REPAIR_WINDOW));
-                let missed =
-                    (report.first_missing..end.min(self.next_chunk as u16)).filter(|i| !self.rounds.in_flight(*i));
+                let missed = (report.first_missing..end.min(self.next_chunk as u16))
+                    .filter(|i| !self.rounds.in_flight(*i, port))
+                    .map(|i| (i, port));
                 self.repairs.extend(missed);
             }
             // Every trial report is confirmed: the confirm itself may be lost.
@@ -169,10 +200,11 @@ impl Distributor {
         last.is_none_or(|t| now_us.saturating_sub(t) >= REPEAT_US)
     }
 
-    /// The next frame to send at `now_us`: its destination and message.
-    /// `None` when there is nothing to send now.
-    pub fn next(&mut self, now_us: u64) -> Option<(Address, Message)> {
+    /// The next frame to send at `now_us`. `None` when there is nothing to
+    /// send now.
+    pub fn next(&mut self, now_us: u64) -> Option<Outgoing> {
         let command = |action| Message::UpdateCommand(UpdateCommand { version: self.version, action });
+        let every = |to, message| Some(Outgoing { via: Via::Every, to, message });
         if self.confirms.is_empty() && Self::due(self.last_confirm_us, now_us) {
             // Confirmed again until heard running: the answer may be lost.
             let trial = Outcome::Unfinished(UpdateState::Trial);
@@ -183,7 +215,7 @@ impl Distributor {
             }
         }
         if let Some(cell) = self.confirms.pop_front() {
-            return Some((cell, command(UpdateAction::Confirm)));
+            return every(cell, command(UpdateAction::Confirm));
         }
         // Offered again while a cell has not got it yet: unheard, still
         // receiving, or running something else (it was off).
@@ -194,14 +226,14 @@ impl Distributor {
         });
         if behind && Self::due(self.last_offer_us, now_us) {
             self.last_offer_us = Some(now_us);
-            return Some((Address::BROADCAST, Message::UpdateOffer(self.offer())));
+            return every(Address::BROADCAST, Message::UpdateOffer(self.offer()));
         }
         // Boot once no cell is still receiving: a cell that restarts
         // cuts its subtree off the image for a while.
         let any = |s| self.cells.values().any(|r| r.is_some_and(|r| r.version == self.version && r.state == s));
         if any(UpdateState::Ready) && !any(UpdateState::Receiving) && Self::due(self.last_boot_us, now_us) {
             self.last_boot_us = Some(now_us);
-            return Some((Address::BROADCAST, command(UpdateAction::Boot)));
+            return every(Address::BROADCAST, command(UpdateAction::Boot));
         }
         let receiving = self.cells.iter().filter_map(|(a, r)| {
             r.is_some_and(|r| r.version == self.version && r.state == UpdateState::Receiving).then_some(*a)
@@ -209,16 +241,16 @@ impl Distributor {
         if !self.rounds.open(now_us, receiving) {
             return None;
         }
-        let index = match self.repairs.pop_first() {
-            Some(i) => usize::from(i),
+        let (index, via) = match self.repairs.pop_first() {
+            Some((i, port)) => (usize::from(i), Via::Port(port)),
             None if self.next_chunk < self.chunks.len() => {
                 self.next_chunk += 1;
-                self.next_chunk - 1
+                (self.next_chunk - 1, Via::Every)
             }
             None => return None,
         };
         let chunk = self.chunks[index];
-        self.rounds.sent(chunk.index, now_us);
-        Some((Address::BROADCAST, Message::ImageChunk(chunk)))
+        self.rounds.sent(chunk.index, via, now_us);
+        Some(Outgoing { via, to: Address::BROADCAST, message: Message::ImageChunk(chunk) })
     }
 }

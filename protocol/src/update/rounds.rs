@@ -12,6 +12,7 @@
 
 use std::collections::BTreeSet;
 
+use super::distributor::Via;
 use crate::address::Address;
 
 /// Chunk frames in one round: below the 64 frames an interface port
@@ -25,8 +26,8 @@ pub const ROUND_TIMEOUT_US: u64 = 1_000_000;
 /// Where the chunk frames are in their rounds.
 #[derive(Clone, Debug, Default)]
 pub struct Rounds {
-    /// Chunks sent in this round, still on their way.
-    in_flight: BTreeSet<u16>,
+    /// Chunks sent in this round, still on their way, and down which ports.
+    in_flight: BTreeSet<(u16, Via)>,
     /// Chunk frames sent in this round.
     sent: usize,
     /// When the last of them was sent.
@@ -70,13 +71,14 @@ impl Rounds {
     /// it may have answered before it arrived (it heard no chunk for a
     /// while: a slow link, or a host slow to send the round), and asks
     /// again after the round if it still misses it.
-    pub fn in_flight(&self, index: u16) -> bool {
-        self.in_flight.contains(&index)
+    /// `port` is the interface port the asking cell's tree hangs on.
+    pub fn in_flight(&self, index: u16, port: u8) -> bool {
+        self.in_flight.contains(&(index, Via::Every)) || self.in_flight.contains(&(index, Via::Port(port)))
     }
 
-    /// Chunk `index` went at `now_us`.
-    pub fn sent(&mut self, index: u16, now_us: u64) {
-        self.in_flight.insert(index);
+    /// Chunk `index` went down `via` at `now_us`.
+    pub fn sent(&mut self, index: u16, via: Via, now_us: u64) {
+        self.in_flight.insert((index, via));
         self.sent += 1;
         self.last_us = now_us;
         self.heard.clear();
@@ -96,29 +98,31 @@ mod tests {
         let mut r = Rounds::default();
         for t in 0..ROUND_FRAMES as u64 {
             assert!(r.open(t, cells(&[1, 2])));
-            r.sent(t as u16, t);
+            r.sent(t as u16, Via::Every, t);
         }
+        r.sent(60, Via::Port(2), 60);
+        assert!(r.in_flight(60, 2) && !r.in_flight(60, 1), "a resend is on its way down its port alone");
         assert!(!r.open(100, cells(&[1, 2])), "a full round waits");
         r.heard(Address(1));
         assert!(!r.open(200, cells(&[1, 2])), "cell 2 has not answered");
         r.heard(Address(2));
-        assert!(r.in_flight(3));
+        assert!(r.in_flight(3, 0) && r.in_flight(3, 4), "a broadcast is on its way down every port");
         assert!(r.open(300, cells(&[1, 2])), "both answered");
-        assert!(!r.in_flight(3), "a new round: what is missing now was lost");
+        assert!(!r.in_flight(3, 0), "a new round: what is missing now was lost");
         for t in 0..ROUND_FRAMES as u64 {
-            r.sent(t as u16, 1_000 + t);
+            r.sent(t as u16, Via::Every, 1_000 + t);
         }
         r.heard(Address(1));
         assert!(!r.open(1_000 + ROUND_TIMEOUT_US - 1, cells(&[1, 2])));
         assert!(r.open(1_100 + ROUND_TIMEOUT_US, cells(&[1, 2])), "cell 2 timed out");
         for t in 0..ROUND_FRAMES as u64 {
-            r.sent(t as u16, 3_000_000 + t);
+            r.sent(t as u16, Via::Every, 3_000_000 + t);
         }
         r.heard(Address(1));
         assert!(r.open(3_000_100, cells(&[1, 2])), "silent cell 2 is not waited for");
         r.heard(Address(2));
         for t in 0..ROUND_FRAMES as u64 {
-            r.sent(t as u16, 4_000_000 + t);
+            r.sent(t as u16, Via::Every, 4_000_000 + t);
         }
         r.heard(Address(1));
         assert!(!r.open(4_000_100, cells(&[1, 2])), "cell 2 answered again: it is waited for");

@@ -264,33 +264,44 @@ proptest! {
         }
     }
 
-    /// However many cells ask for a run, each of its chunks goes once, to
-    /// every cell; and with nobody answering, at most one round of chunk
-    /// frames goes per round timeout, whenever the host asks.
+    /// However many cells ask for a run, each of its chunks goes once down
+    /// each interface port whose tree asked for it, and down no other; and
+    /// with nobody answering, at most one round of chunk frames goes per
+    /// round timeout, whenever the host asks.
     #[test]
-    fn resends_go_once_for_all_and_rounds_wait_for_answers(
-        asking in proptest::collection::btree_set(1u16..40, 1..20),
+    fn resends_go_once_per_asking_port_and_rounds_wait_for_answers(
+        asking in proptest::collection::btree_map(1u16..40, 0u8..4, 1..20),
         first in 0u16..60,
         missing in 1u16..80,
         calls in proptest::collection::vec(0u64..200_000, 1..400),
     ) {
+        use super::distributor::Via;
         let (bytes, chunks) = image(Board::Mps2An386, 2, 1000, 1);
-        let cells: Vec<Address> = asking.iter().map(|a| Address(*a)).collect();
-        let mut d = Distributor::new(&bytes, cells.iter().copied()).unwrap();
-        let sent_chunk = |m: Option<(Address, crate::message::Message)>| match m {
-            Some((to, crate::message::Message::ImageChunk(c))) => Some((to, c.index)),
-            _ => None,
+        // Cell 100, on port 7, has every chunk and never asks.
+        let quiet = (Address(100), 7u8);
+        let cells: Vec<(Address, u8)> =
+            asking.iter().map(|(a, p)| (Address(*a), *p)).chain(core::iter::once(quiet)).collect();
+        let mut d = Distributor::new(&bytes, cells.iter().map(|c| c.0)).unwrap();
+        let sent_chunk = |m: Option<super::distributor::Outgoing>| match m {
+            Some(o) => match o.message {
+                crate::message::Message::ImageChunk(c) => Some((o.via, o.to, c.index)),
+                _ => None,
+            },
+            None => None,
         };
         // The whole broadcast pass, every round answered by every cell.
         let mut now = 0;
         let mut pass = Vec::new();
         while pass.len() < chunks.len() {
             match sent_chunk(d.next(now)) {
-                Some((to, i)) => { prop_assert_eq!(to, Address::BROADCAST); pass.push(i) }
+                Some((via, to, i)) => {
+                    prop_assert_eq!((via, to), (Via::Every, Address::BROADCAST));
+                    pass.push(i)
+                }
                 None => {
-                    for c in &cells {
+                    for (c, port) in &cells {
                         let r = UpdateReport { version: 2, state: UpdateState::Receiving, first_missing: 200, missing: 0 };
-                        d.handle(*c, r);
+                        d.handle(*c, *port, r);
                     }
                 }
             }
@@ -298,24 +309,28 @@ proptest! {
         }
         prop_assert_eq!(pass, (0..chunks.len() as u16).collect::<Vec<_>>());
         let asked = UpdateReport { version: 2, state: UpdateState::Receiving, first_missing: first, missing };
-        for c in &cells {
-            d.handle(*c, asked);
+        for (c, port) in &cells[..cells.len() - 1] {
+            d.handle(*c, *port, asked);
         }
+        let has_all = UpdateReport { version: 2, state: UpdateState::Receiving, first_missing: 200, missing: 0 };
+        d.handle(quiet.0, quiet.1, has_all);
         let end = (first + missing.min(REPAIR_WINDOW)).min(chunks.len() as u16);
         let mut resent = Vec::new();
         let mut at = now + 1;
         let mut times = Vec::new();
         for dt in calls {
             at += dt;
-            while let Some((to, i)) = sent_chunk(d.next(at)) {
+            while let Some((via, to, i)) = sent_chunk(d.next(at)) {
                 prop_assert_eq!(to, Address::BROADCAST);
-                resent.push(i);
+                resent.push((i, via));
                 times.push(at);
             }
         }
-        let want: Vec<u16> = (first..end).collect();
-        prop_assert_eq!(&resent[..resent.len().min(want.len())], &want[..resent.len().min(want.len())]);
-        prop_assert!(resent.len() <= want.len(), "nothing beyond what was asked, once");
+        let ports: std::collections::BTreeSet<u8> = asking.values().copied().collect();
+        let want: Vec<(u16, Via)> = (first..end).flat_map(|i| ports.iter().map(move |p| (i, Via::Port(*p)))).collect();
+        let n = resent.len().min(want.len());
+        prop_assert_eq!(&resent[..n], &want[..n]);
+        prop_assert!(resent.len() <= want.len(), "nothing beyond what was asked, once per asking port");
         // Nobody answers the resends: each round after the first waits out its timeout.
         for k in (ROUND_FRAMES..times.len()).step_by(ROUND_FRAMES) {
             prop_assert!(times[k] - times[k - 1] >= ROUND_TIMEOUT_US, "round at {} after {}", times[k], times[k - 1]);

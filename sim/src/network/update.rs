@@ -8,7 +8,7 @@ use skin_protocol::address::Address;
 use skin_protocol::frame::Frame;
 use skin_protocol::interface::{self, Datagram, DatagramHeader, MAX_DATAGRAM, MAX_FRAMES};
 use skin_protocol::message::{Message, UpdateState};
-use skin_protocol::update::{Distributor, Outcome};
+use skin_protocol::update::{Distributor, Outcome, Outgoing};
 
 use super::host::Host;
 use super::ledger::Quantiles;
@@ -40,7 +40,7 @@ pub struct UpdateRun {
     /// Boot and confirm: the cells restart into the new image (a restart
     /// is an outage of the cell and a re-attachment of its subtree).
     pub boot: Phase,
-    /// Frames the host sent into each interface port.
+    /// Frames the host sent into the busiest interface port.
     pub frames_per_port: u64,
     /// Chunks in the image.
     pub chunks: usize,
@@ -60,7 +60,7 @@ fn phase(net: &Network, time_ns: u64) -> Phase {
 /// fails after `timeout_ns` of virtual time.
 pub fn organize(net: &mut Network, host: &mut Host, timeout_ns: u64) -> Result<(), NetworkError> {
     while net.now_ns() < timeout_ns {
-        pump(net, host, net.now_ns() + TICK_NS, &mut |_, _| {})?;
+        pump(net, host, net.now_ns() + TICK_NS, &mut |_, _, _| {})?;
         if (0..net.cells()).all(|i| net.cell(i).is_some_and(|c| c.id().is_cell())) {
             return Ok(());
         }
@@ -69,19 +69,21 @@ pub fn organize(net: &mut Network, host: &mut Host, timeout_ns: u64) -> Result<(
 }
 
 /// Runs the network to `until_ns`, the built-in host answering ID requests
-/// and `heard` taking every frame from a cell.
+/// and `heard` taking every frame from a cell with the interface port it
+/// came up.
 fn pump(
     net: &mut Network,
     host: &mut Host,
     until_ns: u64,
-    heard: &mut dyn FnMut(Address, Message),
+    heard: &mut dyn FnMut(Address, u8, Message),
 ) -> Result<(), NetworkError> {
     while let Some(d) = net.step(until_ns) {
         if let Ok(datagram) = Datagram::parse(&d.bytes) {
+            let port = datagram.header().interface;
             for (frame, message) in
                 datagram.frames().filter_map(|f| f.ok()).filter_map(|f| Some((f, f.message().ok()?)))
             {
-                heard(frame.src(), message);
+                heard(frame.src(), port, message);
             }
         }
         for reply in host.receive(&d.bytes) {
@@ -108,7 +110,7 @@ pub fn update(
     let start_ns = net.now_ns();
     let mut transfer = None;
     let mut seq = vec![0u32; net.interfaces()];
-    let mut frames_per_port = 0;
+    let mut sent = vec![0u64; net.interfaces()];
     while net.now_ns() - start_ns < limit_ns && !distributor.finished() {
         let received = distributor
             .outcomes()
@@ -118,12 +120,14 @@ pub fn update(
             net.measure_from();
         }
         let now_us = net.now_ns() / 1000;
-        let frames: Vec<Frame> = std::iter::from_fn(|| distributor.next(now_us))
-            .take(per_ms)
-            .map(|(dst, message)| Frame::new(Address::HOST, dst, &message))
-            .collect();
-        frames_per_port += frames.len() as u64;
-        for (k, seq) in seq.iter_mut().enumerate() {
+        let outgoing: Vec<Outgoing> = std::iter::from_fn(|| distributor.next(now_us)).take(per_ms).collect();
+        for (k, (seq, sent)) in seq.iter_mut().zip(&mut sent).enumerate() {
+            let frames: Vec<Frame> = outgoing
+                .iter()
+                .filter(|o| o.via.includes(k as u8))
+                .map(|o| Frame::new(Address::HOST, o.to, &o.message))
+                .collect();
+            *sent += frames.len() as u64;
             for batch in frames.chunks(MAX_FRAMES) {
                 let header = DatagramHeader { interface: k as u8, seq: *seq, timestamp_us: now_us };
                 *seq = seq.wrapping_add(1);
@@ -132,9 +136,9 @@ pub fn update(
                 net.inject(&buf[..len])?;
             }
         }
-        pump(net, host, net.now_ns() + TICK_NS, &mut |src, message| {
+        pump(net, host, net.now_ns() + TICK_NS, &mut |src, port, message| {
             if let Message::UpdateReport(r) = message {
-                distributor.handle(src, r);
+                distributor.handle(src, port, r);
             }
         })?;
     }
@@ -147,7 +151,7 @@ pub fn update(
         outcomes: distributor.outcomes().collect(),
         transfer,
         boot,
-        frames_per_port,
+        frames_per_port: sent.into_iter().max().unwrap_or(0),
         chunks: distributor.chunk_count(),
     })
 }

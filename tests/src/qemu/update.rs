@@ -31,13 +31,14 @@ pub trait Feed {
     fn outcomes(&self) -> Vec<(Address, Outcome)>;
 }
 
+/// A patch hangs on one interface port (number 0): every frame goes down it.
 impl Feed for Distributor {
     fn next(&mut self, now_us: u64) -> Option<(Address, Message)> {
-        Distributor::next(self, now_us)
+        Distributor::next(self, now_us).map(|o| (o.to, o.message))
     }
 
     fn handle(&mut self, from: Address, report: UpdateReport) {
-        Distributor::handle(self, from, report)
+        Distributor::handle(self, from, 0, report)
     }
 
     fn outcomes(&self) -> Vec<(Address, Outcome)> {
@@ -52,7 +53,7 @@ pub struct Unconfirmed(pub Distributor);
 
 impl Feed for Unconfirmed {
     fn next(&mut self, now_us: u64) -> Option<(Address, Message)> {
-        match self.0.next(now_us)? {
+        match Feed::next(&mut self.0, now_us)? {
             (dst, Message::UpdateCommand(UpdateCommand { version, action: UpdateAction::Confirm })) => {
                 Some((dst, Message::UpdateCommand(UpdateCommand { version, action: UpdateAction::Status })))
             }
@@ -61,7 +62,7 @@ impl Feed for Unconfirmed {
     }
 
     fn handle(&mut self, from: Address, report: UpdateReport) {
-        self.0.handle(from, report)
+        Feed::handle(&mut self.0, from, report)
     }
 
     fn outcomes(&self) -> Vec<(Address, Outcome)> {

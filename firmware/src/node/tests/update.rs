@@ -67,14 +67,15 @@ fn run(
         // Four frames a step: about what a port carries in 100 us at 4 Mbit/s.
         for _ in 0..4 {
             match dist.next(*t) {
-                Some((dst, m)) => down.push(Frame::new(Address::HOST, dst, &m)),
+                // One cell on one interface port: every frame goes down it.
+                Some(o) => down.push(Frame::new(Address::HOST, o.to, &o.message)),
                 None => break,
             }
         }
         let step = *t + 100;
         for f in exchange(n, sink, &mut down, t, step) {
             if let Ok(Message::UpdateReport(r)) = f.message() {
-                dist.handle(f.src(), r);
+                dist.handle(f.src(), 0, r);
             }
         }
         if let Some(action) = n.take_boot_action() {
