@@ -255,6 +255,81 @@ fn skin_run_drives_the_simulated_robot_served_by_another_process() {
     std::fs::remove_file(&urdf).unwrap();
 }
 
+/// `skin run --urdf F --cell-pitch 0.025` against `skin sim-endpoint
+/// --patches`: the neighbour tables come from the cells' own
+/// self-organization over the real protocol, and place cells the motion
+/// leaves blind along an axis, each within 10 mm of where the simulator
+/// truly put it (the same seeded skin, rebuilt here; a cell is matched to
+/// the true cell of its link nearest to it, one to one, as the network
+/// gives IDs of its own). Without the pitch those cells stay partial.
+#[test]
+fn skin_run_places_blind_cells_from_the_neighbour_tables_the_skin_reports() {
+    let robot = skin_sim::robot::hrp2::robot();
+    let truth = skin_sim::skin::Skin::patches(&robot, |l| skin_sim::robot::hrp2::skin_cells_on(&l.name), 1).unwrap();
+    let dir = scratch("pitch");
+    std::fs::create_dir_all(&dir).unwrap();
+    let urdf = dir.join("hrp2.urdf");
+    std::fs::write(&urdf, skin_sim::robot::hrp2::urdf()).unwrap();
+    let run = |pitch: Option<&str>| -> (Value, String) {
+        let (host, robot_addr) = (free_port(), free_port());
+        let mut endpoint = skin()
+            .args(["sim-endpoint", "--patches", "--seed", "1", "--duration", "120", "--host", &host])
+            .args(["--robot", &robot_addr])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let mut announced = String::new();
+        BufReader::new(endpoint.stdout.take().unwrap()).read_line(&mut announced).unwrap();
+        // As many interface ports as the endpoint serves, numbered from 0.
+        let ports = announced.split("interface ports ").nth(1).unwrap().split(',').count();
+        let config = dir.join(format!("ports-{}.toml", pitch.is_some()));
+        let mut text = format!("[interface]\nlisten = \"{host}\"\n");
+        (0..ports).for_each(|k| text += &format!("\n[[interface.ports]]\nnumber = {k}\n"));
+        std::fs::write(&config, text).unwrap();
+        let out = dir.join(format!("out-{}", pitch.is_some()));
+        let mut command = skin();
+        command.args(["run", "--json", "--cells", "74", "--robot", &robot_addr, "--urdf"]).arg(&urdf);
+        command.arg("--config").arg(&config).arg("--out").arg(&out);
+        if let Some(p) = pitch {
+            command.args(["--cell-pitch", p]);
+        }
+        let report = json_of(&mut command);
+        endpoint.kill().unwrap();
+        endpoint.wait().unwrap();
+        (report, std::fs::read_to_string(out.join("skin.toml")).unwrap())
+    };
+    let (blind, _) = run(None);
+    let (placed, skin_toml) = run(Some("0.025"));
+    let partial = |r: &Value| r["calibration"]["cells_partial"].as_u64().unwrap();
+    assert!(partial(&blind) > 0, "nothing blind to place");
+    assert!(
+        partial(&placed) < partial(&blind),
+        "{} partial cells, {} with the pitch",
+        partial(&blind),
+        partial(&placed)
+    );
+    let calibrated = skin_sim::skin::Skin::from_toml_str(&robot, &skin_toml).unwrap();
+    let links: HashSet<&str> = calibrated.cells().iter().map(|c| c.link.as_str()).collect();
+    for link in links.into_iter().filter(|l| *l != "CHEST") {
+        let mine: Vec<_> = calibrated.cells().iter().filter(|c| c.link == link).collect();
+        let mut real: Vec<_> = truth.cells().iter().filter(|c| c.link == link).collect();
+        assert_eq!(mine.len(), real.len(), "{link}");
+        for cell in mine {
+            let p = cell.pose.translation.vector;
+            let (k, error) = real
+                .iter()
+                .map(|r| (r.pose.translation.vector - p).norm())
+                .enumerate()
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .unwrap();
+            assert!(error <= 0.010, "cell {} on {link}: {:.1} mm from the nearest true cell", cell.id.0, error * 1e3);
+            real.remove(k);
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// The skin calibrated over the wire: the chest's 14 cells on the fixed
 /// base without a position, the arms' with one, and the files that say so
 /// readable by the simulator's own skin reader and the URDF reader.

@@ -19,7 +19,7 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Deserialize;
-use skin_protocol::message::{Neighbour, NeighbourReport};
+use skin_protocol::message::{Neighbour, NeighbourReport, Port};
 use skin_protocol::Address;
 
 pub use patches::{CELL_PITCH_M, PITCH_TOLERANCE};
@@ -207,6 +207,12 @@ impl Skin {
     /// All cells.
     pub fn cells(&self) -> &[Cell] {
         &self.cells
+    }
+
+    /// Who is on each port of each cell, as laid by [`Skin::patches`]: the
+    /// far end's cell index and port; empty for a skin not laid wired.
+    pub fn wires(&self) -> &[[Option<(usize, Port)>; 4]] {
+        &self.wires
     }
 
     /// The smallest [`Cell::axis_clearance_m`] of all cells, m.

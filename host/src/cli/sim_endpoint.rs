@@ -1,7 +1,8 @@
 //! `skin sim-endpoint`: the built-in simulated HRP-2-like robot and its
 //! skin served on loopback UDP, for `skin run` (or `skin monitor`) in
 //! another terminal: the robot on the robot link, each of the five
-//! interface ports sending to the host's interface address.
+//! interface ports (or, with `--patches`, one per wired group of cells)
+//! sending to the host's interface address.
 
 use std::io::Write;
 use std::net::SocketAddr;
@@ -29,6 +30,11 @@ pub struct Args {
     /// Seed of everything random: skin placement, boot order, sensor errors, noise, sway.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Lay the skin in wired patches one cell pitch apart and wire the network as laid (one
+    /// interface port per wired group), so the neighbour tables follow the geometry (`skin run
+    /// --urdf F --cell-pitch 0.025`); the host then needs as many ports as the line printed names.
+    #[arg(long)]
+    patches: bool,
     /// Stop after this many wall-clock seconds [default: run until killed].
     #[arg(long, value_name = "S")]
     duration: Option<f64>,
@@ -77,7 +83,9 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let config = EndpointConfig { robot: args.robot, host: args.host, pacing, batching, network };
     // Served on a thread of its own, watched from here: when it fails or
     // panics, the process ends with its error instead of serving nothing.
-    let endpoint = Running::spawn(move || Endpoint::hrp2(args.seed, config))?;
+    let (seed, patches) = (args.seed, args.patches);
+    let endpoint =
+        Running::spawn(move || if patches { Endpoint::patches(seed, config) } else { Endpoint::hrp2(seed, config) })?;
     let ports: Vec<String> = endpoint.interfaces.iter().map(ToString::to_string).collect();
     // Announced on stdout, so a script can wait for it.
     writeln!(

@@ -40,8 +40,9 @@ use crate::network::{Network, NetworkConfig, NetworkError, Topology};
 use crate::robot::hrp2;
 use crate::scene::experiment::Setup;
 use crate::scene::operator::Operator;
+use crate::skin::Skin;
 use crate::spin_recv::SpinRecv;
-use crate::world::World;
+use crate::world::{World, WorldConfig};
 
 pub use batch::Batching;
 pub use rig::Rig;
@@ -135,6 +136,21 @@ impl Endpoint {
         let world = hrp2::world(seed);
         let world_cell = hrp2_wiring(&world);
         Endpoint::new(world, &Topology::hrp2(), world_cell, config)
+    }
+
+    /// The built-in robot wearing its skin laid in wired patches
+    /// ([`Skin::patches`], seeded), wired as laid: each group of cells
+    /// wired together on its own interface port, so the neighbour tables
+    /// the cells report follow the skin's geometry (for `skin run --urdf
+    /// --cell-pitch`).
+    pub fn patches(seed: u64, config: EndpointConfig) -> Result<Endpoint, NetworkError> {
+        let robot = hrp2::robot();
+        let skin = Skin::patches(&robot, |l| hrp2::skin_cells_on(&l.name), seed)
+            .map_err(|e| NetworkError::Topology(e.to_string()))?;
+        let topology = Topology::from_wires(skin.wires())?;
+        let world_cell = (0..skin.cells().len()).collect();
+        let world = World::new(robot, skin, WorldConfig { seed, ..WorldConfig::default() });
+        Endpoint::new(world, &topology, world_cell, config)
     }
 
     /// The grasping experiment (section 6.5): the built-in robot wearing

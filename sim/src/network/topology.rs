@@ -180,6 +180,59 @@ impl Topology {
         skin().expect("the HRP-2 skin is a valid topology")
     }
 
+    /// The wiring a skin was laid with (see [`crate::skin::Skin::patches`]):
+    /// `wires[i][p]` is the far end (cell, port) of port `p` of cell `i`.
+    /// Each group of cells wired together gets one interface port, on the
+    /// first free port of its first cell that has one, as a skin whose
+    /// patches are each cabled to the interface.
+    pub fn from_wires(wires: &[[Option<(usize, Port)>; 4]]) -> Result<Topology, NetworkError> {
+        let mut links = Vec::new();
+        for (i, ends) in wires.iter().enumerate() {
+            for (p, end) in Port::ALL.into_iter().zip(ends) {
+                let Some((j, q)) = *end else { continue };
+                if wires.get(j).and_then(|w| w[q.index()]) != Some((i, p)) {
+                    return Err(NetworkError::Topology(format!(
+                        "port {} of cell {i} is wired to port {} of cell {j}, which is not wired back",
+                        p.index(),
+                        q.index()
+                    )));
+                }
+                if (i, p) < (j, q) {
+                    links.push((PortRef::new(i, p), PortRef::new(j, q)));
+                }
+            }
+        }
+        let wired = Topology::new(wires.len(), None, links, Vec::new())?;
+        let peers = wired.peers();
+        let mut group = vec![None; wires.len()];
+        let mut interfaces = Vec::new();
+        for first in 0..wires.len() {
+            if group[first].is_some() {
+                continue;
+            }
+            // The group of `first`, by breadth-first search.
+            let mut members = vec![first];
+            group[first] = Some(interfaces.len());
+            let mut k = 0;
+            while let Some(&c) = members.get(k) {
+                for peer in peers[c].iter().flatten() {
+                    if group[peer.cell].is_none() {
+                        group[peer.cell] = Some(interfaces.len());
+                        members.push(peer.cell);
+                    }
+                }
+                k += 1;
+            }
+            members.sort_unstable();
+            let free = |c: usize| Port::ALL.into_iter().find(|p| peers[c][p.index()].is_none());
+            let Some(port) = members.iter().find_map(|&c| free(c).map(|p| PortRef::new(c, p))) else {
+                return Err(NetworkError::Topology(format!("the cells wired to cell {first} have no free port")));
+            };
+            interfaces.push(port);
+        }
+        Topology::new(wires.len(), None, wired.links, interfaces)
+    }
+
     /// Reads a graph from a `.toml` or `.json` file.
     pub fn from_file(path: &Path) -> Result<Topology, NetworkError> {
         let file = |why: String| NetworkError::File { path: path.display().to_string(), why };
@@ -335,6 +388,28 @@ impl Topology {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn wires_become_links_with_an_interface_port_per_wired_group() {
+        use Port::{P0, P1, P2};
+        // Cells 0-1-2 wired in a row, cell 3 alone; cell 1 has ports 0 and 2 taken.
+        let mut wires = vec![[None; 4]; 4];
+        wires[0][0] = Some((1, P2));
+        wires[1][2] = Some((0, P0));
+        wires[1][0] = Some((2, P1));
+        wires[2][1] = Some((1, P0));
+        let t = Topology::from_wires(&wires).unwrap();
+        assert_eq!(
+            t.links(),
+            &[(PortRef::new(0, P0), PortRef::new(1, P2)), (PortRef::new(1, P0), PortRef::new(2, P1))]
+        );
+        assert_eq!(t.interfaces(), &[PortRef::new(0, P1), PortRef::new(3, P0)]);
+        assert_eq!(Topology::hops(&t.peers(), t.interfaces()), vec![Some(1), Some(2), Some(3), Some(1)]);
+        // A wire one end does not know of is refused.
+        wires[2][1] = None;
+        let e = Topology::from_wires(&wires).unwrap_err().to_string();
+        assert!(e.contains("port 0 of cell 1 is wired to port 1 of cell 2, which is not wired back"), "{e}");
+    }
 
     proptest! {
         /// Any text is a graph or a typed error.
