@@ -194,6 +194,85 @@ fn an_offer_during_a_trial_leaves_the_running_image_alone() {
     assert_eq!(state(u.offer(offer_of(3, &next), &mut slot, 0)), Some(UpdateState::Receiving));
 }
 
+/// Chunks sent to a fresh cell (the restarted one: a new updater on the
+/// same slot) after the offer, until ready; returns how many it wrote.
+fn finish(
+    u: &mut Updater,
+    slot: &mut TestSlot,
+    chunks: &[ImageChunk],
+    offer: UpdateOffer,
+) -> (usize, Option<UpdateState>) {
+    let mut last = state(u.offer(offer, slot, 0));
+    let before = u.received();
+    for c in chunks {
+        if last == Some(UpdateState::Ready) {
+            break;
+        }
+        last = state(u.chunk(c, slot, 1)).or(last);
+    }
+    (u.received().saturating_sub(before) as usize, last)
+}
+
+#[test]
+fn a_cell_restarted_mid_image_keeps_the_chunks_its_slot_holds() {
+    let (bytes, chunks) = image(Board::Mps2An386, 2, 1000, 1);
+    let offer = offer_of(2, &chunks);
+    let (mut u, mut slot) = (cell(), TestSlot::default());
+    u.offer(offer, &mut slot, 0);
+    for c in &chunks[..60] {
+        u.chunk(c, &mut slot, 1);
+    }
+    // The power comes back: a new updater, the same slot.
+    let mut again = cell();
+    let report = again.offer(offer, &mut slot, 2).unwrap();
+    assert_eq!((report.state, report.first_missing), (UpdateState::Receiving, 60), "{report:?}");
+    assert_eq!(again.received(), 60);
+    assert_eq!(finish(&mut again, &mut slot, &chunks[60..], offer), (chunks.len() - 60, Some(UpdateState::Ready)));
+    assert_eq!(&slot.bytes()[..bytes.len()], &bytes[..]);
+    // Ready before the cut: ready again at the offer, nothing asked for.
+    let mut third = cell();
+    assert_eq!(state(third.offer(offer, &mut slot, 3)), Some(UpdateState::Ready));
+}
+
+#[test]
+fn a_chunk_torn_by_the_cut_costs_the_slot_not_the_image() {
+    let (bytes, chunks) = image(Board::Mps2An386, 2, 1000, 1);
+    let offer = offer_of(2, &chunks);
+    let (mut u, mut slot) = (cell(), TestSlot::default());
+    u.offer(offer, &mut slot, 0);
+    for c in &chunks[..60] {
+        u.chunk(c, &mut slot, 1);
+    }
+    // Chunk 60 cut after 4 of its 10 bytes.
+    slot.write(60 * CHUNK_LEN as u32, &chunks[60].data[..4]).unwrap();
+    let mut again = cell();
+    assert_eq!(again.offer(offer, &mut slot, 2).unwrap().first_missing, 61);
+    // The whole image fails its digest: the slot is blanked and received anew.
+    let (_, last) = finish(&mut again, &mut slot, &chunks[61..], offer);
+    let report = again.report();
+    assert_eq!((last, report.first_missing, again.received()), (Some(UpdateState::Receiving), 0, 0));
+    let (written, last) = finish(&mut again, &mut slot, &chunks, offer);
+    assert_eq!((written, last), (chunks.len(), Some(UpdateState::Ready)));
+    assert_eq!(&slot.bytes()[..bytes.len()], &bytes[..]);
+}
+
+#[test]
+fn a_slot_holding_another_image_is_blanked_for_the_offer() {
+    // An older version, and this version signed with another key.
+    let (old, _) = image(Board::Mps2An386, 2, 1000, 1);
+    let (forged, _) = image(Board::Mps2An386, 3, 1000, 9);
+    let (bytes, new) = image(Board::Mps2An386, 3, 1000, 1);
+    for before in [old, forged] {
+        let mut slot = TestSlot::default();
+        slot.write(0, &before).unwrap();
+        let mut u = cell();
+        assert_eq!(u.offer(offer_of(3, &new), &mut slot, 0).unwrap().first_missing, 0);
+        assert_eq!(u.received(), 0);
+        assert_eq!(finish(&mut u, &mut slot, &new, offer_of(3, &new)), (new.len(), Some(UpdateState::Ready)));
+        assert_eq!(&slot.bytes()[..bytes.len()], &bytes[..]);
+    }
+}
+
 fn any_message() -> impl Strategy<Value = (u8, u16, [u8; CHUNK_LEN], u32)> {
     (0u8..4, any::<u16>(), any::<[u8; CHUNK_LEN]>(), 0u32..4)
 }
@@ -238,6 +317,53 @@ proptest! {
             }
         }
         prop_assert_eq!(state(last), Some(UpdateState::Ready));
+        prop_assert_eq!(&slot.bytes()[..bytes.len()], &bytes[..]);
+    }
+
+    /// Power cuts at any chunk, each tearing the chunk being written or
+    /// not, with the chunks in any order: the cell always ends ready with
+    /// the image in its slot, byte for byte.
+    #[test]
+    fn cuts_at_any_chunk_end_ready_with_the_image_in_the_slot(
+        len in 1usize..1500,
+        order in any::<u64>(),
+        cuts in proptest::collection::vec((0usize..200, 0usize..CHUNK_LEN), 0..6),
+    ) {
+        let (bytes, chunks) = image(Board::Mps2An386, 5, len, 1);
+        let offer = offer_of(5, &chunks);
+        let mut rng = order | 1;
+        let mut next = || { rng ^= rng << 13; rng ^= rng >> 7; rng ^= rng << 17; rng as usize };
+        let mut slot = TestSlot::default();
+        let mut u = cell();
+        let mut last = state(u.offer(offer, &mut slot, 0));
+        let mut cuts = cuts.into_iter();
+        let mut cut = cuts.next();
+        let mut sent = 0;
+        for round in 0..50 {
+            if last == Some(UpdateState::Ready) { break; }
+            // The host sends every chunk again, in any order (the cell
+            // takes what it misses).
+            let mut all: Vec<&ImageChunk> = chunks.iter().collect();
+            for i in (1..all.len()).rev() {
+                all.swap(i, next() % (i + 1));
+            }
+            for c in all {
+                let offset = usize::from(c.index) * CHUNK_LEN;
+                let blank = slot.bytes()[offset..offset + CHUNK_LEN].iter().all(|b| *b == 0xFF);
+                if let Some((at, torn)) = cut.filter(|(at, _)| sent >= *at && blank) {
+                    // The cut while this chunk is written: part of it in
+                    // the slot, then a new updater on the same slot.
+                    let _ = slot.write(u32::from(c.index) * CHUNK_LEN as u32, &c.data[..torn]);
+                    u = cell();
+                    last = state(u.offer(offer, &mut slot, round));
+                    cut = cuts.next().map(|(k, t)| (at + 1 + k, t));
+                    break;
+                }
+                sent += 1;
+                last = state(u.chunk(c, &mut slot, round)).or(last);
+            }
+        }
+        prop_assert_eq!(last, Some(UpdateState::Ready));
         prop_assert_eq!(&slot.bytes()[..bytes.len()], &bytes[..]);
     }
 

@@ -76,6 +76,8 @@ pub struct Updater {
     offer: Option<(UpdateOffer, Progress)>,
     have: Bitmap<WORDS>,
     header_checked: bool,
+    /// The slot's chunks were kept from before a restart ([`Updater::offer`]).
+    resumed: bool,
     last_chunk_us: u64,
     last_report_us: Option<u64>,
     /// Reports since the last chunk: each one waits twice as long.
@@ -93,6 +95,7 @@ impl Updater {
             offer: None,
             have: Bitmap::EMPTY,
             header_checked: false,
+            resumed: false,
             last_chunk_us: 0,
             last_report_us: None,
             quiet_reports: 0,
@@ -137,9 +140,10 @@ impl Updater {
         Some(self.report())
     }
 
-    /// An offer: a new version clears the slot for it; every offer is answered.
-    /// On trial the running image is the spare slot's own, so nothing is
-    /// taken until the trial is confirmed or rolled back.
+    /// An offer: a new version clears the slot for it, unless the slot
+    /// already holds part of this very image ([`Updater::resume`]); every
+    /// offer is answered. On trial the running image is the spare slot's
+    /// own, so nothing is taken until the trial is confirmed or rolled back.
     pub fn offer(&mut self, offer: UpdateOffer, slot: &mut impl Slot, now_us: u64) -> Option<UpdateReport> {
         if self.boot == BootState::Trial {
             return self.reported(now_us);
@@ -147,21 +151,71 @@ impl Updater {
         let current = self.offer.is_some_and(|(o, _)| o == offer);
         let failed = self.boot == BootState::RolledBack { from: offer.version };
         if offer.version != self.running && !current && !failed {
-            let progress = if usize::from(offer.chunks) * CHUNK_LEN > slot.capacity() as usize
-                || usize::from(offer.chunks) < usize::from(HEADER_CHUNKS)
-            {
+            let fits = usize::from(offer.chunks) * CHUNK_LEN <= slot.capacity() as usize
+                && usize::from(offer.chunks) >= usize::from(HEADER_CHUNKS);
+            self.resumed = false;
+            let progress = if !fits || !self.have.reset(offer.chunks) {
                 Progress::Refused(Refusal::TooLong)
+            } else if self.resume(offer, slot) {
+                Progress::Receiving
             } else if slot.erase().is_err() {
                 Progress::Refused(Refusal::SlotFailed)
             } else {
                 Progress::Receiving
             };
-            let progress = if self.have.reset(offer.chunks) { progress } else { Progress::Refused(Refusal::TooLong) };
             self.offer = Some((offer, progress));
-            self.header_checked = false;
+            self.header_checked = self.resumed;
             self.heard_chunk(now_us);
+            if let Some(progress) = self.resumed.then(|| self.completed(slot)).flatten() {
+                self.offer = Some((offer, progress));
+            }
         }
         self.reported(now_us)
+    }
+
+    /// Takes up the image a restart (a power cut) interrupted: when the
+    /// slot holds this offer's header, genuine under the key, every chunk
+    /// written before (any chunk not blank) is kept rather than asked for
+    /// again. A chunk the cut tore shows when the whole image is checked,
+    /// and the slot is then received again from nothing.
+    fn resume(&mut self, offer: UpdateOffer, slot: &impl Slot) -> bool {
+        if self.verifier(offer, slot).is_err() {
+            return false;
+        }
+        let mut bytes = [0u8; CHUNK_LEN];
+        for i in 0..offer.chunks {
+            if slot.read(u32::from(i) * CHUNK_LEN as u32, &mut bytes).is_err() {
+                self.have.reset(offer.chunks);
+                return false;
+            }
+            if bytes.iter().any(|b| *b != 0xFF) {
+                self.have.insert(i);
+            }
+        }
+        self.resumed = (0..HEADER_CHUNKS).all(|i| self.have.has(i));
+        if !self.resumed {
+            self.have.reset(offer.chunks);
+        }
+        self.resumed
+    }
+
+    /// Once every chunk is in: the image checked whole. A resumed slot
+    /// that fails is blanked and received again (a chunk torn by a power
+    /// cut); any other failure refuses the image.
+    fn completed(&mut self, slot: &mut impl Slot) -> Option<Progress> {
+        if !self.have.is_full() {
+            return None;
+        }
+        match self.check_image(slot) {
+            Ok(_) => Some(Progress::Ready),
+            Err(Refusal::BadBody) if self.resumed => {
+                self.resumed = false;
+                self.header_checked = false;
+                self.have.reset(self.have.len());
+                Some(if slot.erase().is_ok() { Progress::Receiving } else { Progress::Refused(Refusal::SlotFailed) })
+            }
+            Err(refusal) => Some(Progress::Refused(refusal)),
+        }
     }
 
     /// A chunk of the offered image; reports when the image is complete or refused.
@@ -182,12 +236,7 @@ impl Updater {
         } else {
             None
         };
-        let progress = progress.or_else(|| {
-            self.have.is_full().then(|| match self.check_image(slot) {
-                Ok(_) => Progress::Ready,
-                Err(refusal) => Progress::Refused(refusal),
-            })
-        })?;
+        let progress = progress.or_else(|| self.completed(slot))?;
         self.offer = Some((offer, progress));
         self.reported(now_us)
     }
