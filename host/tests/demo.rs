@@ -183,6 +183,15 @@ fn check_readers(file: &Path, ours: &serde_json::Map<String, Value>) {
 }
 
 /// A loopback address with a port free right now.
+/// `skin sim-endpoint ARGS` running, and the line it announces itself with.
+fn serve(args: &[&str]) -> (std::process::Child, String) {
+    let mut endpoint =
+        skin().arg("sim-endpoint").args(args).stdout(Stdio::piped()).stderr(Stdio::null()).spawn().unwrap();
+    let mut announced = String::new();
+    BufReader::new(endpoint.stdout.take().unwrap()).read_line(&mut announced).unwrap();
+    (endpoint, announced)
+}
+
 fn free_port() -> String {
     UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string()
 }
@@ -190,14 +199,7 @@ fn free_port() -> String {
 #[test]
 fn skin_run_drives_the_simulated_robot_served_by_another_process() {
     let (host, robot) = (free_port(), free_port());
-    let mut endpoint = skin()
-        .args(["sim-endpoint", "--seed", "4", "--duration", "300", "--host", &host, "--robot", &robot])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut announced = String::new();
-    BufReader::new(endpoint.stdout.take().unwrap()).read_line(&mut announced).unwrap();
+    let (mut endpoint, announced) = serve(&["--seed", "4", "--duration", "300", "--host", &host, "--robot", &robot]);
     assert!(announced.contains(&format!("serving the simulated robot on {robot}")), "{announced}");
 
     let dir = scratch("run");
@@ -272,15 +274,8 @@ fn skin_run_places_blind_cells_from_the_neighbour_tables_the_skin_reports() {
     std::fs::write(&urdf, skin_sim::robot::hrp2::urdf()).unwrap();
     let run = |pitch: Option<&str>| -> (Value, String) {
         let (host, robot_addr) = (free_port(), free_port());
-        let mut endpoint = skin()
-            .args(["sim-endpoint", "--patches", "--seed", "1", "--duration", "120", "--host", &host])
-            .args(["--robot", &robot_addr])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap();
-        let mut announced = String::new();
-        BufReader::new(endpoint.stdout.take().unwrap()).read_line(&mut announced).unwrap();
+        let args = ["--patches", "--seed", "1", "--duration", "120", "--host", &host, "--robot", &robot_addr];
+        let (mut endpoint, announced) = serve(&args);
         // As many interface ports as the endpoint serves, numbered from 0.
         let ports = announced.split("interface ports ").nth(1).unwrap().split(',').count();
         let config = dir.join(format!("ports-{}.toml", pitch.is_some()));

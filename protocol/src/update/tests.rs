@@ -213,8 +213,9 @@ fn finish(
     (u.received().saturating_sub(before) as usize, last)
 }
 
-#[test]
-fn a_cell_restarted_mid_image_keeps_the_chunks_its_slot_holds() {
+/// An image of version 2 offered, its first 60 chunks written, and the
+/// power cut: the slot as the cut left it.
+fn cut_after_60_chunks() -> (Vec<u8>, Vec<ImageChunk>, UpdateOffer, TestSlot) {
     let (bytes, chunks) = image(Board::Mps2An386, 2, 1000, 1);
     let offer = offer_of(2, &chunks);
     let (mut u, mut slot) = (cell(), TestSlot::default());
@@ -222,6 +223,12 @@ fn a_cell_restarted_mid_image_keeps_the_chunks_its_slot_holds() {
     for c in &chunks[..60] {
         u.chunk(c, &mut slot, 1);
     }
+    (bytes, chunks, offer, slot)
+}
+
+#[test]
+fn a_cell_restarted_mid_image_keeps_the_chunks_its_slot_holds() {
+    let (bytes, chunks, offer, mut slot) = cut_after_60_chunks();
     // The power comes back: a new updater, the same slot.
     let mut again = cell();
     let report = again.offer(offer, &mut slot, 2).unwrap();
@@ -236,13 +243,7 @@ fn a_cell_restarted_mid_image_keeps_the_chunks_its_slot_holds() {
 
 #[test]
 fn a_chunk_torn_by_the_cut_costs_the_slot_not_the_image() {
-    let (bytes, chunks) = image(Board::Mps2An386, 2, 1000, 1);
-    let offer = offer_of(2, &chunks);
-    let (mut u, mut slot) = (cell(), TestSlot::default());
-    u.offer(offer, &mut slot, 0);
-    for c in &chunks[..60] {
-        u.chunk(c, &mut slot, 1);
-    }
+    let (bytes, chunks, offer, mut slot) = cut_after_60_chunks();
     // Chunk 60 cut after 4 of its 10 bytes.
     slot.write(60 * CHUNK_LEN as u32, &chunks[60].data[..4]).unwrap();
     let mut again = cell();
