@@ -540,7 +540,7 @@ fn reached_first<'a>(mut two_way: Vec<&'a Equation>, fixed: &[Row], col: &HashMa
     };
     let mut ordered = Vec::new();
     loop {
-        while fixed.iter().fold(false, |grew, r| tie(r.a, r.b, &mut reached) || grew) {}
+        while fixed.iter().any(|r| tie(r.a, r.b, &mut reached)) {}
         let next = two_way
             .iter()
             .position(|e| e.a.map(|a| col[&a]).is_none_or(|a| reached[a]) || reached[col[&e.b]])
