@@ -34,6 +34,15 @@ use super::{at_rest_full, CellPose};
 
 /// Bounds are taken this many standard deviations out.
 const BOUND_SIGMAS: f64 = 3.0;
+/// The motion fit's cells are about a millimetre off in 3D on average,
+/// about twice the spread it claims; where the pitch is read from the
+/// chord's known part, that part is taken this much less certain, m.
+const FIT_FLOOR_M: f64 = 0.001;
+/// Points over the pitch's tolerance where the along-axis step is sampled.
+const PITCH_NODES: usize = 8;
+/// The pitch's two signs are read apart where they are this many of
+/// their spreads from zero.
+const SIGNS_APART: f64 = 2.0;
 /// A step that disagrees with another estimate of it by more than this
 /// many standard deviations is a wrong wire (or the wrong sign).
 const CONFLICT_SIGMAS: f64 = 4.0;
@@ -125,23 +134,35 @@ pub fn step(chord: &Chord, cfg: &NeighbourConfig) -> Step {
     let u = chord.axis;
     let c = chord.offset.dot(&u);
     let h = (chord.offset - c * u).norm();
-    let offset_sigma = chord.offset_covariance.symmetric_eigenvalues().max().max(0.0).sqrt();
+    let offset_sigma = chord.offset_covariance.symmetric_eigenvalues().max().max(0.0).sqrt().hypot(FIT_FLOOR_M);
     let along_sigma = (u.transpose() * chord.offset_covariance * u)[0].max(0.0).sqrt();
     let pitch_sigma = cfg.pitch_m * cfg.pitch_tolerance / 3f64.sqrt();
     let d_sigma = pitch_sigma.hypot(offset_sigma);
-    let (lo, hi) = (cfg.pitch_m - BOUND_SIGMAS * d_sigma, cfg.pitch_m + BOUND_SIGMAS * d_sigma);
-    if h > hi {
+    if h > cfg.pitch_m + BOUND_SIGMAS * d_sigma {
         return Step::Impossible;
     }
-    let root = |d: f64| (d * d - h * h).max(0.0).sqrt();
-    let (s_lo, s_hi) = (if lo > h { root(lo) } else { 0.0 }, root(hi));
-    // The pitch: one interval about -c when the two signs meet, else two.
-    let pitch: Vec<Reading> = if s_lo == 0.0 {
-        vec![(-c, (s_hi / 3f64.sqrt()).hypot(along_sigma))]
-    } else {
-        let sigma = ((s_hi - s_lo) / (2.0 * BOUND_SIGMAS)).hypot(along_sigma);
-        let s = (s_lo + s_hi) / 2.0;
+    // The size of the along-axis part over the pitch's tolerance (uniform)
+    // and the known part's error (three-point Gauss-Hermite), where the
+    // chord can be a pitch long; a pitch shorter than the known part adds
+    // a zero step, so a step near zero keeps its weight.
+    let mut moments = [0.0; 3];
+    for (dh, wh) in [(-3f64.sqrt(), 1.0 / 6.0), (0.0, 2.0 / 3.0), (3f64.sqrt(), 1.0 / 6.0)] {
+        for k in 0..PITCH_NODES {
+            let d = cfg.pitch_m * (1.0 + cfg.pitch_tolerance * ((2 * k + 1) as f64 / PITCH_NODES as f64 - 1.0));
+            let e = (d * d - (h + dh * offset_sigma).powi(2)).max(0.0).sqrt();
+            let w = wh / PITCH_NODES as f64;
+            moments = [moments[0] + w, moments[1] + w * e, moments[2] + w * e * e];
+        }
+    }
+    let s = moments[1] / moments[0];
+    let spread = (moments[2] / moments[0] - s * s).max(0.0).sqrt();
+    // Two readings where the signs stand apart, else one about zero
+    // covering both.
+    let pitch: Vec<Reading> = if s >= SIGNS_APART * spread {
+        let sigma = spread.hypot(along_sigma);
         vec![(-c + s, sigma), (-c - s, sigma)]
+    } else {
+        vec![(-c, s.hypot(spread).hypot(along_sigma))]
     };
     // The chord lies across the normals' bisector.
     let [na, nb] = chord.normals;
@@ -641,18 +662,33 @@ mod tests {
     #[test]
     fn a_neighbour_exactly_on_the_axis_plane_says_little() {
         // The chord's known part is already a pitch long: the step is about
-        // zero but the pitch's tolerance lets it be a centimetre either way.
+        // zero but the pitch's tolerance lets it be millimetres either way.
         let n = Vector3::x();
         let Step::Known { pitch: (v, s), tangent: None } = step(&chord(Vector3::new(0.0, P, 0.0), [n, n]), &cfg())
         else {
             panic!("no step")
         };
         assert_eq!(v, 0.0);
-        assert!(s > cfg().max_sigma_m, "{s}: a narrow claim from a chord square to the axis");
+        assert!(s > 0.003, "{s}: a narrow claim from a chord square to the axis");
         // Leaning normals pin it down.
         let lean = Vector3::new(1.0, 0.0, 1.0).normalize();
         let (v, s) = known(step(&chord(Vector3::new(0.0, P, 0.0), [lean, lean]), &cfg()));
         assert!(v.abs() < 3.0 * s && s < 0.002, "{v} {s}");
+    }
+
+    #[test]
+    fn a_chord_just_short_of_the_pitch_still_tells_its_step_up_to_the_sign() {
+        // The known part 23 mm of a 25 mm pitch: the step is about 10 mm
+        // either way, not anywhere within a centimetre of zero.
+        let n = Vector3::x();
+        let Step::Either { pitch: [plus, minus], tangent: None } =
+            step(&chord(Vector3::new(0.0, 0.023, 0.0), [n, n]), &cfg())
+        else {
+            panic!("{:?}", step(&chord(Vector3::new(0.0, 0.023, 0.0), [n, n]), &cfg()))
+        };
+        let s = (P * P - 0.023f64.powi(2)).sqrt();
+        assert!((plus.0 - s).abs() < plus.1 && (minus.0 + s).abs() < minus.1, "{plus:?} {minus:?} against {s}");
+        assert!(plus.1 < 0.005, "{plus:?}");
     }
 
     #[test]
