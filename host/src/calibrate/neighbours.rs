@@ -9,14 +9,19 @@
 //! start posture (the posture the skin was laid in).
 //!
 //! Two wired cells are one cell pitch apart (within the connectors'
-//! tolerance), and the chord between them lies in the surface: on a
-//! surface of constant curvature it is perpendicular to the mean of the two
-//! normals, which the gravity fit knows well. The pitch gives the
-//! along-axis step up to its sign, the chord's tangency gives it directly
-//! where the normals lean on the axis; where neither settles it, or no
-//! chain of wires reaches a known cell, the direction stays unobservable.
-//! Neighbour tables are trusted only where both cells name each other on
-//! the same ports, and a wire that cannot be a pitch long is dropped.
+//! tolerance), and the chord between two cells of one link lies in its
+//! surface: on a surface of constant curvature it is perpendicular to the
+//! mean of the two normals, which the gravity fit knows well. The pitch
+//! gives the along-axis step up to its sign, the chord's tangency gives it
+//! directly where the normals lean on the axis (not across a joint, where
+//! the two links' surfaces need not meet). A sign one wire leaves open the
+//! others may settle: the link's places are fitted over every choice of
+//! the open signs, and a choice whose loops and anchors do not close is
+//! ruled out. Where that does not settle a place within the asked spread,
+//! or no chain of wires reaches a known cell, the direction stays
+//! unobservable. Neighbour tables are trusted only where both cells name
+//! each other on the same ports, and a wire that cannot be a pitch long is
+//! dropped.
 
 use std::collections::HashMap;
 
@@ -29,6 +34,15 @@ use super::{at_rest_full, CellPose};
 
 /// Bounds are taken this many standard deviations out.
 const BOUND_SIGMAS: f64 = 3.0;
+/// The motion fit's cells are about a millimetre off in 3D on average,
+/// about twice the spread it claims; where the pitch is read from the
+/// chord's known part, that part is taken this much less certain, m.
+const FIT_FLOOR_M: f64 = 0.001;
+/// Points over the pitch's tolerance where the along-axis step is sampled.
+const PITCH_NODES: usize = 8;
+/// The pitch's two signs are read apart where they are this many of
+/// their spreads from zero.
+const SIGNS_APART: f64 = 2.0;
 /// A step that disagrees with another estimate of it by more than this
 /// many standard deviations is a wrong wire (or the wrong sign).
 const CONFLICT_SIGMAS: f64 = 4.0;
@@ -80,15 +94,37 @@ pub struct Chord {
     pub normals: [Vector3<f64>; 2],
     /// Standard deviation of each normal's direction, rad.
     pub normal_sigma_rad: f64,
+    /// The cells are on two links: their surfaces need not meet (a step
+    /// or a gap where the patches join; the simulated robots' chords leave
+    /// them by up to 0.4 rad and more), so the tangency says nothing.
+    pub across_joint: bool,
 }
 
-/// What a wire says of its chord's unknown step.
+/// A reading of a step: its value and standard deviation, m.
+pub type Reading = (f64, f64);
+
+/// What a wire says of its chord's unknown step: the pitch's reading and,
+/// where the normals lean on the axis, the tangency's, kept apart so that
+/// the fit of the whole link weighs each by its own spread (neither
+/// alone is as narrow as both, and each checks the other).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Step {
-    /// The step, m, and its standard deviation.
-    Known(f64, f64),
-    /// Two steps fit (the pitch's sign) and the normals cannot choose.
-    Ambiguous,
+    /// One step from the pitch (its two signs meet, or the tangency rules
+    /// one out).
+    Known {
+        /// The pitch's reading.
+        pitch: Reading,
+        /// The tangency's reading, if the normals lean on the axis.
+        tangent: Option<Reading>,
+    },
+    /// Two steps from the pitch (its sign) that this wire's normals cannot
+    /// choose between: the link's other wires may.
+    Either {
+        /// The pitch's two readings.
+        pitch: [Reading; 2],
+        /// The tangency's reading, if the normals lean on the axis.
+        tangent: Option<Reading>,
+    },
     /// No step makes the cells a pitch apart along the surface: a wrong wire.
     Impossible,
 }
@@ -98,28 +134,40 @@ pub fn step(chord: &Chord, cfg: &NeighbourConfig) -> Step {
     let u = chord.axis;
     let c = chord.offset.dot(&u);
     let h = (chord.offset - c * u).norm();
-    let offset_sigma = chord.offset_covariance.symmetric_eigenvalues().max().max(0.0).sqrt();
+    let offset_sigma = chord.offset_covariance.symmetric_eigenvalues().max().max(0.0).sqrt().hypot(FIT_FLOOR_M);
     let along_sigma = (u.transpose() * chord.offset_covariance * u)[0].max(0.0).sqrt();
     let pitch_sigma = cfg.pitch_m * cfg.pitch_tolerance / 3f64.sqrt();
     let d_sigma = pitch_sigma.hypot(offset_sigma);
-    let (lo, hi) = (cfg.pitch_m - BOUND_SIGMAS * d_sigma, cfg.pitch_m + BOUND_SIGMAS * d_sigma);
-    if h > hi {
+    if h > cfg.pitch_m + BOUND_SIGMAS * d_sigma {
         return Step::Impossible;
     }
-    let root = |d: f64| (d * d - h * h).max(0.0).sqrt();
-    let (s_lo, s_hi) = (if lo > h { root(lo) } else { 0.0 }, root(hi));
-    // The pitch: one interval about -c when the two signs meet, else two.
-    let pitch: Vec<(f64, f64)> = if s_lo == 0.0 {
-        vec![(-c, (s_hi / 3f64.sqrt()).hypot(along_sigma))]
-    } else {
-        let sigma = ((s_hi - s_lo) / (2.0 * BOUND_SIGMAS)).hypot(along_sigma);
-        let s = (s_lo + s_hi) / 2.0;
+    // The size of the along-axis part over the pitch's tolerance (uniform)
+    // and the known part's error (three-point Gauss-Hermite), where the
+    // chord can be a pitch long; a pitch shorter than the known part adds
+    // a zero step, so a step near zero keeps its weight.
+    let mut moments = [0.0; 3];
+    for (dh, wh) in [(-3f64.sqrt(), 1.0 / 6.0), (0.0, 2.0 / 3.0), (3f64.sqrt(), 1.0 / 6.0)] {
+        for k in 0..PITCH_NODES {
+            let d = cfg.pitch_m * (1.0 + cfg.pitch_tolerance * ((2 * k + 1) as f64 / PITCH_NODES as f64 - 1.0));
+            let e = (d * d - (h + dh * offset_sigma).powi(2)).max(0.0).sqrt();
+            let w = wh / PITCH_NODES as f64;
+            moments = [moments[0] + w, moments[1] + w * e, moments[2] + w * e * e];
+        }
+    }
+    let s = moments[1] / moments[0];
+    let spread = (moments[2] / moments[0] - s * s).max(0.0).sqrt();
+    // Two readings where the signs stand apart, else one about zero
+    // covering both.
+    let pitch: Vec<Reading> = if s >= SIGNS_APART * spread {
+        let sigma = spread.hypot(along_sigma);
         vec![(-c + s, sigma), (-c - s, sigma)]
+    } else {
+        vec![(-c, s.hypot(spread).hypot(along_sigma))]
     };
     // The chord lies across the normals' bisector.
     let [na, nb] = chord.normals;
     let bisector = (na + nb).try_normalize(1e-9);
-    let tangent = bisector.and_then(|m| {
+    let tangent = bisector.filter(|_| !chord.across_joint).and_then(|m| {
         let lean = u.dot(&m);
         let turn = na.angle(&nb);
         let angle_sigma = chord.normal_sigma_rad.hypot(CURVATURE_SHARE * (turn / 2.0).sin());
@@ -127,30 +175,22 @@ pub fn step(chord: &Chord, cfg: &NeighbourConfig) -> Step {
             / lean.abs();
         (lean.abs() > 1e-6).then(|| (-chord.offset.dot(&m) / lean, sigma))
     });
-    let apart = |(a, sa): (f64, f64), (b, sb): (f64, f64)| (a - b).abs() / sa.hypot(sb);
-    let better = |a: (f64, f64), b: (f64, f64)| if a.1 <= b.1 { a } else { b };
+    let apart = |(a, sa): Reading, (b, sb): Reading| (a - b).abs() / sa.hypot(sb);
     match (pitch.as_slice(), tangent) {
-        (&[one], None) => Step::Known(one.0, one.1),
-        (&[one], Some(t)) if apart(one, t) <= CONFLICT_SIGMAS => {
-            let (v, s) = better(one, t);
-            Step::Known(v, s)
-        }
+        (&[one], _) if tangent.is_some_and(|t| apart(one, t) > CONFLICT_SIGMAS) => Step::Impossible,
+        (&[one], _) => Step::Known { pitch: one, tangent },
         (&[plus, minus], Some(t)) => {
             let (zp, zm) = (apart(plus, t), apart(minus, t));
             let (near, far) = if zp <= zm { (plus, zm) } else { (minus, zp) };
             if zp.min(zm) > CONFLICT_SIGMAS {
                 Step::Impossible
             } else if far >= EXCLUDE_SIGMAS {
-                let (v, s) = better(near, t);
-                Step::Known(v, s)
-            } else if t.1 <= cfg.max_sigma_m {
-                // Both signs fit: the tangency alone says where.
-                Step::Known(t.0, t.1)
+                Step::Known { pitch: near, tangent }
             } else {
-                Step::Ambiguous
+                Step::Either { pitch: [plus, minus], tangent }
             }
         }
-        (&[_, _], None) => Step::Ambiguous,
+        (&[plus, minus], None) => Step::Either { pitch: [plus, minus], tangent },
         _ => Step::Impossible,
     }
 }
@@ -160,13 +200,14 @@ pub fn step(chord: &Chord, cfg: &NeighbourConfig) -> Step {
 pub struct Resolved {
     /// Cells whose along-axis position now comes from their neighbours.
     pub cells: usize,
-    /// Wires used.
+    /// Wires that took part in an anchored fit with their step's sign settled.
     pub wires: usize,
     /// Wires one cell reports and its neighbour does not (ignored).
     pub one_sided: usize,
     /// Wires that cannot be a pitch long, or contradict the others (dropped).
     pub dropped: usize,
-    /// Wires whose step's sign the normals could not choose.
+    /// Wires of an anchored fit whose step's sign neither their normals
+    /// nor the other wires could choose.
     pub ambiguous: usize,
 }
 
@@ -176,12 +217,13 @@ struct Node {
     axis: Vector3<f64>,
 }
 
-/// One equation of a link's steps: `t[b] - t[a] = step` (`a` `None`: `t[b]` itself).
+/// One reading of a link's steps: `t[b] - t[a]` is one of `steps` (`a`
+/// `None`: `t[b]` itself), from wire number `wire`.
 struct Equation {
     a: Option<usize>,
     b: usize,
-    step: f64,
-    sigma: f64,
+    steps: Vec<Reading>,
+    wire: usize,
 }
 
 /// Gives the cells of `cells` whose position is blind along one direction
@@ -218,7 +260,7 @@ pub fn resolve(
         }
         let node_of: HashMap<usize, usize> = nodes.iter().enumerate().map(|(k, n)| (n.cell, k)).collect();
         let mut equations = Vec::new();
-        for &(i, j) in &wires {
+        for (wire, &(i, j)) in wires.iter().enumerate() {
             for (a, b) in [(i, j), (j, i)] {
                 let Some(&ka) = node_of.get(&a) else { continue };
                 let (ca, cb) = (&cells[a], &cells[b]);
@@ -247,23 +289,30 @@ pub fn resolve(
                     axis,
                     normals: [ca.frame * Vector3::z(), to_link.rotation * (cb.frame * Vector3::z())],
                     normal_sigma_rad: ca.orientation_sigma_rad.max(cb.orientation_sigma_rad).hypot(MOUNT_SIGMA_RAD),
+                    across_joint: unknown_b.is_none(),
                 };
-                match step(&chord, cfg) {
-                    // The chord is offset + (t_b - t_a) axis; for a known b, -t_a.
-                    Step::Known(v, sigma) => equations.push(match unknown_b {
-                        Some(kb) => Equation { a: Some(ka), b: kb, step: v, sigma },
-                        None => Equation { a: None, b: ka, step: -v, sigma },
-                    }),
-                    Step::Ambiguous => out.ambiguous += 1,
-                    Step::Impossible => out.dropped += 1,
-                }
+                // The chord is offset + (t_b - t_a) axis; for a known b, -t_a.
+                let equation = |steps: &[Reading]| match unknown_b {
+                    Some(kb) => Equation { a: Some(ka), b: kb, steps: steps.to_vec(), wire },
+                    None => Equation { a: None, b: ka, steps: steps.iter().map(|&(v, s)| (-v, s)).collect(), wire },
+                };
+                let (pitch, tangent) = match step(&chord, cfg) {
+                    Step::Known { pitch, tangent } => (equation(&[pitch]), tangent),
+                    Step::Either { pitch, tangent } => (equation(&pitch), tangent),
+                    Step::Impossible => {
+                        out.dropped += 1;
+                        continue;
+                    }
+                };
+                equations.push(pitch);
+                equations.extend(tangent.map(|t| equation(&[t])));
             }
         }
-        out.wires += equations.len();
-        let (along, dropped) = solve(nodes.len(), &equations);
-        out.dropped += dropped;
-        out.wires -= dropped;
-        for (node, t) in nodes.iter().zip(along) {
+        let solved = solve(nodes.len(), &equations);
+        out.wires += solved.settled;
+        out.ambiguous += solved.undecided;
+        out.dropped += solved.dropped;
+        for (node, t) in nodes.iter().zip(solved.along) {
             let Some((t, sigma)) = t.filter(|(_, s)| *s <= cfg.max_sigma_m) else { continue };
             let c = &mut cells[node.cell];
             c.position += node.axis * t;
@@ -311,15 +360,30 @@ fn mutual_wires(
     wires
 }
 
-/// Least squares of the nodes' steps from `equations`, per chain of wires
-/// anchored on a known cell; `None` for a node no anchored chain reaches,
-/// and for every node of a chain whose wires contradict each other beyond
-/// chance (which of them is wrong cannot be told). Returns the
-/// steps and the wires of contradicted chains.
-fn solve(nodes: usize, equations: &[Equation]) -> (Vec<Option<(f64, f64)>>, usize) {
+/// The along-axis places a link's wires give, and what became of the wires.
+struct Solved {
+    /// Each node's place and its standard deviation, where an anchored chain reaches it.
+    along: Vec<Option<Reading>>,
+    /// Wires of anchored chains whose sign is settled.
+    settled: usize,
+    /// Wires of anchored chains whose sign stays open.
+    undecided: usize,
+    /// Wires of chains that contradict themselves.
+    dropped: usize,
+}
+
+/// Least squares of the nodes' places from `equations`, per chain of
+/// wires anchored on a known cell, over every choice of the two-way
+/// (pitch's sign) readings: a choice whose loops and anchors do not close
+/// is ruled out, so wires that each leave the sign open may settle it
+/// together. Each node gets the mixture of the choices that fit about as
+/// well as the best (weighted by their likelihood), so a sign left open
+/// widens its spread instead of being guessed. `None` for a node no
+/// anchored chain reaches, and for every node of a chain that no choice
+/// fits within chance (which wire is wrong cannot be told).
+fn solve(nodes: usize, equations: &[Equation]) -> Solved {
     let chain = chains(nodes, equations);
-    let mut out = vec![None; nodes];
-    let mut dropped = 0;
+    let mut out = Solved { along: vec![None; nodes], settled: 0, undecided: 0, dropped: 0 };
     for id in 0..nodes {
         let members: Vec<usize> = (0..nodes).filter(|&k| chain[k] == id).collect();
         let used: Vec<&Equation> = equations.iter().filter(|e| chain[e.b] == id).collect();
@@ -327,37 +391,188 @@ fn solve(nodes: usize, equations: &[Equation]) -> (Vec<Option<(f64, f64)>>, usiz
             continue;
         }
         let col: HashMap<usize, usize> = members.iter().enumerate().map(|(c, &k)| (k, c)).collect();
-        let mut info = DMatrix::<f64>::zeros(members.len(), members.len());
-        let mut rhs = DVector::<f64>::zeros(members.len());
-        for e in &used {
-            let w = e.sigma.powi(-2);
-            let b = col[&e.b];
-            info[(b, b)] += w;
-            rhs[b] += w * e.step;
-            if let Some(a) = e.a.map(|a| col[&a]) {
-                info[(a, a)] += w;
-                info[(a, b)] -= w;
-                info[(b, a)] -= w;
-                rhs[a] -= w * e.step;
-            }
-        }
-        let Some(chol) = info.cholesky() else { continue };
-        let t = chol.solve(&rhs);
-        let value = |k: Option<usize>| k.map_or(0.0, |k| t[col[&k]]);
-        // Spare wires that disagree beyond chance: a wrong wire pulls the
-        // fit toward it, so the whole chain's misfit is judged, not each wire's.
-        let chi2: f64 = used.iter().map(|e| ((value(Some(e.b)) - value(e.a) - e.step) / e.sigma).powi(2)).sum();
-        let spare = used.len().saturating_sub(members.len()) as f64;
-        if chi2 > spare + CONFLICT_SIGMAS * (2.0 * spare).sqrt() + CONFLICT_SIGMAS {
-            dropped += used.len();
+        let row = |e: &Equation, (step, sigma): Reading| Row { a: e.a.map(|a| col[&a]), b: col[&e.b], step, sigma };
+        let fixed: Vec<Row> = used.iter().filter(|e| e.steps.len() == 1).map(|e| row(e, e.steps[0])).collect();
+        let two_way = reached_first(used.iter().copied().filter(|e| e.steps.len() > 1).collect(), &fixed, &col);
+        let mut search = Search {
+            nodes: members.len(),
+            bound: chance(used.len(), members.len()),
+            budget: MAX_FITS,
+            found: Vec::new(),
+        };
+        let mut rows = fixed.clone();
+        let open: Vec<Vec<Row>> = two_way.iter().map(|e| e.steps.iter().map(|&r| row(e, r)).collect()).collect();
+        let complete = search.explore(&mut rows, &open, &mut Vec::new());
+        let mut all: Vec<usize> = used.iter().map(|e| e.wire).collect();
+        all.sort_unstable();
+        all.dedup();
+        let (found, open_wires) = if complete {
+            let best = search.found.iter().map(|f| f.chi2).fold(f64::INFINITY, f64::min);
+            let kept: Vec<Fit> =
+                search.found.into_iter().filter(|f| f.chi2 <= best + EXCLUDE_SIGMAS * EXCLUDE_SIGMAS).collect();
+            let open: Vec<usize> = two_way
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| kept.iter().any(|f| f.choice[*k] != kept[0].choice[*k]))
+                .map(|(_, e)| e.wire)
+                .collect();
+            (kept, open)
+        } else {
+            // Too many choices fit to weigh them all: the two-way readings are left out.
+            let bound = chance(fixed.len(), members.len());
+            let mut only_fixed = Search { nodes: members.len(), bound, budget: 1, found: Vec::new() };
+            only_fixed.explore(&mut fixed.clone(), &[], &mut Vec::new());
+            (only_fixed.found, two_way.iter().map(|e| e.wire).collect())
+        };
+        if found.is_empty() {
+            out.dropped += all.len();
             continue;
         }
-        let covariance = chol.inverse();
+        let undecided = all.iter().filter(|w| open_wires.contains(w)).count();
+        out.undecided += undecided;
+        out.settled += all.len() - undecided;
+        let best = found.iter().map(|f| f.chi2).fold(f64::INFINITY, f64::min);
+        let weights: Vec<f64> = found.iter().map(|f| (-(f.chi2 - best) / 2.0).exp()).collect();
+        let total: f64 = weights.iter().sum();
         for (&k, &c) in &col {
-            out[k] = Some((t[c], covariance[(c, c)].max(0.0).sqrt()));
+            let mean = found.iter().zip(&weights).map(|(f, w)| w * f.t[c]).sum::<f64>() / total;
+            let variance = found
+                .iter()
+                .zip(&weights)
+                .map(|(f, w)| w * (f.sigma[c].powi(2) + (f.t[c] - mean).powi(2)))
+                .sum::<f64>()
+                / total;
+            out.along[k] = Some((mean, variance.max(0.0).sqrt()));
         }
     }
-    (out, dropped)
+    out
+}
+
+/// The largest misfit (chi-square) of `readings` of `places` that chance
+/// explains: a wrong wire pulls the fit toward it, so the whole chain's
+/// misfit is judged, not each wire's.
+fn chance(readings: usize, places: usize) -> f64 {
+    let spare = readings.saturating_sub(places) as f64;
+    spare + CONFLICT_SIGMAS * (2.0 * spare).sqrt() + CONFLICT_SIGMAS
+}
+
+/// Fits tried per chain before its two-way readings are left out.
+const MAX_FITS: usize = 1 << 14;
+/// A place no reading touches is taken this uncertain, m: it keeps every
+/// partial fit solvable and weighs nothing beside a reading.
+const LOOSE_M: f64 = 1.0;
+
+/// One reading of a chain's places, by column.
+#[derive(Clone, Copy)]
+struct Row {
+    a: Option<usize>,
+    b: usize,
+    step: f64,
+    sigma: f64,
+}
+
+/// The chain's places under one choice of its two-way readings.
+struct Fit {
+    t: DVector<f64>,
+    sigma: DVector<f64>,
+    chi2: f64,
+    choice: Vec<usize>,
+}
+
+/// A depth-first search over the two-way readings' choices.
+struct Search {
+    nodes: usize,
+    /// Choices whose misfit passes this are not followed (a reading added
+    /// never lowers it): beyond chance, or beyond the best found by more
+    /// than its sign's exclusion.
+    bound: f64,
+    /// Fits left to try.
+    budget: usize,
+    found: Vec<Fit>,
+}
+
+impl Search {
+    /// Follows every choice of `open` after `rows`; false when the budget ran out.
+    fn explore(&mut self, rows: &mut Vec<Row>, open: &[Vec<Row>], choice: &mut Vec<usize>) -> bool {
+        if self.budget == 0 {
+            return false;
+        }
+        self.budget -= 1;
+        let Some((t, chol)) = fit(self.nodes, rows) else { return true };
+        let chi2: f64 = rows.iter().map(|r| ((t[r.b] - r.a.map_or(0.0, |a| t[a]) - r.step) / r.sigma).powi(2)).sum();
+        if chi2 > self.bound {
+            return true;
+        }
+        let Some((options, rest)) = open.split_first() else {
+            self.bound = self.bound.min(chi2 + EXCLUDE_SIGMAS * EXCLUDE_SIGMAS);
+            let sigma = chol.inverse().diagonal().map(|v| v.max(0.0).sqrt());
+            self.found.push(Fit { t, sigma, chi2, choice: choice.clone() });
+            return true;
+        };
+        for (k, option) in options.iter().enumerate() {
+            rows.push(*option);
+            choice.push(k);
+            let within = self.explore(rows, rest, choice);
+            rows.pop();
+            choice.pop();
+            if !within {
+                return false;
+            }
+        }
+        true
+    }
+}
+
+/// Weighted least squares of `nodes` places from `rows`.
+fn fit(nodes: usize, rows: &[Row]) -> Option<(DVector<f64>, nalgebra::Cholesky<f64, nalgebra::Dyn>)> {
+    let mut info = DMatrix::<f64>::identity(nodes, nodes) * LOOSE_M.powi(-2);
+    let mut rhs = DVector::<f64>::zeros(nodes);
+    for r in rows {
+        let w = r.sigma.powi(-2);
+        info[(r.b, r.b)] += w;
+        rhs[r.b] += w * r.step;
+        if let Some(a) = r.a {
+            info[(a, a)] += w;
+            info[(a, r.b)] -= w;
+            info[(r.b, a)] -= w;
+            rhs[a] -= w * r.step;
+        }
+    }
+    let chol = info.cholesky()?;
+    Some((chol.solve(&rhs), chol))
+}
+
+/// `two_way` ordered so each touches the anchor or a place already tied
+/// to it (by `fixed` or an earlier one) where it can: a choice is then
+/// judged by the loops it closes as soon as it is made, and a wrong one is
+/// cut before the choices after it are followed.
+fn reached_first<'a>(mut two_way: Vec<&'a Equation>, fixed: &[Row], col: &HashMap<usize, usize>) -> Vec<&'a Equation> {
+    let mut reached: Vec<bool> = vec![false; col.len()];
+    // Ties `a` and `b`; whether that reached a place not reached before.
+    let tie = |a: Option<usize>, b: usize, reached: &mut [bool]| {
+        let (at_a, at_b) = (a.is_none_or(|a| reached[a]), reached[b]);
+        if at_a || at_b {
+            reached[b] = true;
+            if let Some(a) = a {
+                reached[a] = true;
+            }
+        }
+        (at_a || at_b) && !(at_a && at_b)
+    };
+    let mut ordered = Vec::new();
+    loop {
+        while fixed.iter().any(|r| tie(r.a, r.b, &mut reached)) {}
+        let next = two_way
+            .iter()
+            .position(|e| e.a.map(|a| col[&a]).is_none_or(|a| reached[a]) || reached[col[&e.b]])
+            .unwrap_or(0);
+        if two_way.is_empty() {
+            return ordered;
+        }
+        let e = two_way.remove(next);
+        tie(e.a.map(|a| col[&a]), col[&e.b], &mut reached);
+        ordered.push(e);
+    }
 }
 
 /// The chain (lowest node index in it) each node belongs to.
@@ -401,7 +616,18 @@ mod tests {
             axis: Vector3::z(),
             normals,
             normal_sigma_rad: MOUNT_SIGMA_RAD,
+            across_joint: false,
         }
+    }
+
+    /// The one step a wire gives: its pitch's and its tangency's readings
+    /// weighed together, as the link's fit weighs them.
+    fn known(s: Step) -> Reading {
+        let Step::Known { pitch, tangent } = s else { panic!("no single step: {s:?}") };
+        tangent.map_or(pitch, |t| {
+            let (wp, wt) = (pitch.1.powi(-2), t.1.powi(-2));
+            ((wp * pitch.0 + wt * t.0) / (wp + wt), (wp + wt).powf(-0.5))
+        })
     }
 
     #[test]
@@ -409,11 +635,14 @@ mod tests {
         // A chamfer: the surface leans 45 degrees on the axis, the chord runs up it.
         let n = Vector3::new(1.0, 0.0, 1.0).normalize();
         let up = Vector3::new(-1.0, 0.0, 1.0).normalize() * P;
-        let Step::Known(v, s) = step(&chord(Vector3::new(up.x, 0.0, 0.0), [n, n]), &cfg()) else { panic!("no step") };
+        let (v, s) = known(step(&chord(Vector3::new(up.x, 0.0, 0.0), [n, n]), &cfg()));
         assert!((v - up.z).abs() < 3.0 * s && s < 0.002, "{v} {s} against {}", up.z);
         // Down the chamfer: the other sign.
-        let Step::Known(v, _) = step(&chord(Vector3::new(-up.x, 0.0, 0.0), [n, n]), &cfg()) else { panic!("no step") };
+        let (v, _) = known(step(&chord(Vector3::new(-up.x, 0.0, 0.0), [n, n]), &cfg()));
         assert!((v + up.z).abs() < 0.002, "{v}");
+        // The pitch and the tangency together are narrower than the pitch alone.
+        let Step::Known { pitch, .. } = step(&chord(Vector3::new(up.x, 0.0, 0.0), [n, n]), &cfg()) else { panic!() };
+        assert!(s < pitch.1, "{s} against {}", pitch.1);
     }
 
     #[test]
@@ -421,21 +650,54 @@ mod tests {
         // A cylinder about the axis: every normal is square to it, and a
         // neighbour a pitch away could be above or below.
         let (a, b) = (Vector3::x(), Vector3::new(1.0, 0.3, 0.0).normalize());
-        assert_eq!(step(&chord(Vector3::new(0.0, 0.5 * P, 0.0), [a, b]), &cfg()), Step::Ambiguous);
+        let Step::Either { pitch: [plus, minus], tangent: None } =
+            step(&chord(Vector3::new(0.0, 0.5 * P, 0.0), [a, b]), &cfg())
+        else {
+            panic!("the sign decided")
+        };
+        let s = (P * P - (0.5 * P) * (0.5 * P)).sqrt();
+        assert!((plus.0 - s).abs() < plus.1 && (minus.0 + s).abs() < minus.1, "{plus:?} {minus:?} against {s}");
     }
 
     #[test]
     fn a_neighbour_exactly_on_the_axis_plane_says_little() {
         // The chord's known part is already a pitch long: the step is about
-        // zero but the pitch's tolerance lets it be a centimetre either way.
+        // zero but the pitch's tolerance lets it be millimetres either way.
         let n = Vector3::x();
-        let Step::Known(v, s) = step(&chord(Vector3::new(0.0, P, 0.0), [n, n]), &cfg()) else { panic!("no step") };
+        let Step::Known { pitch: (v, s), tangent: None } = step(&chord(Vector3::new(0.0, P, 0.0), [n, n]), &cfg())
+        else {
+            panic!("no step")
+        };
         assert_eq!(v, 0.0);
-        assert!(s > cfg().max_sigma_m, "{s}: a narrow claim from a chord square to the axis");
+        assert!(s > 0.003, "{s}: a narrow claim from a chord square to the axis");
         // Leaning normals pin it down.
         let lean = Vector3::new(1.0, 0.0, 1.0).normalize();
-        let Step::Known(v, s) = step(&chord(Vector3::new(0.0, P, 0.0), [lean, lean]), &cfg()) else { panic!() };
+        let (v, s) = known(step(&chord(Vector3::new(0.0, P, 0.0), [lean, lean]), &cfg()));
         assert!(v.abs() < 3.0 * s && s < 0.002, "{v} {s}");
+    }
+
+    #[test]
+    fn a_chord_just_short_of_the_pitch_still_tells_its_step_up_to_the_sign() {
+        // The known part 23 mm of a 25 mm pitch: the step is about 10 mm
+        // either way, not anywhere within a centimetre of zero.
+        let n = Vector3::x();
+        let Step::Either { pitch: [plus, minus], tangent: None } =
+            step(&chord(Vector3::new(0.0, 0.023, 0.0), [n, n]), &cfg())
+        else {
+            panic!("{:?}", step(&chord(Vector3::new(0.0, 0.023, 0.0), [n, n]), &cfg()))
+        };
+        let s = (P * P - 0.023f64.powi(2)).sqrt();
+        assert!((plus.0 - s).abs() < plus.1 && (minus.0 + s).abs() < minus.1, "{plus:?} {minus:?} against {s}");
+        assert!(plus.1 < 0.005, "{plus:?}");
+    }
+
+    #[test]
+    fn across_a_joint_the_normals_say_nothing_of_the_step() {
+        // The same leaning normals on two links: their surfaces need not meet.
+        let n = Vector3::new(1.0, 0.0, 1.0).normalize();
+        let up = Vector3::new(-1.0, 0.0, 1.0).normalize() * P;
+        let across = Chord { across_joint: true, ..chord(Vector3::new(up.x, 0.0, 0.0), [n, n]) };
+        assert!(matches!(step(&across, &cfg()), Step::Either { tangent: None, .. }), "{:?}", step(&across, &cfg()));
     }
 
     #[test]
@@ -445,8 +707,9 @@ mod tests {
     }
 
     proptest! {
-        /// On any plane, a true wire's step is never impossible, and when
-        /// given it is within five of its claimed standard deviations.
+        /// On any plane, a true wire's step is never impossible, and every
+        /// reading given of it is within five of its claimed standard
+        /// deviations (one of the two, for the pitch's sign).
         #[test]
         fn a_true_wire_never_misleads(
             tilt in 0.0f64..1.5, azimuth in 0.0..std::f64::consts::TAU, heading in 0.0..std::f64::consts::TAU, stretch in -1.0f64..1.0,
@@ -456,9 +719,16 @@ mod tests {
             let e2 = n.cross(&e1);
             let chord_truth = (e1 * heading.cos() + e2 * heading.sin()) * P * (1.0 + 0.05 * stretch);
             let offset = Vector3::new(chord_truth.x, chord_truth.y, 0.0);
+            let within = |(v, s): Reading| (v - chord_truth.z).abs() <= 5.0 * s + 1e-9;
             match step(&chord(offset, [n, n]), &cfg()) {
-                Step::Known(v, s) => prop_assert!((v - chord_truth.z).abs() <= 5.0 * s + 1e-9, "{} vs {} (sigma {})", v, chord_truth.z, s),
-                Step::Ambiguous => {}
+                Step::Known { pitch, tangent } => {
+                    prop_assert!(within(pitch), "pitch {:?} vs {}", pitch, chord_truth.z);
+                    prop_assert!(tangent.is_none_or(within), "tangent {:?} vs {}", tangent, chord_truth.z);
+                }
+                Step::Either { pitch, tangent } => {
+                    prop_assert!(pitch.iter().any(|p| within(*p)), "pitch {:?} vs {}", pitch, chord_truth.z);
+                    prop_assert!(tangent.is_none_or(within), "tangent {:?} vs {}", tangent, chord_truth.z);
+                }
                 Step::Impossible => prop_assert!(false, "a true wire called impossible"),
             }
         }
@@ -517,7 +787,8 @@ mod tests {
         t
     }
 
-    /// Three cells up a chamfer of link `a` and one on `b` below them.
+    /// Three cells up a chamfer of link `a`, one on `b` a pitch below them
+    /// and one on `b` a pitch above.
     fn chamfer() -> (Model, Vec<CellPose>, Vec<Vector3<f64>>) {
         let model = model();
         let (a, b) = (model.link("a").unwrap().body, model.link("b").unwrap().body);
@@ -529,23 +800,71 @@ mod tests {
             truth.iter().enumerate().map(|(k, p)| cell(k as u16 + 1, a, *p, n, false)).collect();
         // The anchor: a pitch down the chamfer, on `b` (0.1 m up the axis from `a`).
         cells.push(cell(9, b, origin - up - Vector3::new(0.0, 0.0, 0.1), n, true));
+        cells.push(cell(10, b, truth[2] + up - Vector3::new(0.0, 0.0, 0.1), n, true));
         (model, cells, truth)
     }
 
     #[test]
     fn a_chain_anchored_across_the_joint_places_the_whole_patch() {
         let (model, mut cells, truth) = chamfer();
-        let t = tables(&[1, 2, 3, 9], &[(9, 1), (1, 2), (2, 3)]);
+        // Across the joint the pitch alone leaves each anchor's sign open;
+        // the chain between them settles it.
+        let t = tables(&[1, 2, 3, 9, 10], &[(9, 1), (1, 2), (2, 3), (3, 10)]);
         let r = resolve(&mut cells, &model, &[0.0, 0.0], &t, &cfg());
-        assert_eq!((r.cells, r.wires, r.dropped, r.one_sided), (3, 3, 0, 0));
+        assert_eq!((r.cells, r.wires, r.dropped, r.one_sided, r.ambiguous), (3, 4, 0, 0, 0));
         for (c, p) in cells.iter().zip(&truth) {
             let e = (c.position - p).norm();
             let claimed = c.position_sigma_m.norm();
             assert!(c.unobservable.is_empty() && c.from_neighbours == [Vector3::z()], "{c:?}");
             assert!(e < 5.0 * claimed && claimed < 0.004, "cell {}: {e} m off, {claimed} m claimed", c.id.0);
         }
-        // Farther along the chain, less certain.
-        assert!(cells[2].position_sigma_m.z > cells[0].position_sigma_m.z);
+    }
+
+    #[test]
+    fn one_anchor_across_the_joint_leaves_the_sign_open() {
+        let (model, mut cells, _) = chamfer();
+        let t = tables(&[1, 2, 3, 9], &[(9, 1), (1, 2), (2, 3)]);
+        let before = cells.clone();
+        let r = resolve(&mut cells, &model, &[0.0, 0.0], &t, &cfg());
+        assert_eq!((r.cells, r.ambiguous), (0, 1), "{r:?}");
+        assert_eq!(cells, before);
+    }
+
+    #[test]
+    fn a_step_between_two_links_surfaces_does_not_mislead() {
+        // The anchor's surface stands 4 mm proud of the chamfer's: the chord
+        // leaves the tangent plane, which a tangency read across the joint
+        // took for a step 6 mm off, claimed to 1.4 mm.
+        let (model, mut cells, _) = chamfer();
+        let n = Vector3::new(1.0, 0.0, 1.0).normalize();
+        cells[3].position += n * 0.004;
+        let t = tables(&[1, 9], &[(9, 1)]);
+        let before = cells.clone();
+        let r = resolve(&mut cells, &model, &[0.0, 0.0], &t, &cfg());
+        assert_eq!((r.cells, r.ambiguous), (0, 1), "{r:?}");
+        assert_eq!(cells, before);
+    }
+
+    #[test]
+    fn two_wires_that_each_leave_the_sign_open_settle_it_together() {
+        // A cylinder about the axis (normals square to it): a cell with two
+        // neighbours across the joint, 20 mm above and 20 mm below it. Each
+        // says "20 mm either way"; only one place fits both.
+        let model = model();
+        let (a, b) = (model.link("a").unwrap().body, model.link("b").unwrap().body);
+        let p = Vector3::new(0.05, 0.0, 0.03);
+        let lift = Vector3::new(0.0, 0.0, 0.1);
+        let mut cells = vec![
+            cell(1, a, p, Vector3::x(), false),
+            cell(2, b, p + Vector3::new(0.0, 0.015, 0.02) - lift, Vector3::x(), true),
+            cell(3, b, p + Vector3::new(0.0, -0.015, -0.02) - lift, Vector3::x(), true),
+        ];
+        let r = resolve(&mut cells, &model, &[0.0, 0.0], &tables(&[1, 2], &[(1, 2)]), &cfg());
+        assert_eq!((r.cells, r.ambiguous), (0, 1), "one wire: {r:?}");
+        let r = resolve(&mut cells, &model, &[0.0, 0.0], &tables(&[1, 2, 3], &[(1, 2), (1, 3)]), &cfg());
+        assert_eq!((r.cells, r.wires, r.ambiguous), (1, 2, 0), "{r:?}");
+        let (e, claimed) = ((cells[0].position - p).norm(), cells[0].position_sigma_m.norm());
+        assert!(e < 3.0 * claimed && claimed < 0.003, "{e} m off, {claimed} m claimed");
     }
 
     #[test]
@@ -578,13 +897,13 @@ mod tests {
     #[test]
     fn a_wrong_wire_beside_true_ones_is_outvoted_or_dropped() {
         let (model, mut cells, truth) = chamfer();
-        // A true anchor for cell 1, and a false one for cell 3: a pitch
-        // beside it square to the chamfer, but 12 mm up the axis.
+        // True anchors for cells 1 and 3, and a false one for cell 3: a
+        // pitch from it if 12 mm farther up the axis.
         let mut false_anchor = cells[3].clone();
-        false_anchor.id = Address(10);
-        false_anchor.position = truth[2] + Vector3::new(0.0, P, 0.012) - Vector3::new(0.0, 0.0, 0.1);
+        false_anchor.id = Address(11);
+        false_anchor.position = truth[2] + Vector3::new(0.0, 0.015, 0.032) - Vector3::new(0.0, 0.0, 0.1);
         cells.push(false_anchor);
-        let t = tables(&[1, 2, 3, 9, 10], &[(9, 1), (1, 2), (2, 3), (10, 3)]);
+        let t = tables(&[1, 2, 3, 9, 10, 11], &[(9, 1), (1, 2), (2, 3), (3, 10), (11, 3)]);
         let r = resolve(&mut cells, &model, &[0.0, 0.0], &t, &cfg());
         assert!(r.dropped > 0, "{r:?}");
         for (c, p) in cells.iter().zip(&truth).filter(|(c, _)| c.unobservable.is_empty()) {
