@@ -354,10 +354,41 @@ impl<E> Scheduler<E> {
             None => self.calendar.pop()?,
         };
         self.len -= 1;
-        self.now_ns = item.order.at_ns;
-        self.done = self.done.max(item.order);
-        self.calendar.move_to(self.now_ns >> SHIFT);
+        self.pass(item.order);
         Some(item.event)
+    }
+
+    /// The place of an unranked event due at `at_ns` (the past means now),
+    /// scheduled now, that the caller keeps outside the queue: events of
+    /// one kind that come due in the order they are made need no queue of
+    /// their own, only their place among the others.
+    pub fn stamp(&mut self, at_ns: u64) -> Order {
+        let tie = UNRANKED + self.seq;
+        self.seq += 1;
+        Order { at_ns: at_ns.max(self.now_ns), scheduled_ns: self.now_ns, tie }
+    }
+
+    /// The place of the next event in the queue.
+    #[inline]
+    pub fn next_order(&mut self) -> Option<Order> {
+        let first = self.calendar.first_key().unwrap_or(NONE);
+        let best = self.heads.iter().fold(first, |best, head| if *head < best { *head } else { best });
+        (best != NONE).then_some(best)
+    }
+
+    /// Moves the clock to an event at `order` that the caller kept outside
+    /// the queue ([`Scheduler::stamp`]) and takes now: it must come before
+    /// every event in the queue.
+    #[inline]
+    pub fn pass(&mut self, order: Order) {
+        debug_assert!(self.next_order().is_none_or(|n| order <= n), "{order:?} is not next");
+        self.now_ns = order.at_ns;
+        // Compared field by field and written only when later: a copy of
+        // the whole key through the stack stalled every pop.
+        if order > self.done {
+            self.done = order;
+        }
+        self.calendar.move_to(self.now_ns >> SHIFT);
     }
 
     /// Moves the clock to `t_ns` when no event comes before it.

@@ -62,7 +62,7 @@ use super::NetworkError;
 use cells::Followed;
 pub use cells::{SimCell, Stamper, Trace};
 pub use config::NetworkConfig;
-use ethernet::Interface;
+use ethernet::{Interface, ToHost};
 pub use firmware::{Firmware, UpdateSetup, TRIAL_NS};
 use rest::Rest;
 use wires::{End, Signal};
@@ -120,7 +120,6 @@ enum Event {
     Arrive { from: End, to: End, signal: Signal, followed: Option<Followed> },
     SinkPoll(u8),
     EthernetFree,
-    ToHost { bytes: Vec<u8>, followed: u64 },
     Fault(FaultKind),
 }
 
@@ -180,7 +179,8 @@ pub struct Network {
     stimulus: Stimulus,
     bit_errors: BitErrors,
     phases: rand_chacha::ChaCha8Rng,
-    ready: VecDeque<HostDatagram>,
+    /// Datagrams on their way to the host, in the order they arrive.
+    to_host: VecDeque<ToHost>,
     on_wires: u64,
     followed_on_wires: u64,
     followed_on_ethernet: u64,
@@ -280,7 +280,7 @@ impl Network {
             stimulus: Stimulus::new(config.stimulus, topology.positions_m(), config.seed ^ 0x5717_0001),
             bit_errors: BitErrors::new(config.bit_error_rate, config.seed ^ 0xB17E_0002),
             phases: rand_chacha::ChaCha8Rng::seed_from_u64(config.seed ^ 0xF0A5_0003),
-            ready: VecDeque::new(),
+            to_host: VecDeque::new(),
             on_wires: 0,
             followed_on_wires: 0,
             followed_on_ethernet: 0,
@@ -426,8 +426,10 @@ impl Network {
     /// whichever comes first, and returns that datagram.
     pub fn step(&mut self, until_ns: u64) -> Option<HostDatagram> {
         loop {
-            if let Some(d) = self.ready.pop_front() {
-                return Some(d);
+            if let Some(d) = self.to_host.front() {
+                if d.order.at_ns <= until_ns && self.events.next_order().is_none_or(|n| d.order < n) {
+                    return self.reach_host();
+                }
             }
             let Some(event) = self.events.pop_until(until_ns) else {
                 self.events.advance(until_ns);
@@ -509,7 +511,6 @@ impl Network {
                 self.ethernet_waking = false;
                 self.flush();
             }
-            Event::ToHost { bytes, followed } => self.reach_host(bytes, followed),
             Event::Fault(f) => self.fault(f),
         }
     }
