@@ -299,23 +299,43 @@ impl<E> Scheduler<E> {
         self.place_in_lane(delay_ns, Item { order: Order::ranked(at_ns, self.now_ns, rank), event });
     }
 
+    /// Puts `item` in the lane of `delay_ns`, or in the calendar when that
+    /// delay has none. Inlined into its callers: an item is nearly always
+    /// the lane's latest, and built in place it is not copied through the
+    /// stack (which stalled on reading it back).
+    #[inline]
     fn place_in_lane(&mut self, delay_ns: u64, item: Item<E>) {
-        let k = match self.delays.iter().position(|d| *d == delay_ns) {
-            Some(k) => k,
-            None if self.lanes.len() < LANES => {
-                self.delays.push(delay_ns);
-                self.lanes.push(VecDeque::new());
-                self.lanes.len() - 1
-            }
-            None => return self.calendar.place(item),
-        };
+        let Some(k) = self.lane(delay_ns) else { return self.calendar.place(item) };
         let lane = &mut self.lanes[k];
-        // In time order already; a ranked event may go before others
-        // scheduled at this same time.
-        match lane.iter().rposition(|x| x.key() < item.key()) {
-            Some(p) if p + 1 == lane.len() => lane.push_back(item),
-            at => lane.insert(at.map_or(0, |p| p + 1), item),
+        match lane.back() {
+            None => self.heads[k] = item.key(),
+            Some(last) if last.key() < item.key() => {}
+            Some(_) => return self.insert_in_lane(k, item),
         }
+        lane.push_back(item);
+    }
+
+    /// The lane of `delay_ns`: its own, or a new one while there is room.
+    #[inline]
+    fn lane(&mut self, delay_ns: u64) -> Option<usize> {
+        if let Some(k) = self.delays.iter().position(|d| *d == delay_ns) {
+            return Some(k);
+        }
+        if self.lanes.len() == LANES {
+            return None;
+        }
+        self.delays.push(delay_ns);
+        self.lanes.push(VecDeque::new());
+        Some(self.lanes.len() - 1)
+    }
+
+    /// Puts `item` into lane `k` before later ones: a ranked event may go
+    /// before others scheduled at this same time.
+    #[cold]
+    fn insert_in_lane(&mut self, k: usize, item: Item<E>) {
+        let lane = &mut self.lanes[k];
+        let at = lane.iter().rposition(|x| x.key() < item.key()).map_or(0, |p| p + 1);
+        lane.insert(at, item);
         self.heads[k] = lane[0].key();
     }
 
@@ -324,7 +344,7 @@ impl<E> Scheduler<E> {
     #[inline]
     fn next(&mut self) -> Option<(Option<usize>, u64)> {
         let mut best = (None, self.calendar.first_key().unwrap_or(NONE));
-        for (k, head) in self.heads.iter().enumerate() {
+        for (k, head) in self.heads[..self.lanes.len()].iter().enumerate() {
             if *head < best.1 {
                 best = (Some(k), *head);
             }
@@ -372,7 +392,8 @@ impl<E> Scheduler<E> {
     #[inline]
     pub fn next_order(&mut self) -> Option<Order> {
         let first = self.calendar.first_key().unwrap_or(NONE);
-        let best = self.heads.iter().fold(first, |best, head| if *head < best { *head } else { best });
+        let best =
+            self.heads[..self.lanes.len()].iter().fold(first, |best, head| if *head < best { *head } else { best });
         (best != NONE).then_some(best)
     }
 
