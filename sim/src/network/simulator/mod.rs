@@ -29,13 +29,15 @@
 //! The `impl` of [`Network`] is split by concern: this file holds the
 //! public API, `config` what a network is made of, `cells` what happens in a cell, `rest` the skipping
 //! of resting cells, `wires` the cell-2-cell links, `ethernet` the
-//! interface ports' datagrams and `faults` the fault injection.
+//! interface ports' datagrams, `faults` the fault injection and
+//! `prefetch` the cache hints for a cell a frame is on its way to.
 
 mod cells;
 mod config;
 mod ethernet;
 mod faults;
 mod firmware;
+mod prefetch;
 mod rest;
 mod wires;
 
@@ -163,6 +165,8 @@ pub struct Network {
     config: NetworkConfig,
     frame_ns: u64,
     period_ns: u64,
+    /// Cells get their state asked for ahead of a frame ([`prefetch`]).
+    prefetch: bool,
     pulses: Vec<Pulse>,
     stacks: Vec<SimCell>,
     /// Cells at rest, and how many.
@@ -263,6 +267,7 @@ impl Network {
         let m = Measurements { interface_frames: vec![(0, 0); interfaces.len()], ..Measurements::default() };
         Ok(Network {
             frame_ns: config.timing.frame_ns(),
+            prefetch: prefetch::worth_it(topology.cells()),
             period_ns: period_us * 1000,
             stacks: (0..topology.cells())
                 .map(|_| SimCell::new(store, config.update.map(|u| Box::new(Firmware::new(u)))))
