@@ -14,7 +14,7 @@
 //! - [`network`]: the cell network, every cell running the firmware's protocol code.
 //! - [`endpoint`]: the simulated robot and skin served over UDP, as a real one is reached.
 //! - [`spin_recv`]: the receive of a lockstep peer, which tries before it sleeps.
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod accel;

@@ -5,8 +5,8 @@
 use std::collections::BTreeMap;
 
 use skin_protocol::address::Address;
-use skin_protocol::frame::{Frame, Kind};
-use skin_protocol::interface::{self, Datagram, DatagramHeader, MAX_DATAGRAM, MAX_FRAMES};
+use skin_protocol::frame::{Frame, Kind, FRAME_LEN};
+use skin_protocol::interface::{self, Datagram, DatagramHeader, HEADER_LEN, MAX_DATAGRAM, MAX_FRAMES};
 use skin_protocol::message::{Message, Neighbour};
 use skin_protocol::organize::Allocator;
 
@@ -20,7 +20,8 @@ pub struct Host {
     /// again changes nothing, and most frames come from known cells).
     observed: Vec<u64>,
     /// Datagrams or frames from the skin that did not parse (of a known
-    /// cell's frames, only those of the kinds the host acts on are decoded).
+    /// cell's frames, only those of the kinds the host acts on are checked
+    /// and decoded).
     pub rejected: u64,
 }
 
@@ -50,31 +51,30 @@ impl Host {
             return Vec::new();
         };
         let mut replies: Vec<Frame> = Vec::new();
-        for frame in d.frames() {
-            let Ok(frame) = frame else {
-                self.rejected += 1;
-                continue;
-            };
-            let src = usize::from(frame.src().0);
-            let word = self.observed.get_mut(src / 64).expect("the bitmap covers every address");
-            let bit = 1 << (src % 64);
+        // Checked by `Datagram::parse`: whole frames after the header.
+        for raw in bytes[HEADER_LEN..].chunks_exact(FRAME_LEN) {
             // A known cell's sample or event (nearly all of the traffic)
-            // tells the host nothing: its payload is not decoded.
-            if *word & bit != 0 && !matches!(frame.kind(), Kind::IdRequest | Kind::NeighbourReport) {
+            // tells the host nothing: read from its header bytes (kind,
+            // source) as `Frame` would, it is neither checked nor decoded.
+            let src = Address(u16::from_le_bytes([raw[1], raw[2]]));
+            let word = self.observed.get_mut(usize::from(src.0) / 64).expect("the bitmap covers every address");
+            let bit = 1 << (src.0 % 64);
+            let acted_on = [Kind::IdRequest as u8, Kind::NeighbourReport as u8].contains(&raw[0]);
+            if *word & bit != 0 && !acted_on {
                 continue;
             }
-            let Ok(message) = frame.message() else {
+            let Ok(message) = Frame::parse(raw).and_then(|f| f.message()) else {
                 self.rejected += 1;
                 continue;
             };
             if *word & bit == 0 {
                 *word |= bit;
-                self.allocator.observe(frame.src());
+                self.allocator.observe(src);
             }
             match message {
                 Message::IdRequest(r) => replies.extend(self.allocator.request(r)),
                 Message::NeighbourReport(r) => {
-                    self.tables.insert(frame.src(), r.neighbours);
+                    self.tables.insert(src, r.neighbours);
                 }
                 _ => {}
             }

@@ -29,13 +29,15 @@
 //! The `impl` of [`Network`] is split by concern: this file holds the
 //! public API, `config` what a network is made of, `cells` what happens in a cell, `rest` the skipping
 //! of resting cells, `wires` the cell-2-cell links, `ethernet` the
-//! interface ports' datagrams and `faults` the fault injection.
+//! interface ports' datagrams, `faults` the fault injection and
+//! `prefetch` the cache hints for a cell a frame is on its way to.
 
 mod cells;
 mod config;
 mod ethernet;
 mod faults;
 mod firmware;
+mod prefetch;
 mod rest;
 mod wires;
 
@@ -62,7 +64,7 @@ use super::NetworkError;
 use cells::Followed;
 pub use cells::{SimCell, Stamper, Trace};
 pub use config::NetworkConfig;
-use ethernet::Interface;
+use ethernet::{Interface, ToHost};
 pub use firmware::{Firmware, UpdateSetup, TRIAL_NS};
 use rest::Rest;
 use wires::{End, Signal};
@@ -120,7 +122,6 @@ enum Event {
     Arrive { from: End, to: End, signal: Signal, followed: Option<Followed> },
     SinkPoll(u8),
     EthernetFree,
-    ToHost { bytes: Vec<u8>, followed: u64 },
     Fault(FaultKind),
 }
 
@@ -164,6 +165,8 @@ pub struct Network {
     config: NetworkConfig,
     frame_ns: u64,
     period_ns: u64,
+    /// Cells get their state asked for ahead of a frame ([`prefetch`]).
+    prefetch: bool,
     pulses: Vec<Pulse>,
     stacks: Vec<SimCell>,
     /// Cells at rest, and how many.
@@ -180,7 +183,8 @@ pub struct Network {
     stimulus: Stimulus,
     bit_errors: BitErrors,
     phases: rand_chacha::ChaCha8Rng,
-    ready: VecDeque<HostDatagram>,
+    /// Datagrams on their way to the host, in the order they arrive.
+    to_host: VecDeque<ToHost>,
     on_wires: u64,
     followed_on_wires: u64,
     followed_on_ethernet: u64,
@@ -263,6 +267,7 @@ impl Network {
         let m = Measurements { interface_frames: vec![(0, 0); interfaces.len()], ..Measurements::default() };
         Ok(Network {
             frame_ns: config.timing.frame_ns(),
+            prefetch: prefetch::worth_it(topology.cells()),
             period_ns: period_us * 1000,
             stacks: (0..topology.cells())
                 .map(|_| SimCell::new(store, config.update.map(|u| Box::new(Firmware::new(u)))))
@@ -280,7 +285,7 @@ impl Network {
             stimulus: Stimulus::new(config.stimulus, topology.positions_m(), config.seed ^ 0x5717_0001),
             bit_errors: BitErrors::new(config.bit_error_rate, config.seed ^ 0xB17E_0002),
             phases: rand_chacha::ChaCha8Rng::seed_from_u64(config.seed ^ 0xF0A5_0003),
-            ready: VecDeque::new(),
+            to_host: VecDeque::new(),
             on_wires: 0,
             followed_on_wires: 0,
             followed_on_ethernet: 0,
@@ -426,8 +431,10 @@ impl Network {
     /// whichever comes first, and returns that datagram.
     pub fn step(&mut self, until_ns: u64) -> Option<HostDatagram> {
         loop {
-            if let Some(d) = self.ready.pop_front() {
-                return Some(d);
+            if let Some(d) = self.to_host.front() {
+                if d.order.at_ns <= until_ns && self.events.next_order().is_none_or(|n| d.order < n) {
+                    return self.reach_host();
+                }
             }
             let Some(event) = self.events.pop_until(until_ns) else {
                 self.events.advance(until_ns);
@@ -509,7 +516,6 @@ impl Network {
                 self.ethernet_waking = false;
                 self.flush();
             }
-            Event::ToHost { bytes, followed } => self.reach_host(bytes, followed),
             Event::Fault(f) => self.fault(f),
         }
     }

@@ -9,6 +9,7 @@ use skin_protocol::organize::FromCell;
 use super::super::ledger::DropReason;
 use super::super::topology::PortRef;
 use super::cells::Followed;
+use super::prefetch;
 use super::{is_data, Event, Network, Power, ALL_PORTS};
 
 /// One end of a wire.
@@ -118,7 +119,15 @@ impl Network {
             if self.bit_errors.corrupt(&mut bytes) > 0 { Signal::Corrupted(bytes) } else { Signal::Intact(frame) };
         self.on_wires += 1;
         self.followed_on_wires += u64::from(followed.is_some());
-        let processing = if matches!(to, End::Cell(..)) { self.config.timing.processing_ns } else { 0 };
+        let processing = match to {
+            End::Cell(j, _) => {
+                if self.prefetch {
+                    prefetch::cell(&self.pulses[usize::from(j)], &self.stacks[usize::from(j)]);
+                }
+                self.config.timing.processing_ns
+            }
+            End::Interface(_) => 0,
+        };
         self.events.after(self.frame_ns + processing, Event::Arrive { from, to, signal, followed });
     }
 
