@@ -141,7 +141,7 @@ impl Updater {
     }
 
     /// An offer: a new version clears the slot for it, unless the slot
-    /// already holds part of this very image ([`Updater::resume`]); every
+    /// already holds part of this very image (see `resume`); every
     /// offer is answered. On trial the running image is the spare slot's
     /// own, so nothing is taken until the trial is confirmed or rolled back.
     pub fn offer(&mut self, offer: UpdateOffer, slot: &mut impl Slot, now_us: u64) -> Option<UpdateReport> {
