@@ -137,6 +137,13 @@ pub struct Header {
     pub dst: Address,
 }
 
+/// The kind byte and the sender of a frame's bytes, read without any
+/// check: for a reader that passes over most frames by who sent them and
+/// what they are, and checks ([`Frame::parse`]) only those it keeps.
+pub fn peek(bytes: &[u8; FRAME_LEN]) -> (u8, Address) {
+    (bytes[0], Address(u16::from_le_bytes([bytes[1], bytes[2]])))
+}
+
 /// A frame whose length, CRC and kind have been checked; the payload is
 /// decoded on demand with [`Frame::message`], so a cell that only forwards
 /// never pays for it.
@@ -196,7 +203,7 @@ impl Frame {
 
     /// The sender.
     pub fn src(&self) -> Address {
-        Address(u16::from_le_bytes([self.bytes[1], self.bytes[2]]))
+        peek(&self.bytes).1
     }
 
     /// The receiver.

@@ -153,10 +153,11 @@ impl Updater {
         if offer.version != self.running && !current && !failed {
             let fits = usize::from(offer.chunks) * CHUNK_LEN <= slot.capacity() as usize
                 && usize::from(offer.chunks) >= usize::from(HEADER_CHUNKS);
-            self.resumed = false;
-            let progress = if !fits || !self.have.reset(offer.chunks) {
+            let room = fits && self.have.reset(offer.chunks);
+            self.resumed = room && self.resume(offer, slot);
+            let progress = if !room {
                 Progress::Refused(Refusal::TooLong)
-            } else if self.resume(offer, slot) {
+            } else if self.resumed {
                 Progress::Receiving
             } else if slot.erase().is_err() {
                 Progress::Refused(Refusal::SlotFailed)
@@ -177,7 +178,8 @@ impl Updater {
     /// slot holds this offer's header, genuine under the key, every chunk
     /// written before (any chunk not blank) is kept rather than asked for
     /// again. A chunk the cut tore shows when the whole image is checked,
-    /// and the slot is then received again from nothing.
+    /// and the slot is then received again from nothing. False (and no
+    /// chunk kept) when the slot holds no such header.
     fn resume(&mut self, offer: UpdateOffer, slot: &impl Slot) -> bool {
         if self.verifier(offer, slot).is_err() {
             return false;
@@ -192,11 +194,11 @@ impl Updater {
                 self.have.insert(i);
             }
         }
-        self.resumed = (0..HEADER_CHUNKS).all(|i| self.have.has(i));
-        if !self.resumed {
+        let header = (0..HEADER_CHUNKS).all(|i| self.have.has(i));
+        if !header {
             self.have.reset(offer.chunks);
         }
-        self.resumed
+        header
     }
 
     /// Once every chunk is in: the image checked whole. A resumed slot

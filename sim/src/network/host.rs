@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 
 use skin_protocol::address::Address;
-use skin_protocol::frame::{Frame, Kind, FRAME_LEN};
+use skin_protocol::frame::{self, Frame, Kind, FRAME_LEN};
 use skin_protocol::interface::{self, Datagram, DatagramHeader, HEADER_LEN, MAX_DATAGRAM, MAX_FRAMES};
 use skin_protocol::message::{Message, Neighbour};
 use skin_protocol::organize::Allocator;
@@ -54,12 +54,12 @@ impl Host {
         // Checked by `Datagram::parse`: whole frames after the header.
         for raw in bytes[HEADER_LEN..].chunks_exact(FRAME_LEN) {
             // A known cell's sample or event (nearly all of the traffic)
-            // tells the host nothing: read from its header bytes (kind,
-            // source) as `Frame` would, it is neither checked nor decoded.
-            let src = Address(u16::from_le_bytes([raw[1], raw[2]]));
+            // tells the host nothing: known by its kind and source, it is
+            // neither checked nor decoded.
+            let (kind, src) = frame::peek(raw.try_into().expect("chunks of a frame's length"));
             let word = self.observed.get_mut(usize::from(src.0) / 64).expect("the bitmap covers every address");
             let bit = 1 << (src.0 % 64);
-            let acted_on = [Kind::IdRequest as u8, Kind::NeighbourReport as u8].contains(&raw[0]);
+            let acted_on = [Kind::IdRequest as u8, Kind::NeighbourReport as u8].contains(&kind);
             if *word & bit != 0 && !acted_on {
                 continue;
             }
