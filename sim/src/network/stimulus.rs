@@ -165,26 +165,29 @@ impl Stimulus {
     /// Where the fingertip is in its back and forth at `t_s`, in `[0, 2)`:
     /// a fraction of the span on the way out, two less it on the way back.
     fn finger_phase(&self, t_s: f64) -> f64 {
-        (t_s * FINGER_SPEED_M_S / self.span_m()) % 2.0
+        let x = t_s * FINGER_SPEED_M_S / self.span_m();
+        if !(0.0..4_503_599_627_370_496.0).contains(&x) {
+            return x % 2.0;
+        }
+        // `x % 2.0` without the call into libm: `x - 2k` is exact for
+        // `2k <= x < 2k + 2` (Sterbenz), as the remainder is.
+        x - 2.0 * ((x * 0.5) as i64 as f64)
     }
 
-    /// Contact at a point of the skin at time `t_s`: force in newtons and
-    /// distance of the object in metres.
-    fn contact(&self, p: [f64; 2], t_s: f64) -> (f64, f64) {
+    /// Where the object is at time `t_s`: worked out once per reading, as
+    /// a cell's centre and its three force cells read the same object.
+    fn object(&self, t_s: f64) -> Object {
         let mid = self.mid();
         match self.kind {
-            StimulusKind::Quiet => (0.0, f64::INFINITY),
+            StimulusKind::Quiet => Object::None,
             StimulusKind::Touch => {
                 // A triangle wave over the width of the skin.
                 let phase = self.finger_phase(t_s);
                 let x = self.lo[0] + self.span_m() * if phase < 1.0 { phase } else { 2.0 - phase };
-                let d = ((p[0] - x).powi(2) + (p[1] - mid[1]).powi(2)).sqrt();
-                let force = 2.0 * (1.0 - (d / FINGER_RADIUS_M).powi(2)).max(0.0);
-                (force, d)
+                Object::Finger([x, mid[1]])
             }
             StimulusKind::Grasp => {
                 let t = t_s % GRASP_CYCLE_S;
-                let across = (p[1] - mid[1]).abs();
                 let (start, end) = (GRASP_CONTACT_S.start, GRASP_CONTACT_S.end);
                 let (gap_m, press) = match t {
                     t if t < start => (GRASP_SPEED_M_S * (start - t), 0.0),
@@ -193,8 +196,7 @@ impl Stimulus {
                     t if t < end => (0.0, 0.9 * (end - t)),
                     t => (GRASP_SPEED_M_S * (t - end), 0.0),
                 };
-                let force = 3.0 * press * (1.0 - (across / HALF_BAND_M).powi(2)).max(0.0);
-                (force, gap_m + (across - HALF_BAND_M).max(0.0))
+                Object::Band { y: mid[1], gap_m, press }
             }
         }
     }
@@ -272,7 +274,7 @@ impl Stimulus {
     }
 
     /// True when a cell whose centre is `distance_m` from the object (as
-    /// [`Stimulus::contact`] measures it) cannot feel force at any of its
+    /// [`Object::contact`] measures it) cannot feel force at any of its
     /// force cells.
     fn out_of_reach(&self, distance_m: f64) -> bool {
         // A margin keeps rounding from deciding.
@@ -308,7 +310,8 @@ impl Stimulus {
             return fed[cell];
         }
         let p = self.positions_m[cell];
-        let (_, distance_m) = self.contact(p, t_s);
+        let object = self.object(t_s);
+        let (_, distance_m) = object.contact(p);
         let proximity = if distance_m <= PROXIMITY_RANGE_M {
             PROXIMITY_AT_TOUCH * f64::from(PROXIMITY_MAX) * (-distance_m / PROXIMITY_DECAY_M).exp()
         } else {
@@ -318,10 +321,45 @@ impl Stimulus {
             [0.0; 3]
         } else {
             FORCE_CELLS_M
-                .map(|o| self.contact([p[0] + o[0], p[1] + o[1]], t_s).0 / FORCE_FULL_SCALE_N * f64::from(FORCE_MAX))
+                .map(|o| object.contact([p[0] + o[0], p[1] + o[1]]).0 / FORCE_FULL_SCALE_N * f64::from(FORCE_MAX))
         };
         let noise = self.noise[cell].draw();
         reading(&self.baselines[cell], proximity, force, noise)
+    }
+}
+
+/// Where the stimulus's object is at one moment.
+#[derive(Clone, Copy, Debug)]
+enum Object {
+    None,
+    /// The fingertip's centre.
+    Finger([f64; 2]),
+    /// The grasped object's band, along x through `y`: how far it is from
+    /// the skin, and how hard it presses (1: 3 N per force cell).
+    Band {
+        y: f64,
+        gap_m: f64,
+        press: f64,
+    },
+}
+
+impl Object {
+    /// Contact at a point of the skin: force in newtons and distance of
+    /// the object in metres.
+    fn contact(&self, p: [f64; 2]) -> (f64, f64) {
+        match *self {
+            Object::None => (0.0, f64::INFINITY),
+            Object::Finger([x, y]) => {
+                let d = ((p[0] - x).powi(2) + (p[1] - y).powi(2)).sqrt();
+                let force = 2.0 * (1.0 - (d / FINGER_RADIUS_M).powi(2)).max(0.0);
+                (force, d)
+            }
+            Object::Band { y, gap_m, press } => {
+                let across = (p[1] - y).abs();
+                let force = 3.0 * press * (1.0 - (across / HALF_BAND_M).powi(2)).max(0.0);
+                (force, gap_m + (across - HALF_BAND_M).max(0.0))
+            }
+        }
     }
 }
 
@@ -329,7 +367,7 @@ impl Stimulus {
 /// noise per channel (in counts, [`Sample::channels`] order), rounded to
 /// counts and saturated as the ADCs do. Monotonic in every input.
 fn reading(b: &Baseline, proximity: f64, force: [f64; 3], noise: [f64; 8]) -> Sample {
-    let count = |v: f64| v.round();
+    let count = round;
     Sample::saturating(
         count(b.proximity + proximity + noise[0]).clamp(0.0, f64::from(PROXIMITY_MAX)) as u16,
         std::array::from_fn(|k| count(b.force[k] + force[k] + noise[1 + k]).max(0.0) as u16),
@@ -337,6 +375,18 @@ fn reading(b: &Baseline, proximity: f64, force: [f64; 3], noise: [f64; 8]) -> Sa
         count(b.temperature + noise[7]) as i16,
         0,
     )
+}
+
+/// `v.round()` (half away from zero), bit for bit, without the call into
+/// libm that x86-64's baseline instruction set makes of it (2% of a
+/// clock-driven run) and without a branch on the fraction (noise makes it
+/// a coin toss): adding just under a half and truncating is exact below
+/// 2^52, where every reading is.
+fn round(v: f64) -> f64 {
+    if !(v.abs() < 4_503_599_627_370_496.0) {
+        return v.round();
+    }
+    ((v + 0.499_999_999_999_999_94_f64.copysign(v)) as i64 as f64).copysign(v)
 }
 
 /// One cell's sensor noise: SplitMix64 (Steele, Lea and Flood, 2014), a
@@ -421,6 +471,39 @@ mod tests {
         assert!(times.all(|s| touched(&mut t, s) <= 3), "a fingertip presses a few cells at most");
         assert!((0..20).any(|k| touched(&mut t, f64::from(k) * 0.1) > 0), "the finger touches somewhere");
         assert!("poke".parse::<StimulusKind>().is_err());
+    }
+
+    proptest::proptest! {
+        /// The reading's rounding is `f64::round`, bit for bit.
+        #[test]
+        fn round_is_f64_round(v: f64, w in -1e6f64..1e6, k in -1_000_000i64..1_000_000) {
+            let half = k as f64 + 0.5;
+            for x in [v, w, half, -half, k as f64, f64::from_bits(half.to_bits() + 1), f64::from_bits(half.to_bits() - 1)] {
+                let (a, b) = (round(x), x.round());
+                proptest::prop_assert!(a.to_bits() == b.to_bits() || a.is_nan() && b.is_nan(), "{x}: {a} != {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_finger_phase_is_the_remainder() {
+        let s = Stimulus::new(StimulusKind::Touch, &line(30), 1);
+        for k in 0..100_000 {
+            let t = f64::from(k) * 0.000_731;
+            let x = t * FINGER_SPEED_M_S / s.span_m();
+            assert_eq!(s.finger_phase(t).to_bits(), (x % 2.0).to_bits(), "{t}");
+        }
+    }
+
+    #[test]
+    fn round_agrees_at_the_edges() {
+        let two52 = 4_503_599_627_370_496.0;
+        for x in
+            [0.0, -0.0, 0.5, -0.5, 0.499_999_999_999_999_94, -0.3, 2.5, -2.5, two52 - 0.5, two52, -two52 - 1.0, 1e-300]
+        {
+            assert_eq!(round(x).to_bits(), x.round().to_bits(), "{x}");
+        }
+        assert!(round(f64::NAN).is_nan() && round(f64::INFINITY) == f64::INFINITY);
     }
 
     #[test]
