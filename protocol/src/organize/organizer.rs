@@ -272,10 +272,12 @@ impl Organizer {
             let period = self.config.keepalive_period_us.saturating_sub(self.config.beacon_period_us / 2);
             self.next_spare_us = now_us + period;
         }
-        let relay = self.link_frame(Message::Beacon(Beacon { hops, ..b }));
+        // Made only when some port takes it: a leaf relays no wave.
+        let mut relay = None;
         for p in Port::ALL {
             if p != port && self.is_active(p) && (spare_too || self.wants_every_wave(p)) {
-                outs.send(Out::Link(p, relay));
+                let frame = *relay.get_or_insert_with(|| self.link_frame(Message::Beacon(Beacon { hops, ..b })));
+                outs.send(Out::Link(p, frame));
             }
         }
         self.report(outs, now_us);
