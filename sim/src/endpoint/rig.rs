@@ -215,6 +215,7 @@ impl Rig {
         let before = up.len();
         while let Some(d) = self.network.step(until_ns) {
             self.batcher.take(d.at_ns, &d.bytes, up)?;
+            self.network.recycle(d);
         }
         // The next chance to send is the next period's end.
         let tick_ns = (self.world.config().tick_s * 1e9).round() as u64;

@@ -346,6 +346,7 @@ pub fn pump(net: &mut Network, transport: &mut Transport, until_ns: u64) -> Resu
             for reply in transport.deliver(&d)? {
                 net.inject(&reply)?;
             }
+            net.recycle(d);
         }
         for reply in transport.poll(net.now_ns())? {
             net.inject(&reply)?;

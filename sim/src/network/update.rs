@@ -89,6 +89,7 @@ fn pump(
         for reply in host.receive(&d.bytes) {
             net.inject(&reply)?;
         }
+        net.recycle(d);
     }
     Ok(())
 }

@@ -117,7 +117,9 @@ impl Network {
         let header = DatagramHeader { interface: k as u8, seq: i.seq, timestamp_us: now_ns / 1000 };
         i.seq = i.seq.wrapping_add(1);
         // Written in place at its length: most datagrams carry one frame.
-        let mut bytes = vec![0; HEADER_LEN + frames.len() * FRAME_LEN];
+        let mut bytes = self.spare.pop().unwrap_or_default();
+        bytes.clear();
+        bytes.resize(HEADER_LEN + frames.len() * FRAME_LEN, 0);
         interface::encode(header, frames, &mut bytes).expect("1..=72 frames fit a datagram");
         self.ethernet_busy_until_ns = at_ns;
         self.followed_on_ethernet += followed;

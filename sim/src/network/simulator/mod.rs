@@ -71,6 +71,8 @@ use wires::{End, Signal};
 
 /// Cells boot within this time of power-up, in a random order.
 const BOOT_SPREAD_NS: u64 = 5_000_000;
+/// Datagram buffers kept for reuse, at most ([`Network::recycle`]).
+const SPARE_DATAGRAMS: usize = 64;
 /// Every port, as port bits.
 const ALL_PORTS: u8 = 0b1111;
 
@@ -179,6 +181,8 @@ pub struct Network {
     next_flush: usize,
     /// The frames of the datagram being sent (kept to reuse its memory).
     datagram: Vec<Frame>,
+    /// Datagram buffers handed back by the caller ([`Network::recycle`]).
+    spare: Vec<Vec<u8>>,
     events: Scheduler<Event>,
     stimulus: Stimulus,
     bit_errors: BitErrors,
@@ -281,6 +285,7 @@ impl Network {
             ethernet_waking: false,
             next_flush: 0,
             datagram: Vec::with_capacity(MAX_FRAMES),
+            spare: Vec::new(),
             events,
             stimulus: Stimulus::new(config.stimulus, topology.positions_m(), config.seed ^ 0x5717_0001),
             bit_errors: BitErrors::new(config.bit_error_rate, config.seed ^ 0xB17E_0002),
@@ -441,6 +446,14 @@ impl Network {
                 return None;
             };
             self.handle(event);
+        }
+    }
+
+    /// Takes back a datagram [`Network::step`] returned, once read: its
+    /// buffer carries a later one, so that a datagram costs no allocation.
+    pub fn recycle(&mut self, datagram: HostDatagram) {
+        if self.spare.len() < SPARE_DATAGRAMS {
+            self.spare.push(datagram.bytes);
         }
     }
 
