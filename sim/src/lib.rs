@@ -13,6 +13,7 @@
 //! - [`world`]: robot, base and skin stepped together at 250 Hz.
 //! - [`network`]: the cell network, every cell running the firmware's protocol code.
 //! - [`endpoint`]: the simulated robot and skin served over UDP, as a real one is reached.
+//! - [`round`]: `f64::round` without libm, for the simulator's hot paths.
 //! - [`spin_recv`]: the receive of a lockstep peer, which tries before it sleeps.
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
@@ -21,6 +22,7 @@ pub mod accel;
 pub mod endpoint;
 pub mod network;
 pub mod robot;
+pub mod round;
 pub mod scene;
 pub mod skin;
 pub mod spin_recv;

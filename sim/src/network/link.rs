@@ -49,7 +49,7 @@ impl LinkTiming {
     pub fn datagram_ns(&self, frames: usize) -> u64 {
         let payload = (HEADER_LEN + frames * FRAME_LEN + 28).max(ETHERNET_MIN_PAYLOAD);
         let bytes = payload - 28 + ETHERNET_OVERHEAD_BYTES;
-        (bytes as f64 * 8.0 / self.ethernet_bit_rate_bps * 1e9).round() as u64
+        crate::round::round(bytes as f64 * 8.0 / self.ethernet_bit_rate_bps * 1e9) as u64
     }
 }
 

@@ -367,7 +367,7 @@ impl Object {
 /// noise per channel (in counts, [`Sample::channels`] order), rounded to
 /// counts and saturated as the ADCs do. Monotonic in every input.
 fn reading(b: &Baseline, proximity: f64, force: [f64; 3], noise: [f64; 8]) -> Sample {
-    let count = round;
+    let count = crate::round::round;
     Sample::saturating(
         count(b.proximity + proximity + noise[0]).clamp(0.0, f64::from(PROXIMITY_MAX)) as u16,
         std::array::from_fn(|k| count(b.force[k] + force[k] + noise[1 + k]).max(0.0) as u16),
@@ -375,18 +375,6 @@ fn reading(b: &Baseline, proximity: f64, force: [f64; 3], noise: [f64; 8]) -> Sa
         count(b.temperature + noise[7]) as i16,
         0,
     )
-}
-
-/// `v.round()` (half away from zero), bit for bit, without the call into
-/// libm that x86-64's baseline instruction set makes of it (2% of a
-/// clock-driven run) and without a branch on the fraction (noise makes it
-/// a coin toss): adding just under a half and truncating is exact below
-/// 2^52, where every reading is.
-fn round(v: f64) -> f64 {
-    if !(v.abs() < 4_503_599_627_370_496.0) {
-        return v.round();
-    }
-    ((v + 0.499_999_999_999_999_94_f64.copysign(v)) as i64 as f64).copysign(v)
 }
 
 /// One cell's sensor noise: SplitMix64 (Steele, Lea and Flood, 2014), a
@@ -473,18 +461,6 @@ mod tests {
         assert!("poke".parse::<StimulusKind>().is_err());
     }
 
-    proptest::proptest! {
-        /// The reading's rounding is `f64::round`, bit for bit.
-        #[test]
-        fn round_is_f64_round(v: f64, w in -1e6f64..1e6, k in -1_000_000i64..1_000_000) {
-            let half = k as f64 + 0.5;
-            for x in [v, w, half, -half, k as f64, f64::from_bits(half.to_bits() + 1), f64::from_bits(half.to_bits() - 1)] {
-                let (a, b) = (round(x), x.round());
-                proptest::prop_assert!(a.to_bits() == b.to_bits() || a.is_nan() && b.is_nan(), "{x}: {a} != {b}");
-            }
-        }
-    }
-
     #[test]
     fn the_finger_phase_is_the_remainder() {
         let s = Stimulus::new(StimulusKind::Touch, &line(30), 1);
@@ -493,17 +469,6 @@ mod tests {
             let x = t * FINGER_SPEED_M_S / s.span_m();
             assert_eq!(s.finger_phase(t).to_bits(), (x % 2.0).to_bits(), "{t}");
         }
-    }
-
-    #[test]
-    fn round_agrees_at_the_edges() {
-        let two52 = 4_503_599_627_370_496.0;
-        for x in
-            [0.0, -0.0, 0.5, -0.5, 0.499_999_999_999_999_94, -0.3, 2.5, -2.5, two52 - 0.5, two52, -two52 - 1.0, 1e-300]
-        {
-            assert_eq!(round(x).to_bits(), x.round().to_bits(), "{x}");
-        }
-        assert!(round(f64::NAN).is_nan() && round(f64::INFINITY) == f64::INFINITY);
     }
 
     #[test]
