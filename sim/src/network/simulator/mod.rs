@@ -29,14 +29,16 @@
 //! The `impl` of [`Network`] is split by concern: this file holds the
 //! public API, `config` what a network is made of, `cells` what happens in a cell, `rest` the skipping
 //! of resting cells, `wires` the cell-2-cell links, `ethernet` the
-//! interface ports' datagrams, `faults` the fault injection and
-//! `prefetch` the cache hints for a cell a frame is on its way to.
+//! interface ports' datagrams, `faults` the fault injection,
+//! `prefetch` the cache hints for a cell a frame is on its way to and
+//! `pages` the huge pages of a large skin's cell state.
 
 mod cells;
 mod config;
 mod ethernet;
 mod faults;
 mod firmware;
+mod pages;
 mod prefetch;
 mod rest;
 mod wires;
@@ -273,9 +275,15 @@ impl Network {
             frame_ns: config.timing.frame_ns(),
             prefetch: prefetch::worth_it(topology.cells()),
             period_ns: period_us * 1000,
-            stacks: (0..topology.cells())
-                .map(|_| SimCell::new(store, config.update.map(|u| Box::new(Firmware::new(u)))))
-                .collect(),
+            stacks: {
+                let mut stacks = Vec::with_capacity(topology.cells());
+                pages::huge(&stacks);
+                stacks.extend(
+                    (0..topology.cells())
+                        .map(|_| SimCell::new(store, config.update.map(|u| Box::new(Firmware::new(u))))),
+                );
+                stacks
+            },
             rests: vec![None; topology.cells()],
             resting: 0,
             pulses,
