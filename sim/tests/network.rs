@@ -1,6 +1,7 @@
 //! The network simulator on small skins: self-organization, single-link
-//! cuts, bit errors, reboots, the ledger, determinism, the round-robin
-//! bound, traffic fractions, graph files and UDP on loopback.
+//! cuts, bit errors, reboots, the ledger, determinism (with recycled
+//! datagram buffers too), the round-robin bound, traffic fractions, graph
+//! files and UDP on loopback.
 //!
 //! The large runs (10,000 cells, the 5x capacity of event-driven traffic)
 //! are `#[ignore]`d: `cargo test --release -p skin-sim --test network -- --ignored`.
@@ -117,17 +118,23 @@ fn an_overloaded_interface_port_drops_frames_with_a_reason() {
 }
 
 /// Everything observable of a run: the datagrams to the host, byte for
-/// byte, and the report without its wall time.
-fn trace(seed: u64) -> (Vec<(u64, Vec<u8>)>, String) {
+/// byte, and the report without its wall time. With `recycle`, every
+/// datagram's buffer goes back to the network scribbled over and longer.
+fn trace(seed: u64, recycle: bool) -> (Vec<(u64, Vec<u8>)>, String) {
     let c = config(TrafficMode::Event, StimulusKind::Touch, seed);
     let mut net = Network::new(&patch(3, 3, 2), c).unwrap();
     let mut host = Host::new();
     let mut seen = Vec::new();
-    while let Some(d) = net.step(300_000_000) {
+    while let Some(mut d) = net.step(300_000_000) {
         for reply in host.receive(&d.bytes) {
             net.inject(&reply).unwrap();
         }
-        seen.push((d.at_ns, d.bytes));
+        seen.push((d.at_ns, d.bytes.clone()));
+        if recycle {
+            d.bytes.iter_mut().for_each(|b| *b = 0xA5);
+            d.bytes.resize(1_500, 0x5A);
+            net.recycle(d);
+        }
     }
     let mut r = run(&Scenario::new(patch(3, 3, 2), c, 0.3));
     r.wall_time_s = 0.0;
@@ -136,13 +143,15 @@ fn trace(seed: u64) -> (Vec<(u64, Vec<u8>)>, String) {
 
 #[test]
 fn same_seed_same_result_byte_for_byte() {
-    let (a, ra) = trace(42);
-    let (b, rb) = trace(42);
+    let (a, ra) = trace(42, false);
+    let (b, rb) = trace(42, false);
     assert!(!a.is_empty());
     assert!(a == b, "datagrams differ");
     assert_eq!(ra, rb);
-    let (c, _) = trace(43);
+    let (c, _) = trace(43, false);
     assert!(a != c, "the seed changes nothing");
+    let (r, _) = trace(42, true);
+    assert!(a == r, "a recycled buffer's old bytes reach a later datagram");
 }
 
 #[test]
