@@ -13,7 +13,7 @@
 //! - [`world`]: robot, base and skin stepped together at 250 Hz.
 //! - [`network`]: the cell network, every cell running the firmware's protocol code.
 //! - [`endpoint`]: the simulated robot and skin served over UDP, as a real one is reached.
-//! - [`round`]: `f64::round` without libm, for the simulator's hot paths.
+//! - [`round`]: `f64::round` and `f64::trunc` without libm, for the simulator's hot paths.
 //! - [`spin_recv`]: the receive of a lockstep peer, which tries before it sleeps.
 #![deny(unsafe_code)]
 #![warn(missing_docs)]

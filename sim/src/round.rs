@@ -1,17 +1,27 @@
-//! Rounding to the nearest integer, half away from zero, as `f64::round`
-//! does, but without the call into libm that x86-64's baseline instruction
-//! set makes of it, and without a branch on the fraction (sensor noise
-//! makes it a coin toss): readings and datagram times are rounded on every
-//! event of the network simulator (3% of a clock-driven HRP-2 run).
+//! Rounding and truncation to integers as `f64::round` and `f64::trunc`
+//! do, bit for bit, but without the call into libm that x86-64's baseline
+//! instruction set makes of them, and without a branch on the fraction
+//! (sensor noise makes it a coin toss): readings, datagram times and the
+//! stimulus's phase are rounded on every event of the network simulator
+//! (3% of a clock-driven HRP-2 run).
 
-/// `v.round()`, bit for bit: adding just under a half and truncating is
-/// exact below 2^52; beyond, `f64::round` decides.
-pub fn round(v: f64) -> f64 {
-    if v.abs() < 4_503_599_627_370_496.0 {
-        ((v + 0.499_999_999_999_999_94_f64.copysign(v)) as i64 as f64).copysign(v)
+/// Below this magnitude an `f64` may have a fraction, and fits an `i64`.
+const FRACTIONAL_BELOW: f64 = 4_503_599_627_370_496.0; // 2^52
+
+/// `v.trunc()`, bit for bit: through `i64` below 2^52, where that is exact;
+/// beyond, `v` is already an integer (or infinite, or NaN).
+pub fn trunc(v: f64) -> f64 {
+    if v.abs() < FRACTIONAL_BELOW {
+        (v as i64 as f64).copysign(v)
     } else {
-        v.round()
+        v.trunc()
     }
+}
+
+/// `v.round()`, bit for bit: adding just under a half, away from zero,
+/// and truncating is exact (beyond 2^52 the sum is `v` itself).
+pub fn round(v: f64) -> f64 {
+    trunc(v + 0.499_999_999_999_999_94_f64.copysign(v))
 }
 
 #[cfg(test)]
@@ -25,6 +35,17 @@ mod tests {
             let half = k as f64 + 0.5;
             for x in [v, w, half, -half, k as f64, f64::from_bits(half.to_bits() + 1), f64::from_bits(half.to_bits() - 1)] {
                 let (a, b) = (round(x), x.round());
+                proptest::prop_assert!(a.to_bits() == b.to_bits() || a.is_nan() && b.is_nan(), "{x}: {a} != {b}");
+            }
+        }
+    }
+
+    proptest::proptest! {
+        /// `trunc` is `f64::trunc`, bit for bit.
+        #[test]
+        fn trunc_is_f64_trunc(v: f64, w in -1e6f64..1e6) {
+            for x in [v, w, -w, w.trunc()] {
+                let (a, b) = (trunc(x), x.trunc());
                 proptest::prop_assert!(a.to_bits() == b.to_bits() || a.is_nan() && b.is_nan(), "{x}: {a} != {b}");
             }
         }

@@ -166,12 +166,9 @@ impl Stimulus {
     /// a fraction of the span on the way out, two less it on the way back.
     fn finger_phase(&self, t_s: f64) -> f64 {
         let x = t_s * FINGER_SPEED_M_S / self.span_m();
-        if !(0.0..4_503_599_627_370_496.0).contains(&x) {
-            return x % 2.0;
-        }
         // `x % 2.0` without the call into libm: `x - 2k` is exact for
         // `2k <= x < 2k + 2` (Sterbenz), as the remainder is.
-        x - 2.0 * ((x * 0.5) as i64 as f64)
+        x - 2.0 * crate::round::trunc(x * 0.5)
     }
 
     /// Where the object is at time `t_s`: worked out once per reading, as
