@@ -15,9 +15,9 @@
 use std::net::{SocketAddr, UdpSocket};
 use std::time::{Duration, Instant};
 
+use skin_model::spin_recv::SpinRecv;
 use skin_protocol::robot_link::{self, FromRobot, ToRobot, MAX_DOFS, MAX_NAME};
 use skin_protocol::{Address, Sample};
-use skin_sim::spin_recv::SpinRecv;
 
 use crate::interface::{DatagramReject, Event, EventKind, Interface, SilenceWatch};
 use crate::recording::{RecordError, Session};

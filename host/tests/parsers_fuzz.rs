@@ -13,9 +13,9 @@
 use proptest::prelude::*;
 use skin_host::config::Config;
 use skin_host::control::params::Params;
+use skin_model::robot::hrp2;
+use skin_model::skin::Skin;
 use skin_sim::network::Topology;
-use skin_sim::robot::hrp2;
-use skin_sim::skin::Skin;
 
 /// Values that break parsers that trust numbers.
 const EXTREMES: [&str; 15] = [

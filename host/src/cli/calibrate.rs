@@ -20,8 +20,8 @@ use skin_host::explore::{explore, ExploreConfig, Progress, StructureConfig};
 use skin_host::report::check_folder;
 use skin_host::report::figures::{skin_views, SkinViews};
 use skin_host::robot::SimRobot;
-use skin_sim::robot::kinematics::{self, BodyState, DofMotion};
-use skin_sim::robot::Robot as Model;
+use skin_model::robot::kinematics::{self, BodyState, DofMotion};
+use skin_model::robot::Robot as Model;
 use skin_sim::world::World;
 
 use super::cells_json::cells_json;

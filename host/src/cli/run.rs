@@ -23,8 +23,8 @@ use skin_host::interface::Interface;
 use skin_host::pipeline::OrganizeConfig;
 use skin_host::remote::{Remote, RobotLink};
 use skin_host::report::{check_folder, CalibrationSection};
+use skin_model::robot::Robot;
 use skin_protocol::message::AccelRange;
-use skin_sim::robot::Robot;
 
 use super::job::{self, Steps};
 use super::live::LiveArgs;

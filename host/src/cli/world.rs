@@ -4,9 +4,9 @@
 use std::path::PathBuf;
 
 use clap::ValueEnum;
+use skin_model::robot::{hrp2, Link, Robot, UrdfError};
+use skin_model::skin::{Skin, SkinError};
 use skin_sim::accel::Bma250Config;
-use skin_sim::robot::{hrp2, Link, Robot, UrdfError};
-use skin_sim::skin::{Skin, SkinError};
 use skin_sim::world::{BaseConfig, World, WorldConfig};
 
 /// Arguments that build the simulated world.

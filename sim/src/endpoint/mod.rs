@@ -37,12 +37,12 @@ use skin_protocol::robot_link::{self, FromRobot, Refusal, ToRobot, MAX_DOFS};
 use skin_protocol::Address;
 
 use crate::network::{Network, NetworkConfig, NetworkError, Topology};
-use crate::robot::hrp2;
 use crate::scene::experiment::Setup;
 use crate::scene::operator::Operator;
-use crate::skin::Skin;
-use crate::spin_recv::SpinRecv;
 use crate::world::{World, WorldConfig};
+use skin_model::robot::hrp2;
+use skin_model::skin::Skin;
+use skin_model::spin_recv::SpinRecv;
 
 pub use batch::Batching;
 pub use rig::Rig;
@@ -133,7 +133,7 @@ impl Endpoint {
     /// two patches on that arm's links from shoulder to gripper and the
     /// chest patch on the chest.
     pub fn hrp2(seed: u64, config: EndpointConfig) -> Result<Endpoint, NetworkError> {
-        let world = hrp2::world(seed);
+        let world = World::hrp2(seed);
         let world_cell = hrp2_wiring(&world);
         Endpoint::new(world, &Topology::hrp2(), world_cell, config)
     }

@@ -180,7 +180,7 @@ impl Topology {
         skin().expect("the HRP-2 skin is a valid topology")
     }
 
-    /// The wiring a skin was laid with (see [`crate::skin::Skin::patches`]):
+    /// The wiring a skin was laid with (see [`skin_model::skin::Skin::patches`]):
     /// `wires[i][p]` is the far end (cell, port) of port `p` of cell `i`.
     /// Each group of cells wired together gets one interface port, on the
     /// first free port of its first cell that has one, as a skin whose

@@ -18,10 +18,10 @@ use rand_chacha::ChaCha8Rng;
 use super::object::Object;
 use super::placement::Placement;
 use super::{Placed, Scene, SharedScene, SkinModel};
-use crate::robot::kinematics::{self, BodyState, DofMotion};
-use crate::robot::{Robot, Shape as RobotShape, Surface};
-use crate::skin::{Skin, SkinError};
 use crate::world::{World, WorldConfig};
+use skin_model::robot::kinematics::{self, BodyState, DofMotion};
+use skin_model::robot::{Robot, Shape as RobotShape, Surface};
+use skin_model::skin::{Skin, SkinError};
 use skin_protocol::Address;
 
 /// Where the object stands: centre height above the chest frame origin, m.
@@ -394,7 +394,7 @@ fn plan_top(plan: &mut Vec<Planned>, link: String, y: f64, role: Role, side: &'s
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::robot::hrp2;
+    use skin_model::robot::hrp2;
 
     #[test]
     fn seventy_four_cells_in_the_papers_layout() {
