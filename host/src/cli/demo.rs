@@ -228,34 +228,6 @@ fn truth_section(
     })
 }
 
-/// The summary's lines on what only the simulation knows: network latency,
-/// grasps and the checks against the truth.
-pub(super) fn summary(r: &Report) -> String {
-    let mut s = String::new();
-    if let Some(l) = &r.latency {
-        s += &format!(
-            "network latency: median {} us, 99% {} us, max {} us over {} sensor frames\n",
-            l.p50_us, l.p99_us, l.max_us, l.frames
-        );
-    }
-    if let Some(g) = &r.grasps {
-        let held = g.runs.iter().filter(|r| r.succeeded).count();
-        let names: Vec<String> =
-            g.runs.iter().map(|r| format!("{} {}", r.object, r.reason.map_or("held", |why| why.name()))).collect();
-        s += &format!("grasps: {held} of {} held ({})\n", g.runs.len(), names.join(", "));
-    }
-    if let Some(truth) = &r.truth {
-        s += &format!(
-            "checked against the simulator: {} of {} cells with unique IDs, neighbour tables {}, tree {}\n",
-            if truth.ids_unique { truth.cells_with_id } else { 0 },
-            truth.cells_in_skin,
-            if truth.neighbours_correct { "true" } else { "WRONG" },
-            if truth.tree_correct { "true" } else { "WRONG" }
-        );
-    }
-    s
-}
-
 /// Every cell organized and explored, the truth matched, every object held.
 fn all_good(r: &Report, explored: usize) -> bool {
     let truth_ok = r

@@ -16,7 +16,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::object::Object;
-use super::placement::Placement;
+use super::placement::{Placement, OBJECT_GAP_M};
 use super::{Placed, Scene, SharedScene, SkinModel};
 use crate::world::{World, WorldConfig};
 use skin_model::robot::kinematics::{self, BodyState, DofMotion};
@@ -28,8 +28,6 @@ use skin_protocol::Address;
 pub const OBJECT_HEIGHT_M: f64 = 0.15;
 /// Front of the chest (its box is 0.26 m deep, centred on the chest frame), m.
 pub const CHEST_FRONT_M: f64 = 0.13;
-/// Gap between the object and the chest's skin when it is put down, m.
-pub const OBJECT_GAP_M: f64 = 0.02;
 
 /// One arm's intended key poses (right arm; the left is its mirror image):
 /// shoulder pitch, roll, yaw, elbow, wrist yaw, wrist pitch, gripper.

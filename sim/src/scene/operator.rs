@@ -240,9 +240,8 @@ impl Operator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::experiment::OBJECT_GAP_M;
     use crate::scene::object::Object;
-    use crate::scene::placement::Placement;
+    use crate::scene::placement::{Placement, OBJECT_GAP_M};
     use skin_model::robot::hrp2;
 
     #[test]
