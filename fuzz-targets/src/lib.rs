@@ -1,6 +1,6 @@
 //! The bodies of the fuzz targets, one per parser that takes bytes or text
-//! from outside (issue 15). `fuzz/` runs them coverage-guided under
-//! libFuzzer (nightly); this crate's `short_run` test runs them on the
+//! from outside, where hostile input arrives. `fuzz/` runs them
+//! coverage-guided under libFuzzer (nightly); this crate's `short_run` test runs them on the
 //! stable toolchain in CI, over valid seeds, their mutations and random
 //! bytes. One body, two drivers: the check is the same in both.
 //!

@@ -1,4 +1,4 @@
-//! Issue 15's hostile arguments, run as a tester would: every case ends
+//! Hostile command-line arguments, run as a tester would: every case ends
 //! with a non-zero exit code and one line naming the flag and its range,
 //! never a panic or a process left serving nothing.
 
