@@ -137,7 +137,7 @@ impl RobotLink {
             // A robot that does not know the request has revolute DoFs only.
             kinds.push(if let FromRobot::DofKind { kind, .. } = kind { kind } else { DofKind::Revolute });
         }
-        link.info = RobotInfo { dof_names: names, dof_kinds: kinds, period_s: f64::from(period_us) * 1e-6, lockstep };
+        link.info = RobotInfo { dof_names: names, dof_kinds: kinds, period_s: f64::from(period_us) / 1e6, lockstep };
         link.command = vec![0.0; usize::from(dofs)];
         link.clock_moved = Instant::now();
         link.spin = SpinRecv::for_peer(lockstep);
@@ -152,7 +152,7 @@ impl RobotLink {
 
     /// The robot's clock at the last feedback, s.
     pub fn time_s(&self) -> f64 {
-        self.time_us as f64 * 1e-6
+        self.time_us as f64 / 1e6
     }
 
     /// The link's trouble so far.
@@ -190,7 +190,7 @@ impl RobotLink {
     fn clock(&mut self, time_us: u64) -> Result<(), RobotError> {
         let now = Instant::now();
         if time_us < self.time_us {
-            return Err(RobotError::ClockBackwards { from_s: self.time_s(), to_s: time_us as f64 * 1e-6 });
+            return Err(RobotError::ClockBackwards { from_s: self.time_s(), to_s: time_us as f64 / 1e6 });
         }
         if time_us > self.time_us {
             self.clock_moved = now;

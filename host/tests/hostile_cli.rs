@@ -428,3 +428,96 @@ fn a_flood_of_id_requests_on_an_unpinned_port_is_named_when_the_skin_cannot_orga
     assert!(err.ends_with("another sender may be using the interface ports (pin each port's address in the configuration) (check the cables and interface ports; `skin monitor` shows what arrives)"), "{err}");
     assert!(!out_dir.join("report.json").exists());
 }
+
+#[test]
+fn a_file_without_end_is_refused_naming_the_cap_and_leaves_no_out_folder() {
+    // /dev/zero says it holds 0 bytes and never ends.
+    refused(
+        &["config", "--check", "/dev/zero"],
+        "cannot read the configuration /dev/zero: larger than 1 MiB, the most read here (write one with `skin config --default --output FILE`)",
+    );
+    let out = std::env::temp_dir().join(format!("skin-hostile-cli-{}-endless", std::process::id()));
+    let out_arg = out.to_str().unwrap();
+    for (flag, says) in [
+        ("--config", "cannot read the configuration /dev/urandom: larger than 1 MiB, the most read here (write one with `skin config --default --output FILE`)"),
+        ("--urdf", "cannot read /dev/urandom: larger than 32 MiB, the most read here"),
+    ] {
+        refused(&["run", "--robot", &free_addr(), flag, "/dev/urandom", "--out", out_arg], says);
+        assert!(!out.exists(), "{flag}: a refused input left {out_arg} behind");
+    }
+}
+
+#[test]
+fn a_configuration_with_a_line_past_reason_is_quoted_cut() {
+    let file = std::env::temp_dir().join(format!("skin-hostile-cli-{}-long.toml", std::process::id()));
+    let out = std::env::temp_dir().join(format!("skin-hostile-cli-{}-long-out", std::process::id()));
+    for value in ["9".repeat(200_000), format!("{}{}", "[".repeat(100_000), "]".repeat(100_000))] {
+        std::fs::write(&file, format!("[cells]\nx = {value}\n")).unwrap();
+        let run =
+            skin(&["run", "--robot", &free_addr(), "--config", file.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{err}");
+        assert!(err.starts_with(&format!("error: {}: TOML parse error at line 2", file.display())), "{err}");
+        assert!(err.len() < 4_000, "{} bytes of error", err.len());
+        assert!(err.contains("more characters)"), "{err}");
+        assert!(!out.exists(), "a refused configuration left {} behind", out.display());
+    }
+    std::fs::remove_file(&file).unwrap();
+}
+
+#[test]
+fn integer_flags_past_their_range_are_refused_naming_it() {
+    let robot = free_addr();
+    for (args, says) in [
+        (
+            vec!["run", "--robot", &robot, "--robot-timeout-ms", "18446744073709551615"],
+            "'--robot-timeout-ms <MS>': 18446744073709551615 is not in 1..=60000",
+        ),
+        (vec!["run", "--robot", &robot, "--robot-timeout-ms", "0"], "'--robot-timeout-ms <MS>': 0 is not in 1..=60000"),
+        (vec!["run", "--robot", &robot, "--cells", "0"], "'--cells <N>': 0 is not in 1..=65279"),
+        (vec!["flash", "--image", "x", "--ports", "0"], "'--ports <PORTS>': 0 is not in 1..=254"),
+        (vec!["flash", "--image", "x", "--rate", "100000"], "'--rate <RATE>': 100000 is not in 1..=1000"),
+        (
+            vec!["loadgen", "--flush-us", "18446744073709551615"],
+            "'--flush-us <FLUSH_US>': 18446744073709551615 is not in 0..=1000000",
+        ),
+        (
+            vec!["sim-endpoint", "--batch-us", "18446744073709551615"],
+            "'--batch-us <US>': 18446744073709551615 is not in 0..=1000000",
+        ),
+        (vec!["calibrate", "--postures", "99999999999"], "'--postures <N>': 99999999999 is not in 2..=1000"),
+        (vec!["calibrate", "--periods", "4000000000"], "'--periods <N>': 4000000000 is not in 1..=1000"),
+        (vec!["explore", "--cells-per-link", "99999999999"], "'--cells-per-link <N>': 99999999999 is not in 1..=1000"),
+    ] {
+        let out = skin(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.starts_with("error: invalid value '"), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+}
+
+#[test]
+fn one_address_for_two_roles_is_refused() {
+    let addr = free_addr();
+    refused(
+        &["sim-endpoint", "--host", &addr, "--robot", &addr],
+        &format!("the host address and the robot-link address are both {addr}: the skin's datagrams and the robot's answers need an address each"),
+    );
+    refused(
+        &["run", "--interface", &addr, "--robot", &addr],
+        &format!("the interface and the robot are both at {addr}: the skin's datagrams and the robot's answers need an address each"),
+    );
+}
+
+#[test]
+fn a_restarted_robot_clock_is_named_in_rounded_seconds() {
+    // 200 commands of 4 ms reach 0.8 s, a time that microseconds times 1e-6 print as 0.7999999999999999.
+    let (code, err) =
+        run_against(robot(true, |seq, _| if seq <= 200 { 4000 * u64::from(seq) } else { 4000 }, 1.0), &[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert_eq!(
+        err.trim_end(),
+        "error: the robot's clock ran backwards, from 0.8 s to 0.004 s (was the robot restarted?)"
+    );
+}

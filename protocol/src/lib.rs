@@ -3,7 +3,8 @@
 //! Every skin cell, the network simulator and the robot PC compile this one
 //! crate, so a frame means the same thing everywhere. Each piece is a pure
 //! state machine in the smoltcp style: frames and a time go in, frames and
-//! state changes come out, and nothing here does I/O. Any byte sequence fed
+//! state changes come out, and nothing here does I/O but [`file`]'s
+//! capped read of a whole file, which every std crate shares. Any byte sequence fed
 //! to a decoder gives a value or a typed error, never a panic.
 //!
 //! - [`frame`]: the 20-byte cell-2-cell frame (header, postcard payload, CRC-16).
@@ -21,6 +22,7 @@
 //! - [`update`]: a cell's side of a firmware update over the network.
 //! - [`interface`]: the UDP datagram between an interface port and the host.
 //! - [`robot_link`]: the UDP datagram between the host and a robot (section 3.2).
+//! - [`file`] (std): a whole file read under a cap.
 #![cfg_attr(not(feature = "std"), no_std)]
 // Unsafe only where a cell is written in place (`CellApp::new_in`).
 #![deny(unsafe_code)]
@@ -30,6 +32,8 @@ pub mod address;
 pub mod app;
 pub mod cell;
 pub mod event;
+#[cfg(feature = "std")]
+pub mod file;
 pub mod frame;
 pub mod image;
 pub mod interface;

@@ -98,6 +98,9 @@ pub struct Skin {
     wires: Vec<patches::Wires>,
 }
 
+/// The largest skin file read: a thousand bytes per cell for 32,000 cells.
+pub const MAX_FILE_BYTES: usize = 32 * skin_protocol::file::MIB;
+
 impl Skin {
     /// `per_link` cells on every link with a surface.
     pub fn per_link(robot: &Robot, per_link: usize, seed: u64) -> Result<Skin, SkinError> {
@@ -173,7 +176,7 @@ impl Skin {
 
     /// Cells from a skin file, TOML or JSON by its extension.
     pub fn from_file(robot: &Robot, path: &Path) -> Result<Skin, SkinError> {
-        let text = std::fs::read_to_string(path)
+        let text = skin_protocol::file::read_text_capped(path, MAX_FILE_BYTES)
             .map_err(|e| SkinError::Read { path: path.display().to_string(), source: e })?;
         match path.extension().and_then(|e| e.to_str()) {
             Some("toml") => Skin::from_toml_str(robot, &text),
