@@ -182,6 +182,9 @@ impl RobotLink {
                 self.positions.extend_from_slice(&positions);
                 Ok(())
             }
+            FromRobot::State { positions, .. } => {
+                Err(RobotError::DofCountChanged { answered: positions.len(), dofs: self.command.len() })
+            }
             other => Err(gone(self.robot, format!("answered command {seq} with {other:?}"))),
         }
     }

@@ -67,6 +67,17 @@ pub enum RobotError {
         /// Wall-clock time it stood still, s.
         wall_s: f64,
     },
+    /// The robot answered with positions for another number of DoFs than
+    /// it named at the start: its description changed under the run.
+    #[error(
+        "the robot answered {answered} positions for {dofs} DoFs: its DoF count changed since the start (check its driver and configuration, then start the run again)"
+    )]
+    DofCountChanged {
+        /// Positions in the answer.
+        answered: usize,
+        /// DoFs the robot named when the link was made.
+        dofs: usize,
+    },
     /// The robot or skin stopped answering.
     #[error("lost contact: {0}")]
     Disconnected(String),

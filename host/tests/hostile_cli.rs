@@ -73,6 +73,17 @@ fn sim_endpoint_stops_after_its_duration_and_says_what_it_served() {
 /// `clock(seq, since)` at the command numbered `seq`, `since` after the
 /// robot started. It serves until nobody asks for 5 s.
 fn robot(lockstep: bool, clock: fn(u32, Duration) -> u64, gain: f64) -> SocketAddr {
+    robot_answering(lockstep, clock, gain, |_| 4)
+}
+
+/// [`robot`] that answers the command numbered `seq` with `answered(seq)`
+/// positions (the first ones repeated past its four).
+fn robot_answering(
+    lockstep: bool,
+    clock: fn(u32, Duration) -> u64,
+    gain: f64,
+    answered: fn(u32) -> usize,
+) -> SocketAddr {
     let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
     socket.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
     let addr = socket.local_addr().unwrap();
@@ -91,7 +102,8 @@ fn robot(lockstep: bool, clock: fn(u32, Duration) -> u64, gain: f64) -> SocketAd
                         *q += w * 0.004;
                     }
                     let time_us = clock(seq, start.elapsed());
-                    FromRobot::State { seq, time_us, positions: positions.iter().map(|q| q * gain).collect() }
+                    let positions = positions.iter().cycle().take(answered(seq)).map(|q| q * gain).collect();
+                    FromRobot::State { seq, time_us, positions }
                 }
                 Err(_) => continue,
             };
@@ -520,4 +532,23 @@ fn a_restarted_robot_clock_is_named_in_rounded_seconds() {
         err.trim_end(),
         "error: the robot's clock ran backwards, from 0.8 s to 0.004 s (was the robot restarted?)"
     );
+}
+
+#[test]
+fn a_robot_whose_dof_count_changes_is_named_as_such() {
+    let clock = |seq, _| 4000 * u64::from(seq);
+    for (answered, says) in [
+        (robot_answering(true, clock, 1.0, |_| 5), "the robot answered 5 positions for 4 DoFs"),
+        (
+            robot_answering(true, clock, 1.0, |seq| if seq < 50 { 4 } else { 3 }),
+            "the robot answered 3 positions for 4 DoFs",
+        ),
+    ] {
+        let (code, err) = run_against(answered, &[]);
+        assert_eq!(code, Some(1), "{err}");
+        assert_eq!(
+            err.trim_end(),
+            format!("error: {says}: its DoF count changed since the start (check its driver and configuration, then start the run again)")
+        );
+    }
 }
