@@ -349,7 +349,8 @@ fn a_skin_that_stops_sending_mid_run_ends_skin_run_naming_its_ports() {
     // At least the bound (50 ms); more when a loaded machine checks late.
     let silent_s: f64 = err[says.len()..].split(' ').next().and_then(|s| s.parse().ok()).expect("seconds");
     assert!((0.05..1.0).contains(&silent_s), "{err}");
-    assert!(err.contains(" s of robot time while the robot answered; "), "{err}");
+    assert!(err.contains(" s of robot time ("), "{err}");
+    assert!(err.contains(" s of wall-clock time) while the robot answered; "), "{err}");
     assert!(err.contains(" datagrams from other addresses were dropped as spoofed (a skin endpoint that restarts sends from new ones)"), "{err}");
     assert!(err.ends_with("then start the run again: its measurements would have gaps)"), "{err}");
     assert!(took < Duration::from_secs(1), "ended {took:?} after the skin stopped");
@@ -551,4 +552,76 @@ fn a_robot_whose_dof_count_changes_is_named_as_such() {
             format!("error: {says}: its DoF count changed since the start (check its driver and configuration, then start the run again)")
         );
     }
+}
+
+/// A relay on loopback between a skin and its host that forwards every
+/// datagram both ways faithfully, `latency` late: the skin sends to the
+/// address returned, and each of its sockets is seen by `host` from a
+/// socket of the relay's own, through which the host's answers go back.
+fn relay(host: SocketAddr, latency: Duration) -> SocketAddr {
+    type Late = (Instant, std::sync::Arc<UdpSocket>, Vec<u8>, SocketAddr);
+    let front = std::sync::Arc::new(UdpSocket::bind("127.0.0.1:0").unwrap());
+    front.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    let addr = front.local_addr().unwrap();
+    let (late, due) = std::sync::mpsc::channel::<Late>();
+    // One queue for both ways: a constant latency keeps the order.
+    std::thread::spawn(move || {
+        for (at, socket, bytes, to) in due {
+            std::thread::sleep(at.saturating_duration_since(Instant::now()));
+            let _ = socket.send_to(&bytes, to);
+        }
+    });
+    std::thread::spawn(move || {
+        let mut backs: std::collections::HashMap<SocketAddr, std::sync::Arc<UdpSocket>> = Default::default();
+        let mut buf = [0u8; 65536];
+        while let Ok((n, skin)) = front.recv_from(&mut buf) {
+            let back = backs.entry(skin).or_insert_with(|| {
+                let back = std::sync::Arc::new(UdpSocket::bind("127.0.0.1:0").unwrap());
+                back.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+                let (back_in, front, late) = (back.clone(), front.clone(), late.clone());
+                std::thread::spawn(move || {
+                    let mut buf = [0u8; 65536];
+                    while let Ok((n, _)) = back_in.recv_from(&mut buf) {
+                        let _ = late.send((Instant::now() + latency, front.clone(), buf[..n].to_vec(), skin));
+                    }
+                });
+                back
+            });
+            let _ = late.send((Instant::now() + latency, back.clone(), buf[..n].to_vec(), host));
+        }
+    });
+    addr
+}
+
+/// The structure `skin run` found against `skin sim-endpoint` (lockstep,
+/// seed 0) whose skin sends through `relay` (given the host's interface
+/// address, it returns where the skin is to send): the report's cell
+/// count, body-part sizes and joints.
+fn explored_through(relay: impl FnOnce(SocketAddr) -> SocketAddr, name: &str) -> serde_json::Value {
+    let (host, robot) = (free_addr(), free_addr());
+    let via = relay(host.parse().unwrap());
+    let mut endpoint = sim_endpoint(&via.to_string(), &robot);
+    let (run, out_dir) = exploring_run(&host, &robot, "74", &[], name);
+    let (code, stderr) = run_end(run, String::new());
+    stop(&mut endpoint);
+    assert_eq!(code, Some(0), "{stderr}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("report.json")).unwrap()).unwrap();
+    let e = &report["exploration"];
+    assert_eq!(e["warnings"], serde_json::json!([]), "{stderr}");
+    // Cell IDs follow the order the cells organized in, which timing moves.
+    let mut sizes: Vec<usize> =
+        e["body_parts"].as_array().unwrap().iter().map(|p| p.as_array().unwrap().len()).collect();
+    sizes.sort_unstable();
+    serde_json::json!({ "cells": e["cells"].as_array().unwrap().len(), "body_part_sizes": sizes, "joints": e["joints"] })
+}
+
+#[test]
+fn a_relay_adding_latency_in_lockstep_is_waited_for_not_called_silence() {
+    // The relay takes 10 ms each way; a lockstep robot's 0.05 s silence
+    // bound passes in a few ms of wall-clock time while datagrams are on
+    // their way, and their samples would lag the robot's positions.
+    let relayed = explored_through(|host| relay(host, Duration::from_millis(10)), "relay");
+    assert_eq!(relayed["joints"].as_array().unwrap().len(), 14);
+    assert_eq!(relayed, explored_through(|host| host, "direct"));
 }
