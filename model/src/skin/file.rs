@@ -22,10 +22,13 @@ use skin_protocol::Address;
 use super::{check_count, clearance, joint_axes, Cell, Skin, SkinError};
 use crate::robot::Robot;
 
+/// The largest skin file read: a thousand bytes per cell for 32,000 cells.
+pub const MAX_FILE_BYTES: usize = 32 * crate::file::MIB;
+
 impl Skin {
     /// Cells from a skin file, TOML or JSON by its extension.
     pub fn from_file(robot: &Robot, path: &Path) -> Result<Skin, SkinError> {
-        let text = std::fs::read_to_string(path)
+        let text = crate::file::read_text_capped(path, MAX_FILE_BYTES)
             .map_err(|e| SkinError::Read { path: path.display().to_string(), source: e })?;
         match path.extension().and_then(|e| e.to_str()) {
             Some("toml") => Skin::from_toml_str(robot, &text),

@@ -190,6 +190,15 @@ impl Endpoint {
                 config.host
             )));
         }
+        // The robot link would answer its own skin's datagrams, and the host
+        // could not bind the address the skin sends to.
+        if config.host == config.robot {
+            return Err(NetworkError::Flag(format!(
+                "the host address and the robot-link address are both {}: the skin's datagrams and the robot's \
+                 answers need an address each",
+                config.host
+            )));
+        }
         let cells = world.skin().cells().len();
         let mut seen = vec![false; cells];
         let one_to_one = world_cell.len() == cells

@@ -166,8 +166,8 @@ pub fn read(path: &Path) -> Result<Vec<ObjectAt>, ObjectError> {
         .iter()
         .map(|file| {
             let path = file.display().to_string();
-            let text =
-                std::fs::read_to_string(file).map_err(|source| ObjectError::Read { path: path.clone(), source })?;
+            let text = skin_model::file::read_text_capped(file, skin_model::file::MIB)
+                .map_err(|source| ObjectError::Read { path: path.clone(), source })?;
             parse(&text).map_err(|e| ObjectError::InFile { path, source: Box::new(e) })
         })
         .collect()
