@@ -4,7 +4,7 @@
 //! (The frame, the interface datagram, the robot link and URDF have theirs
 //! beside their parsers: `protocol/tests/wire.rs`,
 //! `protocol/src/robot_link.rs`, `host/tests/interface_fuzz.rs`,
-//! `sim/tests/urdf_input.rs`.) Each input gives `Ok` or a typed error,
+//! `model/tests/urdf_input.rs`.) Each input gives `Ok` or a typed error,
 //! never a panic or an allocation the size of a number in the input: any
 //! text, and mutations of valid documents (cut short, a character changed,
 //! an extreme value put anywhere). A stable-toolchain stand-in for

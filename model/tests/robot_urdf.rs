@@ -171,7 +171,7 @@ fn the_fixture_robots_load_with_their_dofs_and_take_skin() {
 /// Loads every `*.urdf` of the folder `SKIN_URDF_DIR` (public descriptions
 /// kept out of the repository), puts 3 cells on every link with a surface,
 /// and prints a table: `SKIN_URDF_DIR=../robots-public cargo test -p
-/// skin-sim --test robot_urdf -- --ignored --nocapture`.
+/// skin-model --test robot_urdf -- --ignored --nocapture`.
 #[test]
 #[ignore = "needs a folder of URDFs in SKIN_URDF_DIR"]
 fn every_urdf_in_a_folder_loads() {

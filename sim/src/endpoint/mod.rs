@@ -129,7 +129,7 @@ pub struct Endpoint {
 
 impl Endpoint {
     /// The paper's robot and skin: the built-in HRP-2-like upper body
-    /// (seeded as [`hrp2::world`]) wired as [`Topology::hrp2`], each arm's
+    /// (seeded as [`World::hrp2`]) wired as [`Topology::hrp2`], each arm's
     /// two patches on that arm's links from shoulder to gripper and the
     /// chest patch on the chest.
     pub fn hrp2(seed: u64, config: EndpointConfig) -> Result<Endpoint, NetworkError> {
