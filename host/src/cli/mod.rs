@@ -26,6 +26,7 @@ mod seconds;
 mod sign;
 #[cfg(feature = "sim")]
 mod sim_endpoint;
+mod structure_args;
 #[cfg(feature = "sim")]
 mod world;
 
