@@ -51,6 +51,7 @@ impl StructureArgs {
     }
 
     /// The declared clearance, m (0: none).
+    #[cfg(feature = "sim")]
     pub fn declared_m(&self) -> f64 {
         self.axis_clearance.unwrap_or(0.0)
     }
