@@ -291,6 +291,21 @@ fn a_branching_robot_has_its_palm_as_inner_node() {
 }
 
 #[test]
+fn a_standing_humanoid_with_a_head_yaw_on_its_torso_is_learned_exactly_by_default() {
+    // The yaw axis sits on the root and stays vertical: the torso's cells
+    // rest on the stated default, their levers bounded below it within
+    // the sway of a robot standing on its feet.
+    for seed in 1..3 {
+        let trial = Trial::run(world(&branching(), BaseConfig::standing(), 3, seed, 1.0), &ExploreConfig::default());
+        let warnings = verdict(&trial).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        let (found, truth) = trial.outcome.as_ref().unwrap();
+        assert_eq!(truth.wrong_entries, 0);
+        assert!(!found.assumed.is_empty() && found.assumed.iter().all(|a| a.dof == "neck_yaw"), "{:?}", found.assumed);
+        assert!(warnings.iter().any(|w| w.starts_with("DoF neck_yaw:")), "{warnings:?}");
+    }
+}
+
+#[test]
 fn a_mimic_gripper_is_undecided_until_a_clearance_bounds_every_cell_it_moves() {
     for seed in 1..3 {
         // The fingertips move without turning, so "no gravity change" says

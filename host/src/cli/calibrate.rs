@@ -16,7 +16,7 @@ use skin_host::calibrate::check::{check, CalibrationTruth};
 use skin_host::calibrate::export::{picture, skin_toml, urdf_with_skin};
 use skin_host::calibrate::neighbours::{resolve, NeighbourConfig, Resolved};
 use skin_host::calibrate::{calibrate, CalibrateConfig, Calibration};
-use skin_host::explore::{explore, Exploration, ExploreConfig, Progress, StructureConfig};
+use skin_host::explore::{explore_wired, Exploration, ExploreConfig, Progress, StructureConfig};
 use skin_host::report::check_folder;
 use skin_host::report::figures::{skin_views, SkinViews};
 use skin_host::robot::SimRobot;
@@ -96,11 +96,11 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     };
     let wall = Instant::now();
     let explore_cfg = ExploreConfig { structure, ..ExploreConfig::default() };
-    let found = explore(&mut rig, &explore_cfg, &mut show("exploring"))?;
-    let mut calibration = calibrate(&mut rig, &model, &found, &cfg, &mut show("calibrating"))?;
     // The simulated skin's neighbour tables (IDs and ports, as its
     // self-organization reports them; none unless laid in patches).
     let tables = rig.world().skin().neighbour_tables();
+    let found = explore_wired(&mut rig, &explore_cfg, &tables, &mut show("exploring"))?;
+    let mut calibration = calibrate(&mut rig, &model, &found, &cfg, &mut show("calibrating"))?;
     let neighbours =
         resolve(&mut calibration.cells, &model, &calibration.description_start, &tables, &NeighbourConfig::default());
     let wall_time_s = wall.elapsed().as_secs_f64();

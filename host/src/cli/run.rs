@@ -216,8 +216,7 @@ fn calibrate_skin(
     // Wires a declared pitch long place what the motion left blind; a
     // skin wired without regard to where its cells sit would place them wrong.
     if let Some(pitch_m) = pitch_m {
-        let tables: Vec<_> =
-            remote.interface().registry().cells().filter_map(|r| r.neighbours().map(|n| (r.id(), *n))).collect();
+        let tables = job::neighbour_tables(remote);
         let cfg = NeighbourConfig { pitch_m, ..NeighbourConfig::default() };
         resolve(&mut c.cells, model, &c.description_start, &tables, &cfg);
     }
