@@ -65,7 +65,30 @@ struct Tally {
     failed: usize,
     /// Sensory-motor map error over moved entries, summed.
     smm: f64,
+    /// Largest lever bound reached on the entries assumed, summed and worst, m.
+    lever_m: f64,
+    worst_lever_m: f64,
     ok: u32,
+}
+
+impl Tally {
+    /// Counts one exploration in.
+    fn add(&mut self, trial: &Trial) {
+        self.wall_s += trial.wall_time_s;
+        match &trial.outcome {
+            Ok((found, truth)) => {
+                self.time_s += found.structure_time_s;
+                self.worst_s = self.worst_s.max(found.structure_time_s);
+                self.smm += truth.smm_mean_abs_error_moved;
+                let reached = found.assumed.iter().map(|a| a.lever_bound_m).fold(0.0, f64::max);
+                self.lever_m += reached;
+                self.worst_lever_m = self.worst_lever_m.max(reached);
+                self.ok += 1;
+                self.wrong += usize::from(!truth.tree_correct);
+            }
+            Err(_) => self.failed += 1,
+        }
+    }
 }
 
 fn sweep(c: &mut Criterion) {
@@ -87,18 +110,7 @@ fn sweep(c: &mut Criterion) {
         let cfg = ExploreConfig { structure, ..ExploreConfig::default() };
         let mut t = Tally::default();
         for seed in 0..seeds {
-            let trial = Trial::run(hrp2::world(seed), &cfg);
-            t.wall_s += trial.wall_time_s;
-            match &trial.outcome {
-                Ok((found, truth)) => {
-                    t.time_s += found.structure_time_s;
-                    t.worst_s = t.worst_s.max(found.structure_time_s);
-                    t.smm += truth.smm_mean_abs_error_moved;
-                    t.ok += 1;
-                    t.wrong += usize::from(!truth.tree_correct);
-                }
-                Err(_) => t.failed += 1,
-            }
+            t.add(&Trial::run(hrp2::world(seed), &cfg));
         }
         let StructureConfig { step_rad: step, settle_s: settle, average_s: average, runs, .. } = structure;
         let ok = f64::from(t.ok.max(1));
@@ -135,17 +147,7 @@ fn noise_sweep(c: &mut Criterion) {
     for scale in [1.0, 3.0, 10.0, 30.0] {
         let mut t = Tally::default();
         for seed in 0..seeds {
-            let trial = Trial::run(noisy_world(seed, scale), &cfg);
-            t.wall_s += trial.wall_time_s;
-            match &trial.outcome {
-                Ok((found, truth)) => {
-                    t.time_s += found.structure_time_s;
-                    t.worst_s = t.worst_s.max(found.structure_time_s);
-                    t.ok += 1;
-                    t.wrong += usize::from(!truth.tree_correct);
-                }
-                Err(_) => t.failed += 1,
-            }
+            t.add(&Trial::run(noisy_world(seed, scale), &cfg));
         }
         println!(
             "{scale:>5} | {:>12.2} {:>13.2} {:>8.1} | {:>4}/{seeds:<5} {:>4}/{seeds:<5}",
@@ -179,30 +181,17 @@ fn lever_sweep(c: &mut Criterion) {
     );
     let cfg = ExploreConfig::default();
     for scale in [1.0, 3.0, 10.0] {
-        let (mut t, mut lever, mut worst_lever) = (Tally::default(), 0.0, 0.0f64);
+        let mut t = Tally::default();
         for seed in 0..seeds {
-            let trial = Trial::run(ur5_world(seed, scale), &cfg);
-            t.wall_s += trial.wall_time_s;
-            match &trial.outcome {
-                Ok((found, truth)) => {
-                    t.time_s += found.structure_time_s;
-                    t.worst_s = t.worst_s.max(found.structure_time_s);
-                    t.ok += 1;
-                    t.wrong += usize::from(!truth.tree_correct);
-                    let reached = found.assumed.iter().map(|a| a.lever_bound_m).fold(0.0, f64::max);
-                    lever += reached;
-                    worst_lever = worst_lever.max(reached);
-                }
-                Err(_) => t.failed += 1,
-            }
+            t.add(&Trial::run(ur5_world(seed, scale), &cfg));
         }
         let ok = f64::from(t.ok.max(1));
         println!(
             "{scale:>5} | {:>12.2} {:>13.2} | {:>14.3} {:>15.3} | {:>4}/{seeds:<5} {:>4}/{seeds:<5}",
             t.time_s / ok,
             t.worst_s,
-            1e3 * lever / ok,
-            1e3 * worst_lever,
+            1e3 * t.lever_m / ok,
+            1e3 * t.worst_lever_m,
             t.wrong,
             t.failed,
         );
