@@ -7,8 +7,12 @@
 //! the sensory-motor map error; criterion then times one exploration per
 //! setting. Then a noise sweep: the default setting at 1, 3, 10 and 30
 //! times the datasheet's accelerometer noise over `SKIN_BENCH_NOISE_SEEDS`
-//! seeds (default 20), robot time and wrong trees against noise.
-//! `cargo bench -p skin-host --bench explore`.
+//! seeds (default 20), robot time and wrong trees against noise. Last, the
+//! smallest lever decided: a UR5 on a rigid base, whose first axis is
+//! vertical and untiltable, at 1, 3 and 10 times the noise over
+//! `SKIN_BENCH_LEVER_SEEDS` seeds (default 5): the lever bound the pooled
+//! steps reached on the cells the default clearance then settles, against
+//! robot time. `cargo bench -p skin-host --bench explore`.
 
 use std::hint::black_box;
 
@@ -18,7 +22,7 @@ use skin_host::explore::{ExploreConfig, StructureConfig};
 use skin_model::robot::hrp2;
 use skin_model::skin::Skin;
 use skin_sim::accel::Bma250Config;
-use skin_sim::world::{World, WorldConfig};
+use skin_sim::world::{BaseConfig, World, WorldConfig};
 
 /// The paper's setting, then the sweep of (step rad, settle s, average s)
 /// with one postural run and the default 0.2 s per step.
@@ -61,7 +65,30 @@ struct Tally {
     failed: usize,
     /// Sensory-motor map error over moved entries, summed.
     smm: f64,
+    /// Largest lever bound reached on the entries assumed, summed and worst, m.
+    lever_m: f64,
+    worst_lever_m: f64,
     ok: u32,
+}
+
+impl Tally {
+    /// Counts one exploration in.
+    fn add(&mut self, trial: &Trial) {
+        self.wall_s += trial.wall_time_s;
+        match &trial.outcome {
+            Ok((found, truth)) => {
+                self.time_s += found.structure_time_s;
+                self.worst_s = self.worst_s.max(found.structure_time_s);
+                self.smm += truth.smm_mean_abs_error_moved;
+                let reached = found.assumed.iter().map(|a| a.lever_bound_m).fold(0.0, f64::max);
+                self.lever_m += reached;
+                self.worst_lever_m = self.worst_lever_m.max(reached);
+                self.ok += 1;
+                self.wrong += usize::from(!truth.tree_correct);
+            }
+            Err(_) => self.failed += 1,
+        }
+    }
 }
 
 fn sweep(c: &mut Criterion) {
@@ -83,18 +110,7 @@ fn sweep(c: &mut Criterion) {
         let cfg = ExploreConfig { structure, ..ExploreConfig::default() };
         let mut t = Tally::default();
         for seed in 0..seeds {
-            let trial = Trial::run(World::hrp2(seed), &cfg);
-            t.wall_s += trial.wall_time_s;
-            match &trial.outcome {
-                Ok((found, truth)) => {
-                    t.time_s += found.structure_time_s;
-                    t.worst_s = t.worst_s.max(found.structure_time_s);
-                    t.smm += truth.smm_mean_abs_error_moved;
-                    t.ok += 1;
-                    t.wrong += usize::from(!truth.tree_correct);
-                }
-                Err(_) => t.failed += 1,
-            }
+            t.add(&Trial::run(World::hrp2(seed), &cfg));
         }
         let StructureConfig { step_rad: step, settle_s: settle, average_s: average, runs, .. } = structure;
         let ok = f64::from(t.ok.max(1));
@@ -131,17 +147,7 @@ fn noise_sweep(c: &mut Criterion) {
     for scale in [1.0, 3.0, 10.0, 30.0] {
         let mut t = Tally::default();
         for seed in 0..seeds {
-            let trial = Trial::run(noisy_world(seed, scale), &cfg);
-            t.wall_s += trial.wall_time_s;
-            match &trial.outcome {
-                Ok((found, truth)) => {
-                    t.time_s += found.structure_time_s;
-                    t.worst_s = t.worst_s.max(found.structure_time_s);
-                    t.ok += 1;
-                    t.wrong += usize::from(!truth.tree_correct);
-                }
-                Err(_) => t.failed += 1,
-            }
+            t.add(&Trial::run(noisy_world(seed, scale), &cfg));
         }
         println!(
             "{scale:>5} | {:>12.2} {:>13.2} {:>8.1} | {:>4}/{seeds:<5} {:>4}/{seeds:<5}",
@@ -157,9 +163,47 @@ fn noise_sweep(c: &mut Criterion) {
     }
 }
 
+/// The UR5 of the simulator's fixtures on a rigid base, four cells a link,
+/// `scale` times the datasheet's noise.
+fn ur5_world(seed: u64, scale: f64) -> World {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../sim/tests/fixtures/robots/ur5_robot.urdf");
+    let robot = skin_model::robot::Robot::from_urdf_file(&path).expect("the fixture reads");
+    let skin = Skin::per_link(&robot, 4, seed).expect("the skin fits");
+    let accel = Bma250Config::default().with_noise_scale(scale);
+    World::new(robot, skin, WorldConfig { accel, seed, base: BaseConfig::rigid(), ..WorldConfig::default() })
+}
+
+fn lever_sweep(c: &mut Criterion) {
+    let seeds: u64 = std::env::var("SKIN_BENCH_LEVER_SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(5);
+    println!(
+        "\n{:>5} | {:>12} {:>13} | {:>14} {:>15} | {:>10} {:>10}",
+        "noise", "robot s mean", "robot s worst", "lever mm mean", "lever mm worst", "wrong tree", "diagnostic"
+    );
+    let cfg = ExploreConfig::default();
+    for scale in [1.0, 3.0, 10.0] {
+        let mut t = Tally::default();
+        for seed in 0..seeds {
+            t.add(&Trial::run(ur5_world(seed, scale), &cfg));
+        }
+        let ok = f64::from(t.ok.max(1));
+        println!(
+            "{scale:>5} | {:>12.2} {:>13.2} | {:>14.3} {:>15.3} | {:>4}/{seeds:<5} {:>4}/{seeds:<5}",
+            t.time_s / ok,
+            t.worst_s,
+            1e3 * t.lever_m / ok,
+            1e3 * t.worst_lever_m,
+            t.wrong,
+            t.failed,
+        );
+        c.bench_function(&format!("explore a rigid UR5 at {scale} x datasheet noise"), |b| {
+            b.iter(|| black_box(Trial::run(ur5_world(0, scale), &cfg).tree_correct()))
+        });
+    }
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(10);
-    targets = sweep, noise_sweep
+    targets = sweep, noise_sweep, lever_sweep
 }
 criterion_main!(benches);

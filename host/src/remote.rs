@@ -121,8 +121,11 @@ impl RobotLink {
         if dofs == 0 {
             return Err(gone(robot, "claims no DoFs: there is nothing to explore or move"));
         }
-        if usize::from(dofs) > MAX_DOFS || period_us == 0 {
-            return Err(gone(robot, format!("claims {dofs} DoFs and a period of {period_us} us")));
+        if usize::from(dofs) > MAX_DOFS {
+            return Err(gone(robot, format!("claims {dofs} DoFs, more than the {MAX_DOFS} the robot link carries")));
+        }
+        if period_us == 0 {
+            return Err(gone(robot, "claims a control period of 0 us"));
         }
         let (mut names, mut kinds) = (Vec::with_capacity(usize::from(dofs)), Vec::with_capacity(usize::from(dofs)));
         for index in 0..dofs {
@@ -488,7 +491,7 @@ mod tests {
 
     /// A robot of two DoFs that swallows the first command it gets; its
     /// DoF names are `name_bytes` long.
-    fn flaky_robot(socket: UdpSocket, claimed_dofs: u8, name_bytes: usize) {
+    fn flaky_robot(socket: UdpSocket, claimed_dofs: u16, name_bytes: usize) {
         let mut buf = [0u8; robot_link::MAX_DATAGRAM];
         let mut out = [0u8; robot_link::MAX_DATAGRAM];
         let mut swallowed = false;
@@ -523,7 +526,7 @@ mod tests {
 
     /// A `DofName` answer whose name has `bytes` bytes, past what the
     /// link allows: the one-byte name "j" with its length and bytes swapped.
-    fn long_name(index: u8, bytes: usize) -> Vec<u8> {
+    fn long_name(index: u16, bytes: usize) -> Vec<u8> {
         assert!((128..16_384).contains(&bytes), "a length of two varint bytes");
         let mut out = [0u8; robot_link::MAX_DATAGRAM];
         let answer = FromRobot::DofName { index, name: "j".chars().collect() };
@@ -535,7 +538,7 @@ mod tests {
         datagram
     }
 
-    fn spawn_robot(claimed_dofs: u8, name_bytes: usize) -> SocketAddr {
+    fn spawn_robot(claimed_dofs: u16, name_bytes: usize) -> SocketAddr {
         let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
         socket.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
         let addr = socket.local_addr().unwrap();
@@ -571,6 +574,8 @@ mod tests {
     fn a_robot_without_dofs_or_with_a_name_too_long_is_explained() {
         let e = RobotLink::connect(spawn_robot(0, 1), Duration::from_millis(100)).unwrap_err();
         assert!(e.to_string().ends_with(": claims no DoFs: there is nothing to explore or move"), "{e}");
+        let e = RobotLink::connect(spawn_robot(257, 1), Duration::from_millis(100)).unwrap_err();
+        assert!(e.to_string().ends_with(": claims 257 DoFs, more than the 256 the robot link carries"), "{e}");
         let e = RobotLink::connect(spawn_robot(2, 200), Duration::from_millis(20)).unwrap_err();
         assert!(
             e.to_string().ends_with(

@@ -43,16 +43,18 @@ fn explore_prints_the_issues_json() {
     assert!(!postures.is_empty());
     assert!(postures.iter().all(|p| p.as_array().unwrap().len() == 14));
     let evidence = &v["evidence"];
-    let decided: u64 = ["static", "dynamic", "tree", "clearance"].iter().map(|k| evidence[k].as_u64().unwrap()).sum();
+    let decided: u64 =
+        ["static", "dynamic", "tree", "clearance", "wire"].iter().map(|k| evidence[k].as_u64().unwrap()).sum();
     assert_eq!(decided, 74 * 14);
+    assert_eq!(v["assumed"].as_array().unwrap().len() as u64, evidence["clearance"].as_u64().unwrap());
 }
 
 #[test]
-fn an_undecided_exploration_names_each_entry_and_why() {
+fn a_strict_exploration_names_each_undecided_entry_and_why_and_the_default_states_its_assumption() {
     // A level UR5-like arm: nothing tilts its vertical first axis.
     let urdf = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../model/tests/fixtures/robots/ur5_robot.urdf");
     let urdf = urdf.to_str().unwrap();
-    let out = skin(&["explore", "--urdf", urdf, "--seed", "1", "--json"]);
+    let out = skin(&["explore", "--urdf", urdf, "--seed", "1", "--json", "--strict"]);
     assert!(!out.status.success());
     let v: Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
     let undecided = v["undecided"].as_array().unwrap();
@@ -62,12 +64,27 @@ fn an_undecided_exploration_names_each_entry_and_why() {
         assert!(e["cell"].as_u64().is_some());
         assert!(e["reason"].as_str().unwrap().contains("--axis-clearance"), "{e}");
     }
-    // Declaring the mounting clearance settles them.
+    // By default they rest on the default clearance, each named with its lever bound.
+    let out = skin(&["explore", "--urdf", urdf, "--seed", "1", "--json"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    assert_eq!(v["truth"]["tree_correct"], true);
+    let assumed = v["assumed"].as_array().unwrap();
+    assert_eq!(assumed.len(), undecided.len());
+    for a in assumed {
+        assert_eq!(a["dof"], "shoulder_pan_joint", "{a}");
+        assert!(a["assumption"].as_str().unwrap().contains("default mounting clearance of 1.00 mm"), "{a}");
+        assert!(a["lever_bound_m"].as_f64().unwrap() < 0.001, "{a}");
+    }
+    let warnings = v["warnings"].as_array().unwrap();
+    assert!(warnings.iter().any(|w| w.as_str().unwrap().contains("--strict refuses instead")), "{warnings:?}");
+    // Declaring the mounting clearance settles them on the declaration.
     let out = skin(&["explore", "--urdf", urdf, "--seed", "1", "--json", "--axis-clearance", "0.02"]);
     assert!(out.status.success(), "{}", stderr(&out));
     let v: Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
     assert_eq!(v["truth"]["tree_correct"], true);
     assert!(v["evidence"]["clearance"].as_u64().unwrap() > 0);
+    assert!(v["assumed"][0]["assumption"].as_str().unwrap().starts_with("the declared mounting clearance of 20.00 mm"));
 }
 
 #[test]
@@ -87,8 +104,10 @@ fn mistakes_get_a_message_not_a_panic() {
         (&["explore", "--urdf", "/nonexistent/robot.urdf"][..], "cannot read URDF file /nonexistent/robot.urdf"),
         (&["explore", "--cells-per-link", "0"][..], "the skin has no cells"),
         (&["explore", "--noise-scale", "-1"][..], "--noise-scale must be a finite number >= 0"),
-        (&["explore", "--axis-clearance", "-0.1"][..], "--axis-clearance must be a finite length >= 0 m"),
-        (&["explore", "--axis-clearance", "inf"][..], "--axis-clearance must be a finite length >= 0 m"),
+        (&["explore", "--axis-clearance", "-0.1"][..], "--axis-clearance must be a finite length > 0 m"),
+        (&["explore", "--axis-clearance", "inf"][..], "--axis-clearance must be a finite length > 0 m"),
+        (&["explore", "--axis-clearance", "0"][..], "(--strict assumes none)"),
+        (&["explore", "--axis-clearance", "0.01", "--strict"][..], "cannot be used with"),
         (&["explore", "--time-budget", "0"][..], "--time-budget must be a number of seconds in (0, 1e9]"),
         (&["explore", "--skin", "skin.yaml"][..], "cannot read skin file skin.yaml"),
         (&["explore", "--cells-per-link", "2", "--skin", "a.toml"][..], "cannot be used with"),

@@ -4,7 +4,8 @@
 //! Whatever happens, the exploration may fail with a diagnostic naming the
 //! undecided entries, but never return a wrong tree: every entry it decides
 //! rests on evidence that could have seen the other answer, or on a
-//! mounting clearance the caller declared.
+//! mounting clearance (declared, or the default from the cell pitch) that
+//! it names with the lever bound its evidence reached.
 
 use std::fmt::Write;
 
@@ -152,6 +153,14 @@ fn undecided(trial: &Trial) -> &[Undecided] {
     }
 }
 
+/// The exploration that assumes no mounting clearance.
+fn strict() -> ExploreConfig {
+    ExploreConfig {
+        structure: StructureConfig { strict: true, ..StructureConfig::default() },
+        ..ExploreConfig::default()
+    }
+}
+
 /// The default exploration with a declared mounting clearance, m.
 fn declaring(clearance_m: f64) -> ExploreConfig {
     let structure = StructureConfig { axis_clearance_m: clearance_m, ..StructureConfig::default() };
@@ -177,11 +186,11 @@ fn declaring_the_true_clearance(
 }
 
 #[test]
-fn a_ur5_like_arm_on_a_level_base_is_undecided_about_its_base_cells_until_a_clearance_is_declared() {
+fn a_ur5_like_arm_on_a_level_base_is_undecided_about_its_base_cells_when_strict() {
     for seed in 0..2 {
         // Nothing can tilt the first axis, so the base cells and a cell on
         // that axis look alike: undecided, with the reason.
-        let strict = Trial::run(world(&ur5_like(), BaseConfig::rigid(), 4, seed, 1.0), &ExploreConfig::default());
+        let strict = Trial::run(world(&ur5_like(), BaseConfig::rigid(), 4, seed, 1.0), &strict());
         let entries = undecided(&strict);
         let skin = strict_skin(seed);
         for e in entries {
@@ -208,6 +217,45 @@ fn a_clearance_of_a_millimetre_is_reached_by_pooling_more_steps() {
         let (found, _) = trial.outcome.as_ref().unwrap();
         assert!(found.structure_time_s < 120.0, "{} s", found.structure_time_s);
     }
+}
+
+#[test]
+fn by_default_the_base_cells_of_a_ur5_like_arm_rest_on_the_stated_default_clearance() {
+    for (seed, base) in [(0, BaseConfig::rigid()), (1, BaseConfig::standing())] {
+        let trial = Trial::run(world(&ur5_like(), base, 4, seed, 1.0), &ExploreConfig::default());
+        let warnings = verdict(&trial).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        let (found, truth) = trial.outcome.as_ref().unwrap();
+        assert_eq!(truth.wrong_entries, 0);
+        // Every base cell is named, on the default, with the lever bound
+        // its evidence reached, below the 1 mm it assumes.
+        let mut cells: Vec<u16> = found.assumed.iter().map(|a| a.cell.0).collect();
+        cells.sort_unstable();
+        assert_eq!(cells, strict_skin(seed));
+        for a in &found.assumed {
+            assert_eq!(a.dof, "shoulder_pan");
+            assert!(a.assumption.contains("default mounting clearance of 1.00 mm"), "{}", a.assumption);
+            assert!(a.lever_bound_m > 0.0 && a.lever_bound_m < 0.001, "{a:?}");
+        }
+        assert_eq!(warnings.len(), 1, "{warnings:?}");
+        assert!(warnings[0].starts_with("DoF shoulder_pan: 4 cells ("), "{warnings:?}");
+        assert!(warnings[0].contains("--strict"), "{warnings:?}");
+        assert!(found.structure_time_s < 120.0, "{} s", found.structure_time_s);
+    }
+}
+
+#[test]
+fn a_cell_centred_on_an_end_cap_over_an_untiltable_axis_is_named_by_the_default_it_breaks() {
+    // The one place the default does not hold: a cell on the first axis
+    // itself. It is taken as still like the base cells, wrongly, and the
+    // exploration names it among the assumed, never silently.
+    let robot = Robot::from_urdf_str(&ur5_like()).unwrap();
+    let skin = near_axis_skin(&robot, 0.0, 4);
+    let on_axis = skin.cells().last().unwrap().id;
+    let world = World::new(robot, skin, WorldConfig { base: BaseConfig::rigid(), ..WorldConfig::default() });
+    let trial = Trial::run(world, &ExploreConfig::default());
+    let (found, _) = trial.outcome.as_ref().expect("decided on the default");
+    assert!(found.assumed.iter().any(|a| a.cell == on_axis && a.dof == "shoulder_pan"), "{:?}", found.assumed);
+    assert!(found.warnings.iter().any(|w| w.contains(&format!(" {}", on_axis.0))), "{:?}", found.warnings);
 }
 
 /// IDs of the base cells of the UR5-like arm's skin for `seed`.
@@ -243,11 +291,26 @@ fn a_branching_robot_has_its_palm_as_inner_node() {
 }
 
 #[test]
+fn a_standing_humanoid_with_a_head_yaw_on_its_torso_is_learned_exactly_by_default() {
+    // The yaw axis sits on the root and stays vertical: the torso's cells
+    // rest on the stated default, their levers bounded below it within
+    // the sway of a robot standing on its feet.
+    for seed in 1..3 {
+        let trial = Trial::run(world(&branching(), BaseConfig::standing(), 3, seed, 1.0), &ExploreConfig::default());
+        let warnings = verdict(&trial).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        let (found, truth) = trial.outcome.as_ref().unwrap();
+        assert_eq!(truth.wrong_entries, 0);
+        assert!(!found.assumed.is_empty() && found.assumed.iter().all(|a| a.dof == "neck_yaw"), "{:?}", found.assumed);
+        assert!(warnings.iter().any(|w| w.starts_with("DoF neck_yaw:")), "{warnings:?}");
+    }
+}
+
+#[test]
 fn a_mimic_gripper_is_undecided_until_a_clearance_bounds_every_cell_it_moves() {
     for seed in 1..3 {
         // The fingertips move without turning, so "no gravity change" says
         // nothing about the cells of the gripper's DoF: undecided, with why.
-        let strict = Trial::run(world(&gripper(), BaseConfig::standing(), 3, seed, 1.0), &ExploreConfig::default());
+        let strict = Trial::run(world(&gripper(), BaseConfig::standing(), 3, seed, 1.0), &strict());
         let entries = undecided(&strict);
         assert!(entries.iter().all(|e| e.dof == "finger" && e.reason.contains("coupled or mimic")), "{entries:?}");
         // The skin's true clearance declared: the lever, pooled, bounds every
@@ -298,7 +361,8 @@ fn shared_urdf(name: &str) -> Option<String> {
 fn the_reference_robots_are_learned_with_default_skins_in_one_base_posture() {
     for name in ["ur5", "panda", "simple_humanoid"] {
         let Some(urdf) = shared_urdf(name) else { continue };
-        let trial = Trial::run(world(&urdf, BaseConfig::standing(), 4, 0, 1.0), &declaring(0.02));
+        // Default flags: what the evidence leaves open rests on the stated default clearance.
+        let trial = Trial::run(world(&urdf, BaseConfig::standing(), 4, 0, 1.0), &ExploreConfig::default());
         let warnings = verdict(&trial).unwrap_or_else(|e| panic!("{name}: {e}"));
         println!("{name}: correct; {warnings:?}");
     }
@@ -379,7 +443,7 @@ fn a_cell_on_or_near_a_vertical_axis_is_unknown_never_still() {
         let world = || {
             World::new(robot.clone(), skin.clone(), WorldConfig { base: BaseConfig::rigid(), ..WorldConfig::default() })
         };
-        let strict = Trial::run(world(), &ExploreConfig::default());
+        let strict = Trial::run(world(), &strict());
         let near: Vec<u16> = undecided(&strict).iter().map(|e| e.cell.0).collect();
         // On the axis or 1 mm off it, the cell cannot be told from the
         // base cells; 3 cm off it, it moves.
@@ -584,66 +648,66 @@ fn urdf_folder() -> Vec<std::path::PathBuf> {
 fn public_robot_descriptions_are_learned_or_diagnosed_never_wrong() {
     let seeds = 1..=5u64;
     println!(
-        "{:<24} {:>5} {:>5} | {:<28} {:>8} {:>8} | {:<28} {:>8} {:>8}",
-        "robot",
-        "DoFs",
-        "cells",
-        "strict: verdict",
-        "robot s",
-        "postures",
-        "clearance declared: verdict",
-        "robot s",
-        "postures"
+        "{:<28} {:>5} {:>5} | {:<34} {:>8} {:>8} {:>9} {:>11}",
+        "robot", "DoFs", "cells", "default flags: verdict", "robot s", "postures", "assumed", "lever mm"
     );
-    let (mut wrong, mut runs, mut true_strict, mut true_declared) = (0, 0, 0, 0);
+    let (mut wrong, mut runs, mut true_trees, mut assumed_runs) = (0, 0, 0, 0);
     for path in urdf_folder() {
         let name = path.file_stem().unwrap().to_string_lossy().into_owned();
         let robot = match Robot::from_urdf_file(&path) {
             Ok(r) => r,
             Err(e) => {
-                println!("{name:<24} refused: {e}");
+                println!("{name:<28} refused: {e}");
                 continue;
             }
         };
         for seed in seeds.clone() {
             let skin = Skin::per_link(&robot, 4, seed).unwrap();
             let cells = skin.cells().len();
-            let mut row = format!("{:<24} {:>5} {:>5}", format!("{name} #{seed}"), robot.dofs().len(), cells);
-            // What the user would declare: 2 cm, or less where this skin
-            // has cells closer to a joint axis of their own body part.
-            let declared = skin.min_axis_clearance_m().min(0.02);
-            for clearance in [0.0, declared] {
-                let accel = Bma250Config::default();
-                let cfg = WorldConfig { base: BaseConfig::standing(), accel, seed, ..WorldConfig::default() };
-                let trial = Trial::run(World::new(robot.clone(), skin.clone(), cfg), &declaring(clearance));
-                runs += 1;
-                let (verdict, time, postures) = match &trial.outcome {
-                    Ok((found, truth)) if truth.tree_correct => {
-                        if clearance == 0.0 {
-                            true_strict += 1;
-                        } else {
-                            true_declared += 1;
-                        }
-                        ("true tree".to_owned(), found.structure_time_s, found.postures.len())
-                    }
-                    Ok((found, _)) => {
+            let cfg = WorldConfig { base: BaseConfig::standing(), seed, ..WorldConfig::default() };
+            let trial = Trial::run(World::new(robot.clone(), skin, cfg), &ExploreConfig::default());
+            runs += 1;
+            // A tree resting on an assumption that does not hold is wrong,
+            // and so is any wrong entry under a true-looking tree.
+            let (verdict, time, postures, assumed, lever) = match &trial.outcome {
+                Ok((found, truth)) => {
+                    let right = truth.tree_correct && truth.wrong_entries == 0;
+                    if right {
+                        true_trees += 1;
+                    } else {
                         wrong += 1;
-                        ("WRONG TREE".to_owned(), found.structure_time_s, found.postures.len())
                     }
-                    Err(ExploreError::Undecided(u)) => (format!("diagnostic: {} undecided", u.len()), f64::NAN, 0),
-                    Err(e) => {
-                        (format!("diagnostic: {}", e.to_string().chars().take(40).collect::<String>()), f64::NAN, 0)
-                    }
-                };
-                row += &format!(" | {verdict:<28} {time:>8.1} {postures:>8}");
-            }
-            println!("{row}");
+                    assumed_runs += usize::from(!found.assumed.is_empty());
+                    let lever = found.assumed.iter().map(|a| a.lever_bound_m).fold(f64::NAN, f64::max);
+                    let verdict = if right {
+                        "true tree".to_owned()
+                    } else {
+                        format!("WRONG: {} wrong entries", truth.wrong_entries)
+                    };
+                    (verdict, found.structure_time_s, found.postures.len(), found.assumed.len(), lever * 1e3)
+                }
+                Err(ExploreError::Undecided(u)) => {
+                    (format!("diagnostic: {} undecided", u.len()), f64::NAN, 0, 0, f64::NAN)
+                }
+                Err(e) => (
+                    format!("diagnostic: {}", e.to_string().chars().take(46).collect::<String>()),
+                    f64::NAN,
+                    0,
+                    0,
+                    f64::NAN,
+                ),
+            };
+            println!(
+                "{:<28} {:>5} {:>5} | {verdict:<34} {time:>8.1} {postures:>8} {assumed:>9} {lever:>11.3}",
+                format!("{name} #{seed}"),
+                robot.dofs().len(),
+                cells
+            );
         }
     }
     println!(
-        "{runs} runs: {wrong} wrong trees; true trees {true_strict} of {} strict, {true_declared} of {} with the clearance declared",
-        runs / 2,
-        runs / 2
+        "{runs} runs, default flags: {true_trees} true trees ({:.0} %), {wrong} wrong, {assumed_runs} resting on the default clearance (assumed: entries settled on it; lever: the largest bound their evidence reached)",
+        100.0 * true_trees as f64 / runs.max(1) as f64
     );
     assert_eq!(wrong, 0);
 }

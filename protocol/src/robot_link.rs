@@ -35,12 +35,17 @@ use serde::{Deserialize, Serialize};
 pub const MAGIC: [u8; 2] = *b"RL";
 /// The version this crate speaks.
 pub const VERSION: u8 = 1;
-/// Most DoFs a robot on the link may have (HRP-2 has 30).
-pub const MAX_DOFS: usize = 64;
+/// Most DoFs a robot on the link may have (HRP-2 has 30; wheels, casters,
+/// fingers and two arms make 101 on a common mobile manipulator). DoF
+/// counts and indices travel as varints: below 128 their bytes are those
+/// of the single bytes the first robots spoke, so those still understand.
+pub const MAX_DOFS: usize = 256;
 /// Longest DoF name, bytes of UTF-8.
 pub const MAX_NAME: usize = 32;
-/// Largest datagram either way: header, tag, seq, time and 64 f64 values.
-pub const MAX_DATAGRAM: usize = 3 + 1 + 5 + 10 + 1 + MAX_DOFS * 8;
+/// Largest datagram either way: header, tag, seq, time, the count and
+/// [`MAX_DOFS`] f64 values (2,069 bytes: one UDP datagram, fragmented
+/// past an Ethernet MTU, which a host and robot on one network handle).
+pub const MAX_DATAGRAM: usize = 3 + 1 + 5 + 10 + 2 + MAX_DOFS * 8;
 
 /// From the host to the robot.
 // Unboxed on purpose: no allocator on a robot's controller, and a message
@@ -53,7 +58,7 @@ pub enum ToRobot {
     /// The name of DoF `index`. Answered with [`FromRobot::DofName`].
     DofName {
         /// 0-based, in command order.
-        index: u8,
+        index: u16,
     },
     /// Velocities per DoF (rad/s, or m/s for a prismatic DoF), in command
     /// order, held until the next command. Answered with [`FromRobot::State`].
@@ -68,7 +73,7 @@ pub enum ToRobot {
     /// the others stay those of the first version.
     DofKind {
         /// 0-based, in command order.
-        index: u8,
+        index: u16,
     },
 }
 
@@ -79,7 +84,7 @@ pub enum FromRobot {
     /// Requirement (i): the number of revolute DoFs, and how the robot keeps time.
     Info {
         /// Revolute DoFs under velocity control.
-        dofs: u8,
+        dofs: u16,
         /// The robot's control period, microseconds.
         period_us: u32,
         /// True when the robot advances one period per command (a
@@ -89,7 +94,7 @@ pub enum FromRobot {
     /// The name of a DoF.
     DofName {
         /// 0-based, in command order.
-        index: u8,
+        index: u16,
         /// Its name, e.g. `RARM_JOINT3`.
         name: String<MAX_NAME>,
     },
@@ -112,7 +117,7 @@ pub enum FromRobot {
     /// How a DoF moves.
     DofKind {
         /// 0-based, in command order.
-        index: u8,
+        index: u16,
         /// Revolute or prismatic.
         kind: DofKind,
     },
@@ -226,13 +231,14 @@ mod tests {
         roundtrip(&ToRobot::Command { seq: u32::MAX, velocities: full.clone() });
         roundtrip(&FromRobot::State { seq: u32::MAX, time_us: u64::MAX, positions: full });
         let name: String<MAX_NAME> = (0..MAX_NAME).map(|_| 'x').collect();
-        roundtrip(&FromRobot::DofName { index: 255, name });
-        roundtrip(&FromRobot::Info { dofs: 64, period_us: u32::MAX, lockstep: true });
+        let last = (MAX_DOFS - 1) as u16;
+        roundtrip(&FromRobot::DofName { index: last, name });
+        roundtrip(&FromRobot::Info { dofs: MAX_DOFS as u16, period_us: u32::MAX, lockstep: true });
         roundtrip(&FromRobot::Refused { seq: 7, reason: Refusal::NoSuchDof });
         roundtrip(&FromRobot::Refused { seq: 0, reason: Refusal::Busy });
         roundtrip(&ToRobot::Hello);
-        roundtrip(&ToRobot::DofKind { index: 255 });
-        roundtrip(&FromRobot::DofKind { index: 255, kind: DofKind::Prismatic });
+        roundtrip(&ToRobot::DofKind { index: last });
+        roundtrip(&FromRobot::DofKind { index: last, kind: DofKind::Prismatic });
     }
 
     #[test]
@@ -245,10 +251,20 @@ mod tests {
         buf[0] = b'X';
         assert_eq!(decode::<ToRobot>(&buf[..n]), Err(LinkError::BadMagic));
         assert_eq!(encode(&ToRobot::Hello, &mut buf[..3]), Err(LinkError::BufferTooSmall));
-        // A command of 65 velocities cannot be decoded into 64.
-        let mut long = std::vec![b'R', b'L', VERSION, 2, 0, 65];
-        long.extend(core::iter::repeat_n(0u8, 65 * 8));
+        // A command of 257 velocities (varint 0x81 0x02) cannot be decoded into 256.
+        let mut long = std::vec![b'R', b'L', VERSION, 2, 0, 0x81, 0x02];
+        long.extend(core::iter::repeat_n(0u8, 257 * 8));
+        assert!(long.len() <= MAX_DATAGRAM);
         assert_eq!(decode::<ToRobot>(&long), Err(LinkError::BadBody));
+    }
+
+    #[test]
+    fn counts_and_indices_below_128_keep_the_single_bytes_of_the_first_robots() {
+        let mut buf = [0u8; MAX_DATAGRAM];
+        encode(&FromRobot::Info { dofs: 30, period_us: 4000, lockstep: false }, &mut buf).unwrap();
+        assert_eq!(&buf[3..5], &[0, 30], "tag, then the count as one byte");
+        let n = encode(&ToRobot::DofName { index: 127 }, &mut buf).unwrap();
+        assert_eq!(&buf[3..n], &[1, 127]);
     }
 
     proptest! {

@@ -16,7 +16,7 @@ use skin_host::calibrate::check::{check, CalibrationTruth};
 use skin_host::calibrate::export::{picture, skin_toml, urdf_with_skin};
 use skin_host::calibrate::neighbours::{resolve, NeighbourConfig, Resolved};
 use skin_host::calibrate::{calibrate, CalibrateConfig, Calibration};
-use skin_host::explore::{explore, ExploreConfig, Progress, StructureConfig};
+use skin_host::explore::{explore_wired, Exploration, ExploreConfig, Progress, StructureConfig};
 use skin_host::report::check_folder;
 use skin_host::report::figures::{skin_views, SkinViews};
 use skin_host::robot::SimRobot;
@@ -25,7 +25,7 @@ use skin_model::robot::Robot as Model;
 use skin_sim::world::World;
 
 use super::cells_json::cells_json;
-use super::seconds;
+use super::structure_args::StructureArgs;
 use super::world::{Base, SimArgs};
 
 /// Arguments of `skin calibrate`.
@@ -39,12 +39,8 @@ pub struct Args {
     /// Excitation periods per DoF for the positions (1 Hz each).
     #[arg(long, value_name = "N", default_value_t = CalibrateConfig::default().excitation_periods, value_parser = clap::value_parser!(u32).range(1..=1000))]
     periods: u32,
-    /// Mounting clearance of the skin from joint axes, m, for the exploration (see `skin explore`).
-    #[arg(long, value_name = "M", default_value_t = 0.0, allow_negative_numbers = true)]
-    axis_clearance: f64,
-    /// Robot time the structural exploration may spend on undecided entries, s.
-    #[arg(long, value_name = "S", default_value_t = StructureConfig::default().budget_s, allow_negative_numbers = true)]
-    time_budget: f64,
+    #[command(flatten)]
+    structure: StructureArgs,
     /// Folder for skin.toml, robot_with_skin.urdf, calibration.json and calibration.svg.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
@@ -57,9 +53,6 @@ pub struct Args {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
-    /// A flag value out of range.
-    #[error("--axis-clearance must be a finite length >= 0 m, not {0}")]
-    AxisClearance(f64),
     /// The base lies: the calibration takes the description's root upright.
     #[error(
         "skin calibrate takes the robot's root upright (z up, as the description has it): use --base standing or rigid"
@@ -68,13 +61,10 @@ pub enum Error {
 }
 
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
-    if !(args.axis_clearance.is_finite() && args.axis_clearance >= 0.0) {
-        return Err(Error::AxisClearance(args.axis_clearance).into());
-    }
     if args.sim.base == Base::Lying {
         return Err(Error::Lying.into());
     }
-    let budget_s = seconds::positive("--time-budget", args.time_budget)?;
+    let structure = args.structure.apply(StructureConfig::default())?;
     let cfg = CalibrateConfig {
         postures: args.postures,
         excitation_periods: args.periods,
@@ -86,7 +76,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     // The host's own copy of the description, as on a real robot.
     let model = args.sim.robot()?;
     let world = args.sim.world()?;
-    super::world::warn_clearance(&world, args.axis_clearance);
+    super::world::warn_clearance(&world, args.structure.declared_m());
     // Only once every input is accepted: a refused one leaves no folder behind.
     if let Some(dir) = &args.out {
         check_folder(dir)?;
@@ -106,29 +96,26 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         }
     };
     let wall = Instant::now();
-    let explore_cfg = ExploreConfig {
-        structure: StructureConfig { axis_clearance_m: args.axis_clearance, budget_s, ..StructureConfig::default() },
-        ..ExploreConfig::default()
-    };
-    let found = explore(&mut rig, &explore_cfg, &mut show("exploring"))?;
-    let mut calibration = calibrate(&mut rig, &model, &found, &cfg, &mut show("calibrating"))?;
+    let explore_cfg = ExploreConfig { structure, ..ExploreConfig::default() };
     // The simulated skin's neighbour tables (IDs and ports, as its
     // self-organization reports them; none unless laid in patches).
     let tables = rig.world().skin().neighbour_tables();
+    let found = explore_wired(&mut rig, &explore_cfg, &tables, &mut show("exploring"))?;
+    let mut calibration = calibrate(&mut rig, &model, &found, &cfg, &mut show("calibrating"))?;
     let neighbours =
         resolve(&mut calibration.cells, &model, &calibration.description_start, &tables, &NeighbourConfig::default());
     let wall_time_s = wall.elapsed().as_secs_f64();
     bar.finish_and_clear();
 
     let truth = check(&calibration, rig.world());
-    let report = report(&name, &calibration, &neighbours, &truth, found.exploration_time_s(), wall_time_s);
+    let report = report(&name, &calibration, &neighbours, &truth, &found, wall_time_s);
     if let Some(dir) = &args.out {
         write_files(dir, &urdf, &model, &calibration, rig.world(), &report)?;
     }
     let text = if args.json {
         format!("{report:#}")
     } else {
-        summary(&name, &calibration, &neighbours, &truth, found.exploration_time_s(), wall_time_s)
+        summary(&name, &calibration, &neighbours, &truth, &found, wall_time_s)
     };
     println!("{text}");
     Ok(ExitCode::SUCCESS)
@@ -139,10 +126,11 @@ fn report(
     c: &Calibration,
     neighbours: &Resolved,
     truth: &CalibrationTruth,
-    exploration_s: f64,
+    found: &Exploration,
     wall_time_s: f64,
 ) -> Value {
     let cells = cells_json(c);
+    let exploration_s = found.exploration_time_s();
     json!({
         "robot": name,
         "cells": cells,
@@ -154,6 +142,8 @@ fn report(
         "robot_time_s": { "exploration": exploration_s, "calibration": c.robot_time_s, "total": exploration_s + c.robot_time_s },
         "wall_time_s": wall_time_s,
         "warnings": c.warnings,
+        "exploration_warnings": found.warnings,
+        "assumed": found.assumed,
         "neighbours": neighbours,
         "truth": truth,
     })
@@ -164,9 +154,10 @@ fn summary(
     c: &Calibration,
     n: &Resolved,
     t: &CalibrationTruth,
-    exploration_s: f64,
+    found: &Exploration,
     wall_time_s: f64,
 ) -> String {
+    let exploration_s = found.exploration_time_s();
     let full = c.cells.iter().filter(|p| p.unobservable.is_empty()).count();
     let none = c.cells.iter().filter(|p| p.unobservable.len() == 3).count();
     let mut s = format!("robot {name}: {} cells calibrated on its description\n", c.cells.len());
@@ -209,7 +200,7 @@ fn summary(
         "  robot time: exploration {exploration_s:.1} s + calibration {:.1} s; wall time {wall_time_s:.2} s\n",
         c.robot_time_s
     );
-    for w in &c.warnings {
+    for w in found.warnings.iter().chain(&c.warnings) {
         s += &format!("warning: {w}\n");
     }
     s += &format!(

@@ -9,14 +9,14 @@ use std::io::Write;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use super::seconds;
+use super::structure_args::StructureArgs;
 use super::world::SimArgs;
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{json, Value};
 use skin_host::explore::check::{check, TruthReport};
 use skin_host::explore::smm::Evaluation;
-use skin_host::explore::{explore, Basis, Exploration, ExploreConfig, ExploreError, SmmConfig, StructureConfig};
+use skin_host::explore::{explore_wired, Basis, Exploration, ExploreConfig, ExploreError, SmmConfig, StructureConfig};
 use skin_host::robot::SimRobot;
 
 /// The exploration the paper timed on HRP-2, for comparison.
@@ -30,17 +30,8 @@ pub struct Args {
     /// The paper's structural timing (0.5 s settling, 1.0 s averaging, two runs) instead of the fast default.
     #[arg(long)]
     paper: bool,
-    /// Declare that in the start posture no skin cell lies closer than this
-    /// to the axis line of a joint that moves it (and none moves less than
-    /// this per radian of a DoF that drives mimic joints), m. Settles cells
-    /// that show no lever to a vertical axis no posture can tilt (a yaw
-    /// joint on the fixed base) or to a coupled DoF (mimic fingers); without
-    /// it they are reported as undecided.
-    #[arg(long, value_name = "M", default_value_t = 0.0, allow_negative_numbers = true)]
-    axis_clearance: f64,
-    /// Robot time the structural exploration may spend on undecided entries, s.
-    #[arg(long, value_name = "S", default_value_t = StructureConfig::default().budget_s, allow_negative_numbers = true)]
-    time_budget: f64,
+    #[command(flatten)]
+    structure: StructureArgs,
     /// How sensory-motor weights are read from the pattern's accelerations.
     #[arg(long, value_enum, default_value_t = SmmEvaluation::Regression)]
     smm: SmmEvaluation,
@@ -57,34 +48,19 @@ enum SmmEvaluation {
     Regression,
 }
 
-/// Why `skin explore` could not run.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum Error {
-    /// A flag value out of range.
-    #[error("--axis-clearance must be a finite length >= 0 m, not {0}")]
-    AxisClearance(f64),
-}
-
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
-    if !(args.axis_clearance.is_finite() && args.axis_clearance >= 0.0) {
-        return Err(Error::AxisClearance(args.axis_clearance).into());
-    }
-    let budget_s = seconds::positive("--time-budget", args.time_budget)?;
+    let structure =
+        args.structure.apply(if args.paper { StructureConfig::paper() } else { StructureConfig::default() })?;
     let world = args.sim.world()?;
-    super::world::warn_clearance(&world, args.axis_clearance);
+    super::world::warn_clearance(&world, args.structure.declared_m());
     let name = world.robot().name().to_owned();
     let mut rig = SimRobot::new(world);
     let evaluation = match args.smm {
         SmmEvaluation::Amplitudes => Evaluation::Amplitudes,
         SmmEvaluation::Regression => Evaluation::Regression,
     };
-    let structure = if args.paper { StructureConfig::paper() } else { StructureConfig::default() };
-    let cfg = ExploreConfig {
-        structure: StructureConfig { axis_clearance_m: args.axis_clearance, budget_s, ..structure },
-        smm: SmmConfig { evaluation, ..SmmConfig::default() },
-        ..ExploreConfig::default()
-    };
+    let cfg =
+        ExploreConfig { structure, smm: SmmConfig { evaluation, ..SmmConfig::default() }, ..ExploreConfig::default() };
 
     let bar = ProgressBar::new(0).with_style(
         ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} DoF measurements")
@@ -93,7 +69,9 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     );
     bar.set_message("exploring");
     let wall = Instant::now();
-    let result = explore(&mut rig, &cfg, &mut |p| {
+    // The simulated skin's neighbour tables (none unless laid in patches).
+    let tables = rig.world().skin().neighbour_tables();
+    let result = explore_wired(&mut rig, &cfg, &tables, &mut |p| {
         bar.set_length(p.total as u64);
         bar.set_position(p.done as u64);
     });
@@ -175,6 +153,7 @@ fn report(name: &str, found: &Exploration, truth: &TruthReport, wall_time_s: f64
         "inner_nodes": tree.inner_nodes(),
         "limbs": tree.limbs(),
         "warnings": found.warnings,
+        "assumed": found.assumed,
         "truth": {
             "cell_links": truth.cell_links.iter().map(|(id, l)| (id.to_string(), json!(l))).collect::<serde_json::Map<_, _>>(),
             "tree_correct": truth.tree_correct,
@@ -187,7 +166,7 @@ fn report(name: &str, found: &Exploration, truth: &TruthReport, wall_time_s: f64
 
 /// How many activity entries each kind of evidence decided.
 fn evidence(found: &Exploration) -> Value {
-    let (mut by_static, mut dynamic, mut tree, mut clearance) = (0, 0, 0, 0);
+    let (mut by_static, mut dynamic, mut tree, mut clearance, mut wire) = (0, 0, 0, 0, 0);
     for u in 0..found.activity.cells() {
         for d in 0..found.activity.dofs() {
             match found.activity.basis(u, d) {
@@ -195,11 +174,12 @@ fn evidence(found: &Exploration) -> Value {
                 Some(Basis::Dynamic { .. }) => dynamic += 1,
                 Some(Basis::Tree) => tree += 1,
                 Some(Basis::Clearance) => clearance += 1,
+                Some(Basis::Wire) => wire += 1,
                 None => {}
             }
         }
     }
-    json!({"static": by_static, "dynamic": dynamic, "tree": tree, "clearance": clearance})
+    json!({"static": by_static, "dynamic": dynamic, "tree": tree, "clearance": clearance, "wire": wire})
 }
 
 /// Writes `text` and a newline to stdout; a reader that went away (a

@@ -7,12 +7,13 @@ use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use skin_host::config::PortConfig;
-use skin_host::explore::{explore, Exploration, ExploreConfig};
+use skin_host::explore::{explore_wired, Exploration, ExploreConfig};
 use skin_host::pipeline::{organize, silence_bound, write_settings, OrganizeConfig, Organized, PipelineError};
 use skin_host::recording::{ExploreStart, RecordError, Session};
 use skin_host::remote::Remote;
 use skin_host::report::{ExplorationSection, LinkSection, Report, RobotSection, Timing};
-use skin_protocol::message::Setting;
+use skin_protocol::message::{NeighbourReport, Setting};
+use skin_protocol::Address;
 
 /// Robot time given to the cells to acknowledge each round of settings, s.
 const ACK_WAIT_S: f64 = 0.05;
@@ -88,7 +89,8 @@ pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
     tracing::info!(cells = organized.cells.len(), "the skin organized; exploring the body");
     let exploring = bar("{msg:24} [{bar:30}] {pos}/{len} DoF measurements");
     exploring.set_message("self-exploration");
-    let exploration = explore(remote, &steps.explore, &mut |p| {
+    let tables = neighbour_tables(remote);
+    let exploration = explore_wired(remote, &steps.explore, &tables, &mut |p| {
         exploring.set_length(p.total as u64);
         exploring.set_position(p.done as u64);
     })?;
@@ -100,6 +102,12 @@ pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
     timing.structure_robot_s = exploration.structure_time_s;
     timing.smm_robot_s = exploration.smm_time_s;
     Ok(Found { organized, exploration, timing })
+}
+
+/// The organized skin's neighbour tables: IDs and ports, as its
+/// self-organization reported them.
+pub fn neighbour_tables(remote: &Remote) -> Vec<(Address, NeighbourReport)> {
+    remote.interface().registry().cells().filter_map(|r| r.neighbours().map(|n| (r.id(), *n))).collect()
 }
 
 /// The report's parts that the job found; the rest is left empty.

@@ -27,6 +27,7 @@ mod seconds;
 mod sign;
 #[cfg(feature = "sim")]
 mod sim_endpoint;
+mod structure_args;
 #[cfg(feature = "sim")]
 mod world;
 
@@ -64,7 +65,7 @@ enum Command {
     /// Write the default configuration file, or check one.
     Config(config::Args),
     /// The main job against a real skin and robot (or an external simulator): organize, explore, report.
-    Run(run::Args),
+    Run(Box<run::Args>),
     /// Feed a recording (`skin run --record`, `skin demo`) to the host instead of the network.
     Replay(replay::Args),
     /// Serve the built-in simulated robot and skin on loopback UDP, for `skin run` in another terminal.
@@ -99,7 +100,7 @@ pub fn main() -> ExitCode {
         Command::Monitor(args) => monitor::run(args),
         Command::Config(args) => config::run(args),
         Command::Loadgen(args) => loadgen::run(args),
-        Command::Run(args) => run::run(args),
+        Command::Run(args) => run::run(*args),
         Command::Replay(args) => replay::run(args),
         #[cfg(feature = "sim")]
         Command::SimEndpoint(args) => sim_endpoint::run(args),

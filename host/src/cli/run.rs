@@ -18,7 +18,7 @@ use skin_host::calibrate::export::{picture, ros_poses, skin_toml, urdf_with_skin
 use skin_host::calibrate::neighbours::{resolve, NeighbourConfig};
 use skin_host::calibrate::{calibrate, CalibrateConfig};
 use skin_host::config::{Config, Traffic};
-use skin_host::explore::ExploreConfig;
+use skin_host::explore::{ExploreConfig, StructureConfig};
 use skin_host::interface::Interface;
 use skin_host::pipeline::OrganizeConfig;
 use skin_host::remote::{Remote, RobotLink};
@@ -29,6 +29,7 @@ use skin_protocol::message::AccelRange;
 use super::job::{self, Steps};
 use super::live::LiveArgs;
 use super::seconds;
+use super::structure_args::StructureArgs;
 
 /// Arguments of `skin run`.
 #[derive(clap::Args)]
@@ -64,8 +65,11 @@ pub struct Args {
     /// With `--urdf`: the skin is laid in patches whose wired neighbours sit this far apart, m (centre to
     /// centre); their neighbour tables then place what the motion leaves blind (a cell's position along
     /// its link's only joint axis). Without it the tables say nothing about distance and are not used.
+    /// The default mounting clearance of the exploration is 1/25 of it (of 0.025 m without it).
     #[arg(long, value_name = "M")]
     cell_pitch: Option<f64>,
+    #[command(flatten)]
+    structure: StructureArgs,
     /// Record the run into this MCAP file: interface datagrams, robot link, ROS 2 topics (`skin replay` reads it).
     #[arg(long, value_name = "FILE.mcap")]
     record: Option<PathBuf>,
@@ -95,6 +99,11 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Some(p) if !(0.005..=0.2).contains(&p) => return Err(Error::CellPitch(p).into()),
         p => p,
     };
+    // The default mounting clearance follows from the skin's pitch.
+    let structure = args.structure.apply(StructureConfig {
+        cell_pitch_m: pitch_m.unwrap_or(StructureConfig::default().cell_pitch_m),
+        ..StructureConfig::default()
+    })?;
     // A description that cannot be used is refused before the robot moves.
     let description = match &args.urdf {
         Some(path) => {
@@ -149,7 +158,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
             ..OrganizeConfig::default()
         },
         settings: cells.settings(),
-        explore: ExploreConfig { range, ..ExploreConfig::default() },
+        explore: ExploreConfig { range, structure, ..ExploreConfig::default() },
         ports: config.interface.ports.clone(),
     };
     if let Some(path) = &args.record {
@@ -209,8 +218,7 @@ fn calibrate_skin(
     // Wires a declared pitch long place what the motion left blind; a
     // skin wired without regard to where its cells sit would place them wrong.
     if let Some(pitch_m) = pitch_m {
-        let tables: Vec<_> =
-            remote.interface().registry().cells().filter_map(|r| r.neighbours().map(|n| (r.id(), *n))).collect();
+        let tables = job::neighbour_tables(remote);
         let cfg = NeighbourConfig { pitch_m, ..NeighbourConfig::default() };
         resolve(&mut c.cells, model, &c.description_start, &tables, &cfg);
     }

@@ -76,9 +76,12 @@ pub enum Basis {
     /// Implied by decided entries: in a kinematic tree, the cells two DoFs
     /// move are nested or disjoint.
     Tree,
-    /// No lever to the DoF's untiltable, gravity-aligned axis, and the
-    /// user declared that no cell sits that close to a moving axis.
+    /// No lever to the DoF's untiltable, gravity-aligned axis (or from its
+    /// coupled joints), and by the mounting clearance (declared, or the
+    /// default) no cell sits that close to a moving axis.
     Clearance,
+    /// The entry of a wired neighbour across another joint (see `wires.rs`).
+    Wire,
 }
 
 /// Why an entry is still undecided.

@@ -21,13 +21,14 @@ pub(crate) mod session;
 pub mod smm;
 pub mod structure;
 pub mod tree;
+mod wires;
 
-use skin_protocol::message::AccelRange;
+use skin_protocol::message::{AccelRange, NeighbourReport};
 use skin_protocol::Address;
 
 pub use activity::{Activity, ActivityMatrix, Basis, Doubt};
 pub use smm::{SensoryMotorMap, SmmConfig, Tile};
-pub use structure::StructureConfig;
+pub use structure::{Clearance, StructureConfig};
 pub use tree::{KinematicTree, TreeError};
 
 use crate::robot::{DofKind, Robot, RobotError, SampleSource};
@@ -109,6 +110,22 @@ fn describe(undecided: &[Undecided]) -> String {
         .join("; ")
 }
 
+/// An entry of the activity matrix decided on a mounting clearance, not
+/// on evidence alone: the DoF showed no lever at the cell, down to
+/// `lever_bound_m`, so by the clearance it does not move the cell.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Assumed {
+    /// The cell.
+    pub cell: Address,
+    /// The DoF's name.
+    pub dof: String,
+    /// The assumption, in words (declared, or the default and whence).
+    pub assumption: String,
+    /// The evidence bounds the cell's lever to the DoF below this, m: the
+    /// smallest lever it could have seen there.
+    pub lever_bound_m: f64,
+}
+
 /// Where the exploration is, for progress bars.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Progress {
@@ -142,6 +159,8 @@ pub struct Exploration {
     pub smm_time_s: f64,
     /// Things the user should know, e.g. DoFs whose axis stayed vertical.
     pub warnings: Vec<String>,
+    /// Entries decided on a mounting clearance, each with its lever bound.
+    pub assumed: Vec<Assumed>,
     /// The structural exploration's still windows with their postures:
     /// the calibration's gravity fit starts from them.
     pub(crate) stills: Vec<(Vec<f64>, session::Window)>,
@@ -160,6 +179,17 @@ pub fn explore<R: Robot + SampleSource>(
     cfg: &ExploreConfig,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Exploration, ExploreError> {
+    explore_wired(rig, cfg, &[], progress)
+}
+
+/// [`explore`] with the skin's neighbour tables, whose wires (those both
+/// ends report) settle entries without assumption (see `wires.rs`).
+pub fn explore_wired<R: Robot + SampleSource>(
+    rig: &mut R,
+    cfg: &ExploreConfig,
+    tables: &[(Address, NeighbourReport)],
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Exploration, ExploreError> {
     cfg.structure.check()?;
     cfg.smm.check(rig.tick_s())?;
     let dof_names = rig.dof_names();
@@ -170,7 +200,8 @@ pub fn explore<R: Robot + SampleSource>(
     let start = rig.positions();
     let mut session = Session::discover(rig, cfg.range)?;
     let dofs = session.dofs();
-    let outcome = structure::explore(&mut session, &cfg.structure, &dof_kinds, &mut |done, total| {
+    let wired = wires::pairs(session.cells(), tables);
+    let outcome = structure::explore(&mut session, &cfg.structure, &dof_kinds, &wired, &mut |done, total| {
         progress(Progress { done, total: total + dofs })
     })?;
     session.move_to(&start, cfg.smm.move_speed_rad_s, cfg.smm.pose_tolerance_rad, 30.0)?;
@@ -190,21 +221,10 @@ pub fn explore<R: Robot + SampleSource>(
     if !undecided.is_empty() {
         return Err(ExploreError::Undecided(undecided));
     }
+    let (assumed, warnings) = assumptions(&outcome, &cfg.structure, &cells, &dof_names);
     let structure::Outcome { activity, postures, stills, .. } = outcome;
     let merged = merge::merge(&activity.rows());
     let tree = KinematicTree::new(&merged, &cells, &dof_names)?;
-    let warnings = (0..dofs)
-        .filter_map(|d| {
-            let by_clearance =
-                (0..cells.len()).filter(|&u| matches!(activity.basis(u, d), Some(Basis::Clearance))).count();
-            (by_clearance > 0).then(|| {
-                format!(
-                    "DoF {}: {by_clearance} cells showed no lever (to its gravity-aligned axis, which no posture tilted, or to its coupled joints) and are taken as still on the declared mounting clearance of {} m",
-                    dof_names[d], cfg.structure.axis_clearance_m
-                )
-            })
-        })
-        .collect();
 
     let done = outcome.measurements;
     let total = done + dofs;
@@ -224,8 +244,95 @@ pub fn explore<R: Robot + SampleSource>(
         structure_time_s,
         smm_time_s,
         warnings,
+        assumed,
         stills,
     })
+}
+
+/// The entries decided on the mounting clearance, and one warning line per
+/// DoF and doubt naming the cells, the assumption and the lever bound the
+/// evidence reached (the largest of theirs).
+fn assumptions(
+    outcome: &structure::Outcome,
+    cfg: &StructureConfig,
+    cells: &[Address],
+    names: &[String],
+) -> (Vec<Assumed>, Vec<String>) {
+    let Some(clearance) = cfg.clearance() else { return (Vec::new(), Vec::new()) };
+    let assumption = clearance.describe(cfg.cell_pitch_m);
+    let dofs = names.len();
+    let (mut assumed, mut warnings) = (Vec::new(), Vec::new());
+    for (d, name) in names.iter().enumerate() {
+        for coupled in [false, true] {
+            let entries: Vec<usize> = (0..cells.len())
+                .filter(|&u| outcome.activity.basis(u, d) == Some(Basis::Clearance))
+                .filter(|&u| (outcome.doubts[u * dofs + d] == Some(Doubt::Coupled)) == coupled)
+                .collect();
+            if entries.is_empty() {
+                continue;
+            }
+            let bound = |u: usize| outcome.lever_bounds[u * dofs + d];
+            let worst = entries.iter().map(|&u| bound(u)).fold(0.0, f64::max);
+            let ids: Vec<String> = entries.iter().map(|&u| cells[u].0.to_string()).collect();
+            let shown = if ids.len() > 12 {
+                format!("{} and {} more", ids[..12].join(", "), ids.len() - 12)
+            } else {
+                ids.join(", ")
+            };
+            let what = if coupled {
+                "no gravity change and no lever from the coupled (mimic) joints it drives"
+            } else {
+                "no lever to its gravity-aligned axis, which no posture tilted"
+            };
+            let hint = if clearance.declared {
+                ""
+            } else {
+                "; --strict refuses instead, --axis-clearance declares the skin's own"
+            };
+            warnings.push(format!(
+                "DoF {name}: {} cells ({shown}) showed {what}, their levers bounded below {:.2} mm by the evidence, and are taken as still on {assumption}{hint}",
+                entries.len(),
+                worst * 1e3
+            ));
+            assumed.extend(entries.into_iter().map(|u| Assumed {
+                cell: cells[u],
+                dof: name.clone(),
+                assumption: assumption.clone(),
+                lever_bound_m: bound(u),
+            }));
+        }
+    }
+    (assumed, warnings)
+}
+
+/// How far entry `i`'s lever bound stayed from the mounting clearance
+/// that would settle it, in words.
+fn short_of_clearance(outcome: &structure::Outcome, cfg: &StructureConfig, u: usize, d: usize) -> String {
+    // The cells of one DoF share one line: the bound the evidence reached
+    // on all of its undecided ones.
+    let dofs = outcome.activity.dofs();
+    let bound = (0..outcome.activity.cells())
+        .filter(|&v| {
+            outcome.activity.get(v, d) == Activity::Unknown
+                && outcome.doubts[v * dofs + d] == outcome.doubts[u * dofs + d]
+        })
+        .map(|v| outcome.lever_bounds[v * dofs + d])
+        .fold(0.0, f64::max);
+    let reached = if bound.is_finite() {
+        format!("its lever is bounded only below {:.2} mm", bound * 1e3)
+    } else {
+        "no bound on its lever was reached".to_owned()
+    };
+    match cfg.clearance() {
+        Some(c) => format!(
+            "{reached}, not below {} within the robot-time budget of {:.0} s: the cell is still or that close to the axis",
+            c.describe(cfg.cell_pitch_m),
+            cfg.budget_s
+        ),
+        None => format!(
+            "{reached}: the cell is still or that close to the axis, and --strict assumes no mounting clearance; declare the skin's (--axis-clearance) if no cell sits that close"
+        ),
+    }
 }
 
 /// Why entry (`u`, `d`) stayed undecided, in words.
@@ -242,16 +349,13 @@ fn reason(outcome: &structure::Outcome, cfg: &StructureConfig, names: &[String],
         Some(Doubt::NearAxis) => {
             let tilts = &outcome.tilted_by[d];
             let tried = if tilts.is_empty() {
-                "no DoF was found that carries it and could tilt it (it comes first from the base)".to_owned()
+                "no DoF was found that carries it and could tilt it: it comes first from the base".to_owned()
             } else {
                 let turned: Vec<&str> = tilts.iter().map(|&p| names[p].as_str()).collect();
                 format!("turning {} did not tilt it", turned.join(", "))
             };
-            format!(
-                "no lever above {} mm to its axis, which stayed within about 6 degrees of gravity ({tried}): the cell is still or within {} mm of the axis; declare the skin's mounting clearance (--axis-clearance) if no cell sits that close",
-                cfg.axis_lever_m * 1e3,
-                cfg.axis_lever_m * 1e3
-            )
+            let why = format!("no lever to its axis, which stayed within about 6 degrees of gravity ({tried})");
+            format!("{why}, {}", short_of_clearance(outcome, cfg, u, d))
         }
         Some(Doubt::Noise) if outcome.repeats[d] > 0 => format!(
             "its axis stayed within about 6 degrees of gravity, and the lever stays within the noise after {} pooled repeats of the step (robot-time budget {:.0} s)",
@@ -263,13 +367,11 @@ fn reason(outcome: &structure::Outcome, cfg: &StructureConfig, names: &[String],
             outcome.longest_average_s, cfg.budget_s
         ),
         Some(Doubt::Saturated) => "the accelerometer saturated in every measurement (use a larger range)".to_owned(),
-        Some(Doubt::Coupled) if cfg.axis_clearance_m > 0.0 => format!(
-            "the DoF turns the cells it moves by different rotations (coupled or mimic joints), so a cell that shows no gravity change may still move with it, and its lever, pooled over {} repeats of the step, is bounded only below {:.1} mm, not below the declared clearance of {} mm (a floor there that more repeats do not lower is the base rocking with the step)",
+        Some(Doubt::Coupled) => format!(
+            "the DoF turns the cells it moves by different rotations (coupled or mimic joints), so a cell that shows no gravity change may still move with it, and over {} pooled repeats of the step {} (a floor that more repeats do not lower is the base rocking with the step)",
             outcome.repeats[d] + 1,
-            outcome.lever_bounds[u * dofs + d] * 1e3,
-            cfg.axis_clearance_m * 1e3
+            short_of_clearance(outcome, cfg, u, d)
         ),
-        Some(Doubt::Coupled) => "the DoF turns the cells it moves by different rotations (coupled or mimic joints), so a cell that shows no gravity change may still move with it, and no lever showed; declaring the skin's mounting clearance (--axis-clearance) settles cells whose lever stays below it".to_owned(),
         None => format!("not measured again: the robot-time budget of {:.0} s is spent", cfg.budget_s),
     }
 }

@@ -13,9 +13,9 @@
 //!   tilts the axis out of gravity's line, measures again and turns back:
 //!   the paper's "change the posture of the robot", done by the robot;
 //! - *near an axis no posture tilts*, or *on a coupled DoF* (mimic joints,
-//!   where a cell that shows no gravity change may still move), with a
-//!   mounting clearance declared: more repeats of the step, pooled, until
-//!   each still cell's lever is bounded below the clearance. Near the axis,
+//!   where a cell that shows no gravity change may still move): more
+//!   repeats of the step, pooled, until each still cell's lever is bounded
+//!   below the mounting clearance. Near the axis,
 //!   a cell whose pooled lever stands far above what the cells decided
 //!   still show moves, however close to the axis; a coupled DoF's step
 //!   rocks the base, and the rocking those cells record is regressed out
@@ -23,12 +23,16 @@
 //!
 //! Between measurements, entries that the decided ones imply in a
 //! kinematic tree are settled without moving (`infer`): the cells of two
-//! DoFs are nested or disjoint. A cell that no reachable posture decides
+//! DoFs are nested or disjoint. What no reachable posture decides is
+//! settled on the mounting clearance: the user's declared one, else the
+//! default from the cell pitch (see [`Clearance`]), each such entry
+//! reported with the lever bound its evidence reached; with `strict`, it
 //! stays undecided, with its [`Doubt`], and the exploration says so.
 
 use super::activity::{Activity, ActivityMatrix, Basis, Doubt, Evidence, Reading, Step, SURE_LEVER};
 use super::rocking::Sums;
 use super::session::{Session, Window};
+use super::wires;
 use super::ExploreError;
 use crate::robot::{DofKind, Robot, SampleSource};
 
@@ -71,8 +75,57 @@ pub struct StructureConfig {
     /// no lever to a gravity-aligned axis that no posture can tilt (a yaw
     /// joint on the fixed base), or no gravity change and no lever with a
     /// coupled DoF, is still once pooled repeats bound its lever below the
-    /// clearance. Without it, such a cell is reported as undecided.
+    /// clearance. Without it, the default of [`StructureConfig::clearance`]
+    /// is assumed, and said.
     pub axis_clearance_m: f64,
+    /// Centre-to-centre distance of two wired cells, m: the size of a
+    /// cell's board, from which the default mounting clearance follows.
+    pub cell_pitch_m: f64,
+    /// Refuse rather than assume: with no clearance declared, the entries
+    /// only a mounting clearance settles are reported as undecided.
+    pub strict: bool,
+}
+
+/// The default mounting clearance, as a fraction of the cell pitch. A
+/// cell's accelerometer sits at the middle of its board, a pitch across:
+/// on a link's side, along or around an axis, it sits at least the link's
+/// radius from it; it comes within 1/25 of a pitch (1 mm for 25 mm cells)
+/// of an axis only on an end cap centred on that axis to that precision.
+pub const DEFAULT_CLEARANCE_PER_PITCH: f64 = 0.04;
+
+/// The mounting clearance the exploration settles entries on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Clearance {
+    /// No cell lies closer than this to the axis of a joint that moves it, m.
+    pub m: f64,
+    /// Declared by the user (`false`: the default, from the cell pitch).
+    pub declared: bool,
+}
+
+impl Clearance {
+    /// The assumption, in words.
+    pub fn describe(&self, pitch_m: f64) -> String {
+        if self.declared {
+            format!("the declared mounting clearance of {:.2} mm", self.m * 1e3)
+        } else {
+            format!(
+                "the default mounting clearance of {:.2} mm ({} of the {:.0} mm cell pitch: no cell centred on an end cap over the axis)",
+                self.m * 1e3,
+                fraction(DEFAULT_CLEARANCE_PER_PITCH),
+                pitch_m * 1e3
+            )
+        }
+    }
+}
+
+/// `x` as `1/n` when it is one.
+fn fraction(x: f64) -> String {
+    let n = (1.0 / x).round();
+    if (n * x - 1.0).abs() < 1e-9 {
+        format!("1/{n:.0}")
+    } else {
+        format!("{x}")
+    }
 }
 
 impl Default for StructureConfig {
@@ -94,6 +147,8 @@ impl Default for StructureConfig {
             budget_s: 1800.0,
             tilt_rad: 0.3,
             axis_clearance_m: 0.0,
+            cell_pitch_m: skin_model::skin::CELL_PITCH_M,
+            strict: false,
         }
     }
 }
@@ -130,6 +185,18 @@ impl StructureConfig {
         }
     }
 
+    /// The clearance entries are settled on: the declared one, else (but
+    /// with [`StructureConfig::strict`]) the default from the cell pitch.
+    pub fn clearance(&self) -> Option<Clearance> {
+        if self.axis_clearance_m > 0.0 {
+            Some(Clearance { m: self.axis_clearance_m, declared: true })
+        } else if self.strict {
+            None
+        } else {
+            Some(Clearance { m: self.cell_pitch_m * DEFAULT_CLEARANCE_PER_PITCH, declared: false })
+        }
+    }
+
     /// Refuses values the method cannot work with.
     pub fn check(&self) -> Result<(), ExploreError> {
         let positive = [
@@ -142,6 +209,7 @@ impl StructureConfig {
             self.confidence_sigmas,
             self.tilt_rad,
             self.budget_s,
+            self.cell_pitch_m,
         ];
         let not_negative = [self.settle_s, self.axis_clearance_m];
         if !positive.iter().all(|v| v.is_finite() && *v > 0.0)
@@ -149,7 +217,7 @@ impl StructureConfig {
             || self.runs == 0
         {
             return Err(ExploreError::Config(
-                "steps, move time, averaging window, lever thresholds, confidence, tilt and budget must be positive, settling and clearance not negative, and at least one run".into(),
+                "steps, move time, averaging window, lever thresholds, confidence, tilt, budget and cell pitch must be positive, settling and clearance not negative, and at least one run".into(),
             ));
         }
         if !(self.static_fraction > 0.0 && self.static_fraction < 1.0) {
@@ -191,6 +259,7 @@ pub(crate) fn explore<R: Robot + SampleSource>(
     session: &mut Session<'_, R>,
     cfg: &StructureConfig,
     kinds: &[DofKind],
+    wires: &[(usize, usize)],
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Outcome, ExploreError> {
     let (cells, dofs) = (session.cells().len(), session.dofs());
@@ -203,6 +272,7 @@ pub(crate) fn explore<R: Robot + SampleSource>(
         s: session,
         cfg,
         kinds,
+        wires,
         pre,
         pre_s: cfg.average_s,
         deadline_s,
@@ -275,6 +345,8 @@ struct Explorer<'x, 'r, R> {
     s: &'x mut Session<'r, R>,
     cfg: &'x StructureConfig,
     kinds: &'x [DofKind],
+    /// Cells wired to each other, row indices (see `wires.rs`).
+    wires: &'x [(usize, usize)],
     /// The still window before the next motion, and its length, s.
     pre: Window,
     pre_s: f64,
@@ -390,17 +462,14 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
     }
 
     /// More pooled repeats of DoF `d`'s step could settle an entry on the
-    /// declared clearance: its lever bound is still above the clearance,
+    /// mounting clearance (declared, or the default): its lever bound is still above the clearance,
     /// the pooled lever does not already show it farther out (a cell that
     /// really moves at a lever between the clearance and what counts as a
     /// movement stays undecided, not pooled forever), and the entry waits
     /// for the clearance: near an axis no posture tilts, or on a coupled
     /// DoF, where gravity cannot say still.
     fn tightens(&self, m: &ActivityMatrix, d: usize) -> bool {
-        let clearance = self.cfg.axis_clearance_m;
-        if clearance <= 0.0 {
-            return false;
-        }
+        let Some(Clearance { m: clearance, .. }) = self.cfg.clearance() else { return false };
         let (dofs, k) = (m.dofs(), self.cfg.confidence_sigmas);
         let waits = self.waits_for_clearance(m, d);
         (0..m.cells()).any(|u| {
@@ -411,7 +480,7 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
         })
     }
 
-    /// Which doubts of DoF `d` the declared clearance settles once a lever
+    /// Which doubts of DoF `d` the mounting clearance settles once a lever
     /// is bounded below it: a cell that a coupled DoF moves without turning
     /// it shows no gravity change, and one near a revolute axis no posture
     /// can tilt any more shows none either.
@@ -605,19 +674,23 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
         self.pooled_lever(i)
     }
 
-    /// Settles what decided entries imply, then what the declared mounting
-    /// clearance does.
+    /// Settles what decided entries imply, with the wires, then what the
+    /// mounting clearance (declared, or the default) does.
     fn settle(&mut self, m: &mut ActivityMatrix) {
         infer(m);
-        if self.cfg.axis_clearance_m > 0.0 && self.clear(m) {
+        while wires::settle(m, self.wires) {
+            infer(m);
+        }
+        if self.clear(m) {
             infer(m);
         }
     }
 
-    /// With a declared mounting clearance: a cell waiting for it (see
+    /// On the mounting clearance (declared, or the default; none when
+    /// strict): a cell waiting for it (see
     /// [`Explorer::waits_for_clearance`]) whose lever is bounded below the
     /// clearance would move less per radian than any cell the DoF moves,
-    /// so by the declaration the DoF does not move it. Near an axis aligned
+    /// so by the clearance the DoF does not move it. Near an axis aligned
     /// with gravity, those cells measure the floor of what still cells
     /// show (see [`Explorer::still_floor`]): a waiting cell whose pooled
     /// lever stands surely above [`FLOOR_RATIO`] times it moved, however
@@ -625,8 +698,8 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
     /// more at some cells than at others; there the rocking is regressed
     /// out instead, see [`Sums`].) True if an entry changed.
     fn clear(&mut self, m: &mut ActivityMatrix) -> bool {
+        let Some(Clearance { m: clearance, .. }) = self.cfg.clearance() else { return false };
         let (cells, dofs) = (m.cells(), m.dofs());
-        let clearance = self.cfg.axis_clearance_m;
         let mut changed = false;
         for d in 0..dofs {
             if !m.column_undecided(d) {
@@ -822,9 +895,23 @@ mod tests {
             StructureConfig { budget_s: 0.0, ..StructureConfig::default() },
             StructureConfig { axis_clearance_m: -0.01, ..StructureConfig::default() },
             StructureConfig { axis_clearance_m: f64::INFINITY, ..StructureConfig::default() },
+            StructureConfig { cell_pitch_m: 0.0, ..StructureConfig::default() },
         ] {
             assert!(matches!(bad.check(), Err(ExploreError::Config(_))), "{bad:?}");
         }
+    }
+
+    #[test]
+    fn the_clearance_is_the_declared_one_else_the_default_from_the_pitch_else_none_when_strict() {
+        let default = StructureConfig::default().clearance().unwrap();
+        assert!(!default.declared);
+        assert!((default.m - 0.001).abs() < 1e-12, "1/25 of the 25 mm pitch: {} m", default.m);
+        assert!(default.describe(0.025).contains("1/25 of the 25 mm cell pitch"), "{}", default.describe(0.025));
+        let pitch = StructureConfig { cell_pitch_m: 0.05, ..StructureConfig::default() };
+        assert!((pitch.clearance().unwrap().m - 0.002).abs() < 1e-12);
+        let declared = StructureConfig { axis_clearance_m: 0.02, strict: true, ..StructureConfig::default() };
+        assert_eq!(declared.clearance(), Some(Clearance { m: 0.02, declared: true }));
+        assert_eq!(StructureConfig { strict: true, ..StructureConfig::default() }.clearance(), None);
     }
 
     /// Rows of a true activity matrix: chain 0 -> 1 (cells 1..=3), a branch

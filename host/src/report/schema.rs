@@ -6,7 +6,7 @@ use serde::Serialize;
 use super::sim::{GraspSection, LatencySection, TruthSection};
 use crate::calibrate::export::Picture;
 use crate::calibrate::Calibration;
-use crate::explore::Exploration;
+use crate::explore::{Assumed, Exploration};
 use crate::interface::InterfaceCounters;
 use crate::pipeline::Organized;
 
@@ -87,6 +87,8 @@ pub struct ExplorationSection {
     pub smm_weights: Vec<Vec<f32>>,
     /// What the user should know.
     pub warnings: Vec<String>,
+    /// Entries decided on a mounting clearance, not on evidence alone.
+    pub assumed: Vec<Assumed>,
 }
 
 /// The skin calibrated on the robot's description.
@@ -197,6 +199,7 @@ impl ExplorationSection {
             smm_pose_rad: tile.pose().to_vec(),
             smm_weights: (0..found.cells.len()).map(|u| tile.weights(u).to_vec()).collect(),
             warnings: found.warnings.clone(),
+            assumed: found.assumed.clone(),
         }
     }
 }

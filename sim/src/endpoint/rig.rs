@@ -137,7 +137,7 @@ impl Rig {
         let dofs = self.world.robot().dofs();
         Ok(match request {
             ToRobot::Hello => FromRobot::Info {
-                dofs: dofs.len() as u8,
+                dofs: dofs.len() as u16,
                 period_us: (self.world.config().tick_s * 1e6).round() as u32,
                 lockstep: self.pacing == Pacing::Lockstep,
             },
