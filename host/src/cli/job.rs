@@ -8,6 +8,7 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressStyle};
 use skin_host::config::PortConfig;
 use skin_host::explore::{explore, Exploration, ExploreConfig};
+use skin_host::health::{self, Screened, SensorFault};
 use skin_host::pipeline::{organize, silence_bound, write_settings, OrganizeConfig, Organized, PipelineError};
 use skin_host::recording::{ExploreStart, RecordError, Session};
 use skin_host::remote::Remote;
@@ -43,6 +44,8 @@ pub fn finish_recording(remote: &mut Remote) -> Result<Option<String>, RecordErr
 /// What the job found.
 pub struct Found {
     pub organized: Organized,
+    /// Cells whose sensors read what no working one can.
+    pub sensor_faults: Vec<SensorFault>,
     pub exploration: Exploration,
     pub timing: Timing,
 }
@@ -85,10 +88,17 @@ pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
             ports: steps.ports.clone(),
         });
     }
+    // Broken sensors are named, and broken accelerometers left out, before
+    // the exploration spends its budget on cells that can never settle.
+    let sensor_faults = health::listen(remote, steps.explore.range)?;
+    for fault in &sensor_faults {
+        let left_out = if fault.left_out { ": left out of the exploration and the map" } else { "" };
+        eprintln!("warning: {fault}{left_out}");
+    }
     tracing::info!(cells = organized.cells.len(), "the skin organized; exploring the body");
     let exploring = bar("{msg:24} [{bar:30}] {pos}/{len} DoF measurements");
     exploring.set_message("self-exploration");
-    let exploration = explore(remote, &steps.explore, &mut |p| {
+    let exploration = explore(&mut Screened::new(remote, &sensor_faults), &steps.explore, &mut |p| {
         exploring.set_length(p.total as u64);
         exploring.set_position(p.done as u64);
     })?;
@@ -99,7 +109,7 @@ pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
     timing.explore_wall_s = wall.elapsed().as_secs_f64();
     timing.structure_robot_s = exploration.structure_time_s;
     timing.smm_robot_s = exploration.smm_time_s;
-    Ok(Found { organized, exploration, timing })
+    Ok(Found { organized, sensor_faults, exploration, timing })
 }
 
 /// The report's parts that the job found; the rest is left empty.
@@ -118,6 +128,7 @@ pub fn report(remote: &Remote, source: String, found: Found) -> Report {
         interface: *remote.interface().counters(),
         link: LinkSection { retries: link.retries, ignored: link.ignored },
         exploration: ExplorationSection::new(&found.exploration),
+        sensor_faults: found.sensor_faults,
         #[cfg(feature = "sim")]
         latency: None,
         calibration: None,
@@ -151,6 +162,9 @@ pub fn summary(r: &Report, written: &[PathBuf]) -> String {
     );
     #[cfg(feature = "sim")]
     s.push_str(&super::demo::summary(r));
+    for f in &r.sensor_faults {
+        s += &format!("sensor fault: {f}\n");
+    }
     for w in &e.warnings {
         s += &format!("warning: {w}\n");
     }
