@@ -113,10 +113,10 @@ impl Readings {
     fn add(&mut self, s: &Sample) {
         let a = s.accel();
         self.n += 1;
-        for k in 0..3 {
-            self.accel_min[k] = self.accel_min[k].min(a[k]);
-            self.accel_max[k] = self.accel_max[k].max(a[k]);
-            self.accel_sum[k] += f64::from(a[k]);
+        for (k, &c) in a.iter().enumerate() {
+            self.accel_min[k] = self.accel_min[k].min(c);
+            self.accel_max[k] = self.accel_max[k].max(c);
+            self.accel_sum[k] += f64::from(c);
         }
         self.at_full_scale += usize::from(a.iter().all(|&c| c == ACCEL_MAX || c == ACCEL_MIN));
         self.proximity_at_rail += usize::from(s.proximity() == PROXIMITY_MAX);
@@ -219,16 +219,26 @@ pub fn listen<R: Robot + SampleSource>(rig: &mut R, range: AccelRange) -> Result
 }
 
 /// A rig whose samples from the left-out cells never reach the caller:
-/// the exploration sees the rest of the skin only.
+/// the exploration sees the rest of the skin only. It also tells the robot
+/// time it has run, tick by tick, for a progress line.
 pub struct Screened<'r, R> {
     rig: &'r mut R,
     left_out: BTreeSet<Address>,
+    robot_s: f64,
+    on_tick: Option<&'r mut dyn FnMut(f64)>,
 }
 
 impl<'r, R> Screened<'r, R> {
     /// `rig` without the cells `faults` leave out.
     pub fn new(rig: &'r mut R, faults: &[SensorFault]) -> Screened<'r, R> {
-        Screened { rig, left_out: faults.iter().filter(|f| f.left_out).map(|f| Address(f.cell)).collect() }
+        let left_out = faults.iter().filter(|f| f.left_out).map(|f| Address(f.cell)).collect();
+        Screened { rig, left_out, robot_s: 0.0, on_tick: None }
+    }
+
+    /// The same rig, calling `on_tick` after every tick with the robot
+    /// time it has run, s.
+    pub fn on_tick(self, on_tick: &'r mut dyn FnMut(f64)) -> Screened<'r, R> {
+        Screened { on_tick: Some(on_tick), ..self }
     }
 }
 
@@ -258,6 +268,10 @@ impl<R: SampleSource> SampleSource for Screened<'_, R> {
     fn next_tick(&mut self, out: &mut Vec<(Address, Sample)>) -> Result<(), RobotError> {
         let from = out.len();
         self.rig.next_tick(out)?;
+        self.robot_s += self.rig.tick_s();
+        if let Some(on_tick) = &mut self.on_tick {
+            on_tick(self.robot_s);
+        }
         if !self.left_out.is_empty() {
             let mut k = from;
             for i in from..out.len() {
@@ -301,7 +315,8 @@ mod tests {
 
     #[test]
     fn each_broken_accelerometer_is_named_and_left_out() {
-        let cases: [(&dyn Fn(usize, Sample) -> Sample, Symptom, &str); 4] = [
+        type Read<'a> = &'a dyn Fn(usize, Sample) -> Sample;
+        let cases: [(Read, Symptom, &str); 4] = [
             (&|_, s| with_accel(s, [511; 3]), Symptom::Saturated, "cell 17: accelerometer saturated at +2 g on all axes since organizing"),
             (&|_, s| with_accel(s, [3, -5, 256]), Symptom::Stuck, "cell 17: accelerometer stuck at (3, -5, 256) counts on all axes since organizing, while the other cells show noise"),
             (&|_, s| with_accel(s, [s.accel()[0], s.accel()[1], 0]), Symptom::AxisSilent(2), "cell 17: accelerometer axis z reads 0 without noise since organizing"),

@@ -602,12 +602,12 @@ fn relay(host: SocketAddr, latency: Duration) -> SocketAddr {
 /// The structure `skin run` found against `skin sim-endpoint` (seed 0,
 /// with `more` flags) whose skin sends through `relay` (given the host's
 /// interface address, it returns where the skin is to send): the report's
-/// cell count, body-part sizes and joints; and the report.
+/// cell count, body-part sizes and joints; the report; and the run's stderr.
 fn explored(
     relay: impl FnOnce(SocketAddr) -> SocketAddr,
     more: &[&str],
     name: &str,
-) -> (serde_json::Value, serde_json::Value) {
+) -> (serde_json::Value, serde_json::Value, String) {
     let (host, robot) = (free_addr(), free_addr());
     let via = relay(host.parse().unwrap());
     let mut endpoint = sim_endpoint_with(&via.to_string(), &robot, more);
@@ -624,7 +624,7 @@ fn explored(
         e["body_parts"].as_array().unwrap().iter().map(|p| p.as_array().unwrap().len()).collect();
     sizes.sort_unstable();
     let found = serde_json::json!({ "cells": e["cells"].as_array().unwrap().len(), "body_part_sizes": sizes, "joints": e["joints"] });
-    (found, report)
+    (found, report, stderr)
 }
 
 #[test]
@@ -632,9 +632,14 @@ fn a_relay_adding_latency_in_lockstep_is_waited_for_not_called_silence() {
     // The relay takes 10 ms each way; a lockstep robot's 0.05 s silence
     // bound passes in a few ms of wall-clock time while datagrams are on
     // their way, and their samples would lag the robot's positions.
-    let (relayed, _) = explored(|host| relay(host, Duration::from_millis(10)), &[], "relay");
+    let (relayed, _, stderr) = explored(|host| relay(host, Duration::from_millis(10)), &[], "relay");
     assert_eq!(relayed["joints"].as_array().unwrap().len(), 14);
     assert_eq!(relayed, explored(|host| host, &[], "direct").0);
+    // Slowed down by the relay, the run showed on its piped stderr what it was doing.
+    assert!(
+        stderr.contains(" DoF measurements, ") && stderr.contains(" s of robot time (budget 1800 s)\n"),
+        "{stderr}"
+    );
 }
 
 /// `skin run` against a skin whose network cell 17 has the sensor `fault`
@@ -642,8 +647,8 @@ fn a_relay_adding_latency_in_lockstep_is_waited_for_not_called_silence() {
 /// 73 cells as found without the fault, less that cell.
 fn a_broken_sensor_is_named_and_the_rest_explores(fault: &str, pace: &str, left_out: bool) {
     let flags = ["--pace", pace];
-    let (clean, _) = explored(|host| host, &flags, &format!("clean-{pace}"));
-    let (found, report) =
+    let (clean, ..) = explored(|host| host, &flags, &format!("clean-{pace}"));
+    let (found, report, _) =
         explored(|host| host, &["--pace", pace, "--sensor-fault", &format!("{fault}:17")], &format!("{fault}-{pace}"));
     let faults = report["sensor_faults"].as_array().unwrap();
     assert_eq!(faults.len(), 1, "{faults:?}");

@@ -2,10 +2,10 @@
 //! write the cell settings, explore the body, each step with a progress
 //! bar; and the report's parts that come from it.
 
+use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use indicatif::{ProgressBar, ProgressStyle};
 use skin_host::config::PortConfig;
 use skin_host::explore::{explore, Exploration, ExploreConfig};
 use skin_host::health::{self, Screened, SensorFault};
@@ -14,6 +14,8 @@ use skin_host::recording::{ExploreStart, RecordError, Session};
 use skin_host::remote::Remote;
 use skin_host::report::{ExplorationSection, LinkSection, Report, RobotSection, Timing};
 use skin_protocol::message::Setting;
+
+use super::progress::Progress;
 
 /// Robot time given to the cells to acknowledge each round of settings, s.
 const ACK_WAIT_S: f64 = 0.05;
@@ -50,27 +52,17 @@ pub struct Found {
     pub timing: Timing,
 }
 
-pub fn bar(template: &str) -> ProgressBar {
-    ProgressBar::new(0)
-        .with_style(ProgressStyle::with_template(template).expect("a valid template").progress_chars("=> "))
-}
-
 /// Organizes, configures and explores.
 pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
     let mut timing = Timing::default();
     let wall = Instant::now();
-    let organizing = bar("{msg:24} [{bar:30}] {pos}/{len} cells with neighbour tables");
-    organizing.set_message("self-organization");
-    organizing.set_length(steps.organize.expected_cells.unwrap_or(0) as u64);
+    let mut organizing = Progress::new("self-organization", "cells with neighbour tables");
     let mut organized = organize(remote, &steps.organize, &mut |n| {
-        if steps.organize.expected_cells.is_none() {
-            organizing.set_length(n as u64);
-        }
-        organizing.set_position(n as u64);
+        organizing.set(n as u64, steps.organize.expected_cells.unwrap_or(n) as u64);
     })?;
     organized.settings_written = organized.cells.len() * steps.settings.len();
     organized.settings_acknowledged = write_settings(remote, &steps.settings, ACK_WAIT_S)?;
-    organizing.finish_and_clear();
+    organizing.finish();
     // From here every cell sends every sample: a port falling silent ends
     // the run instead of leaving gaps in the measurements.
     remote.watch_silence(silence_bound(&steps.settings));
@@ -96,13 +88,13 @@ pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
         eprintln!("warning: {fault}{left_out}");
     }
     tracing::info!(cells = organized.cells.len(), "the skin organized; exploring the body");
-    let exploring = bar("{msg:24} [{bar:30}] {pos}/{len} DoF measurements");
-    exploring.set_message("self-exploration");
-    let exploration = explore(&mut Screened::new(remote, &sensor_faults), &steps.explore, &mut |p| {
-        exploring.set_length(p.total as u64);
-        exploring.set_position(p.done as u64);
-    })?;
-    exploring.finish_and_clear();
+    let exploring = RefCell::new(Progress::new("self-exploration", "DoF measurements"));
+    let budget_s = steps.explore.structure.budget_s;
+    let mut clock = |robot_s| exploring.borrow_mut().robot_time(robot_s, Some(budget_s));
+    let mut rig = Screened::new(remote, &sensor_faults).on_tick(&mut clock);
+    let exploration =
+        explore(&mut rig, &steps.explore, &mut |p| exploring.borrow_mut().set(p.done as u64, p.total as u64))?;
+    exploring.into_inner().finish();
     if let Some(session) = remote.recording_mut() {
         session.explored(&exploration);
     }

@@ -21,6 +21,7 @@ mod message;
 mod monitor;
 #[cfg(feature = "sim")]
 mod objects;
+mod progress;
 mod replay;
 mod run;
 mod seconds;
