@@ -231,8 +231,12 @@ pub struct Screened<'r, R> {
 impl<'r, R> Screened<'r, R> {
     /// `rig` without the cells `faults` leave out.
     pub fn new(rig: &'r mut R, faults: &[SensorFault]) -> Screened<'r, R> {
-        let left_out = faults.iter().filter(|f| f.left_out).map(|f| Address(f.cell)).collect();
-        Screened { rig, left_out, robot_s: 0.0, on_tick: None }
+        Screened::leaving_out(rig, faults.iter().filter(|f| f.left_out).map(|f| f.cell))
+    }
+
+    /// `rig` without the cells numbered `cells`.
+    pub fn leaving_out(rig: &'r mut R, cells: impl IntoIterator<Item = u16>) -> Screened<'r, R> {
+        Screened { rig, left_out: cells.into_iter().map(Address).collect(), robot_s: 0.0, on_tick: None }
     }
 
     /// The same rig, calling `on_tick` after every tick with the robot

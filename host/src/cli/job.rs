@@ -70,6 +70,13 @@ pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
     timing.organize_robot_s = organized.time_s;
 
     let wall = Instant::now();
+    // Broken sensors are named, and broken accelerometers left out, before
+    // the exploration spends its budget on cells that can never settle.
+    let sensor_faults = health::listen(remote, steps.explore.range)?;
+    for fault in &sensor_faults {
+        let left_out = if fault.left_out { ": left out of the exploration and the map" } else { "" };
+        eprintln!("warning: {fault}{left_out}");
+    }
     let info = remote.link().info().clone();
     if let Some(session) = remote.recording_mut() {
         session.explore_start(&ExploreStart {
@@ -78,14 +85,8 @@ pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
             period_s: info.period_s,
             accel_range_g: steps.explore.range.full_scale_g() as u8,
             ports: steps.ports.clone(),
+            left_out_cells: sensor_faults.iter().filter(|f| f.left_out).map(|f| f.cell).collect(),
         });
-    }
-    // Broken sensors are named, and broken accelerometers left out, before
-    // the exploration spends its budget on cells that can never settle.
-    let sensor_faults = health::listen(remote, steps.explore.range)?;
-    for fault in &sensor_faults {
-        let left_out = if fault.left_out { ": left out of the exploration and the map" } else { "" };
-        eprintln!("warning: {fault}{left_out}");
     }
     tracing::info!(cells = organized.cells.len(), "the skin organized; exploring the body");
     let exploring = RefCell::new(Progress::new("self-exploration", "DoF measurements"));
