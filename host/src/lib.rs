@@ -42,6 +42,7 @@ pub mod explore;
 pub mod foxglove;
 #[cfg(feature = "sim")]
 pub mod grasping;
+pub mod health;
 pub mod interface;
 pub mod pipeline;
 pub mod recording;

@@ -321,7 +321,7 @@ fn skin_calibrate_writes_its_files_and_takes_its_own_skin_file_back() {
 fn skin_calibrate_refuses_what_it_cannot_do_in_one_line() {
     for (args, says) in [
         (vec!["calibrate", "--base", "lying"], "upright"),
-        (vec!["calibrate", "--postures", "1"], "at least 2 postures"),
+        (vec!["calibrate", "--postures", "1"], "'--postures <N>': 1 is not in 2..=1000"),
         (vec!["calibrate", "--axis-clearance", "-1"], "--axis-clearance"),
         (vec!["calibrate", "--urdf", "/nonexistent.urdf"], "nonexistent"),
     ] {

@@ -102,7 +102,7 @@ fn explore_draws_the_tree_for_people() {
 fn mistakes_get_a_message_not_a_panic() {
     for (args, expected) in [
         (&["explore", "--urdf", "/nonexistent/robot.urdf"][..], "cannot read URDF file /nonexistent/robot.urdf"),
-        (&["explore", "--cells-per-link", "0"][..], "the skin has no cells"),
+        (&["explore", "--cells-per-link", "0"][..], "'--cells-per-link <N>': 0 is not in 1..=1000"),
         (&["explore", "--noise-scale", "-1"][..], "--noise-scale must be a finite number >= 0"),
         (&["explore", "--axis-clearance", "-0.1"][..], "--axis-clearance must be a finite length > 0 m"),
         (&["explore", "--axis-clearance", "inf"][..], "--axis-clearance must be a finite length > 0 m"),

@@ -38,7 +38,7 @@ use skin_sim::scene::operator::{Note, Order};
 use skin_sim::scene::placement::{ObjectAt, Placement};
 use skin_sim::world::{World, WorldConfig};
 
-use super::job::{self, bar, Steps};
+use super::job::{self, Steps};
 use super::live::LiveArgs;
 use super::objects::built_in;
 
@@ -177,7 +177,10 @@ pub(super) fn teach_and_grasp(
     params: &Params,
     objects: &[Option<ObjectAt>],
 ) -> Result<(Taught, Vec<GraspRun>), GraspError> {
-    let progress = bar("{msg:32} [{bar:30}] {pos}/{len} steps");
+    let style = indicatif::ProgressStyle::with_template("{msg:32} [{bar:30}] {pos}/{len} steps")
+        .expect("a valid template")
+        .progress_chars("=> ");
+    let progress = indicatif::ProgressBar::new(0).with_style(style);
     progress.set_length((6 + objects.len()) as u64);
     let person = &mut Person(person);
     let taught = learn(remote, person, map, params, &mut |step| {

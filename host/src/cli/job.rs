@@ -2,18 +2,21 @@
 //! write the cell settings, explore the body, each step with a progress
 //! bar; and the report's parts that come from it.
 
+use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use indicatif::{ProgressBar, ProgressStyle};
 use skin_host::config::PortConfig;
 use skin_host::explore::{explore_wired, Exploration, ExploreConfig};
+use skin_host::health::{self, Screened, SensorFault};
 use skin_host::pipeline::{organize, silence_bound, write_settings, OrganizeConfig, Organized, PipelineError};
 use skin_host::recording::{ExploreStart, RecordError, Session};
 use skin_host::remote::Remote;
 use skin_host::report::{ExplorationSection, LinkSection, Report, RobotSection, Timing};
 use skin_protocol::message::{NeighbourReport, Setting};
 use skin_protocol::Address;
+
+use super::progress::Progress;
 
 /// Robot time given to the cells to acknowledge each round of settings, s.
 const ACK_WAIT_S: f64 = 0.05;
@@ -44,31 +47,23 @@ pub fn finish_recording(remote: &mut Remote) -> Result<Option<String>, RecordErr
 /// What the job found.
 pub struct Found {
     pub organized: Organized,
+    /// Cells whose sensors read what no working one can.
+    pub sensor_faults: Vec<SensorFault>,
     pub exploration: Exploration,
     pub timing: Timing,
-}
-
-pub fn bar(template: &str) -> ProgressBar {
-    ProgressBar::new(0)
-        .with_style(ProgressStyle::with_template(template).expect("a valid template").progress_chars("=> "))
 }
 
 /// Organizes, configures and explores.
 pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
     let mut timing = Timing::default();
     let wall = Instant::now();
-    let organizing = bar("{msg:24} [{bar:30}] {pos}/{len} cells with neighbour tables");
-    organizing.set_message("self-organization");
-    organizing.set_length(steps.organize.expected_cells.unwrap_or(0) as u64);
+    let mut organizing = Progress::new("self-organization", "cells with neighbour tables");
     let mut organized = organize(remote, &steps.organize, &mut |n| {
-        if steps.organize.expected_cells.is_none() {
-            organizing.set_length(n as u64);
-        }
-        organizing.set_position(n as u64);
+        organizing.set(n as u64, steps.organize.expected_cells.unwrap_or(n) as u64);
     })?;
     organized.settings_written = organized.cells.len() * steps.settings.len();
     organized.settings_acknowledged = write_settings(remote, &steps.settings, ACK_WAIT_S)?;
-    organizing.finish_and_clear();
+    organizing.finish();
     // From here every cell sends every sample: a port falling silent ends
     // the run instead of leaving gaps in the measurements.
     remote.watch_silence(silence_bound(&steps.settings));
@@ -76,6 +71,13 @@ pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
     timing.organize_robot_s = organized.time_s;
 
     let wall = Instant::now();
+    // Broken sensors are named, and broken accelerometers left out, before
+    // the exploration spends its budget on cells that can never settle.
+    let sensor_faults = health::listen(remote, steps.explore.range)?;
+    for fault in &sensor_faults {
+        let left_out = if fault.left_out { ": left out of the exploration and the map" } else { "" };
+        eprintln!("warning: {fault}{left_out}");
+    }
     let info = remote.link().info().clone();
     if let Some(session) = remote.recording_mut() {
         session.explore_start(&ExploreStart {
@@ -84,24 +86,26 @@ pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
             period_s: info.period_s,
             accel_range_g: steps.explore.range.full_scale_g() as u8,
             ports: steps.ports.clone(),
+            left_out_cells: sensor_faults.iter().filter(|f| f.left_out).map(|f| f.cell).collect(),
         });
     }
     tracing::info!(cells = organized.cells.len(), "the skin organized; exploring the body");
-    let exploring = bar("{msg:24} [{bar:30}] {pos}/{len} DoF measurements");
-    exploring.set_message("self-exploration");
+    let exploring = RefCell::new(Progress::new("self-exploration", "DoF measurements"));
     let tables = neighbour_tables(remote);
-    let exploration = explore_wired(remote, &steps.explore, &tables, &mut |p| {
-        exploring.set_length(p.total as u64);
-        exploring.set_position(p.done as u64);
+    let budget_s = steps.explore.structure.budget_s;
+    let mut clock = |robot_s| exploring.borrow_mut().robot_time(robot_s, Some(budget_s));
+    let mut rig = Screened::new(remote, &sensor_faults).on_tick(&mut clock);
+    let exploration = explore_wired(&mut rig, &steps.explore, &tables, &mut |p| {
+        exploring.borrow_mut().set(p.done as u64, p.total as u64)
     })?;
-    exploring.finish_and_clear();
+    exploring.into_inner().finish();
     if let Some(session) = remote.recording_mut() {
         session.explored(&exploration);
     }
     timing.explore_wall_s = wall.elapsed().as_secs_f64();
     timing.structure_robot_s = exploration.structure_time_s;
     timing.smm_robot_s = exploration.smm_time_s;
-    Ok(Found { organized, exploration, timing })
+    Ok(Found { organized, sensor_faults, exploration, timing })
 }
 
 /// The organized skin's neighbour tables: IDs and ports, as its
@@ -126,6 +130,7 @@ pub fn report(remote: &Remote, source: String, found: Found) -> Report {
         interface: *remote.interface().counters(),
         link: LinkSection { retries: link.retries, ignored: link.ignored },
         exploration: ExplorationSection::new(&found.exploration),
+        sensor_faults: found.sensor_faults,
         #[cfg(feature = "sim")]
         latency: None,
         calibration: None,
@@ -159,6 +164,9 @@ pub fn summary(r: &Report, written: &[PathBuf]) -> String {
     );
     #[cfg(feature = "sim")]
     s.push_str(&r.simulation_summary());
+    for f in &r.sensor_faults {
+        s += &format!("sensor fault: {f}\n");
+    }
     for w in &e.warnings {
         s += &format!("warning: {w}\n");
     }

@@ -21,6 +21,7 @@ mod message;
 mod monitor;
 #[cfg(feature = "sim")]
 mod objects;
+mod progress;
 mod replay;
 mod run;
 mod seconds;
@@ -88,7 +89,16 @@ pub fn main() -> ExitCode {
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()))
         .init();
-    let result = match Cli::parse().command {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // A value out of its range is one line naming the flag and the range.
+        Err(e) if e.kind() == clap::error::ErrorKind::ValueValidation => {
+            eprintln!("{}", e.to_string().lines().next().unwrap_or_default());
+            return ExitCode::from(2);
+        }
+        Err(e) => e.exit(),
+    };
+    let result = match cli.command {
         #[cfg(feature = "sim")]
         Command::Demo(args) => demo::run(args),
         #[cfg(feature = "sim")]

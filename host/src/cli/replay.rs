@@ -11,6 +11,7 @@ use std::process::ExitCode;
 use skin_host::calibrate::export::skin_toml;
 use skin_host::calibrate::{calibrate, CalibrateConfig};
 use skin_host::explore::{explore, Exploration, ExploreConfig};
+use skin_host::health::Screened;
 use skin_host::recording::{Record, Recording};
 use skin_host::replay::Replay;
 use skin_host::report::ExplorationSection;
@@ -51,7 +52,8 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         let model = Robot::from_urdf_file(urdf)?;
         let (mut replay, range, exploration) = explore_again(recording)?;
         let cfg = CalibrateConfig { range, ..CalibrateConfig::default() };
-        let c = calibrate(&mut replay, &model, &exploration, &cfg, &mut |_| {})?;
+        let left_out = replay.start().left_out_cells.clone();
+        let c = calibrate(&mut Screened::leaving_out(&mut replay, left_out), &model, &exploration, &cfg, &mut |_| {})?;
         if args.json {
             serde_json::to_string_pretty(&super::cells_json::cells_json(&c))?
         } else {
@@ -101,6 +103,8 @@ fn explore_again(recording: Recording) -> Result<(Replay, AccelRange, Exploratio
     let mut replay = Replay::explore(recording)?;
     let start = replay.start().clone();
     let range = start.accel_range().ok_or(Error::Range(start.accel_range_g))?;
-    let exploration = explore(&mut replay, &ExploreConfig { range, ..ExploreConfig::default() }, &mut |_| {})?;
+    // The cells the live run left out for a broken accelerometer stay out.
+    let mut rig = Screened::leaving_out(&mut replay, start.left_out_cells.iter().copied());
+    let exploration = explore(&mut rig, &ExploreConfig { range, ..ExploreConfig::default() }, &mut |_| {})?;
     Ok((replay, range, exploration))
 }

@@ -8,6 +8,7 @@
 //! and give position feedback (section 3.2). The skin's interface ports
 //! send their datagrams to `--interface`.
 
+use std::cell::RefCell;
 use std::io::Write;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -19,6 +20,7 @@ use skin_host::calibrate::neighbours::{resolve, NeighbourConfig};
 use skin_host::calibrate::{calibrate, CalibrateConfig};
 use skin_host::config::{Config, Traffic};
 use skin_host::explore::{ExploreConfig, StructureConfig};
+use skin_host::health::Screened;
 use skin_host::interface::Interface;
 use skin_host::pipeline::OrganizeConfig;
 use skin_host::remote::{Remote, RobotLink};
@@ -28,6 +30,7 @@ use skin_protocol::message::AccelRange;
 
 use super::job::{self, Steps};
 use super::live::LiveArgs;
+use super::progress::Progress;
 use super::seconds;
 use super::structure_args::StructureArgs;
 
@@ -207,14 +210,15 @@ fn calibrate_skin(
     pitch_m: Option<f64>,
     out: &Path,
 ) -> Result<CalibrationSection, Box<dyn std::error::Error>> {
-    let bar = job::bar("{msg:24} [{bar:30}] {pos}/{len} postures and excitations");
-    bar.set_message("skin calibration");
+    let bar = RefCell::new(Progress::new("skin calibration", "postures and excitations"));
     let cfg = CalibrateConfig { range, ..CalibrateConfig::default() };
-    let mut c = calibrate(remote, model, &found.exploration, &cfg, &mut |p| {
-        bar.set_length(p.total as u64);
-        bar.set_position(p.done as u64);
+    // The cells left out of the exploration stay out of the calibration.
+    let mut clock = |robot_s| bar.borrow_mut().robot_time(robot_s, None);
+    let mut rig = Screened::new(remote, &found.sensor_faults).on_tick(&mut clock);
+    let mut c = calibrate(&mut rig, model, &found.exploration, &cfg, &mut |p| {
+        bar.borrow_mut().set(p.done as u64, p.total as u64)
     })?;
-    bar.finish_and_clear();
+    bar.into_inner().finish();
     // Wires a declared pitch long place what the motion left blind; a
     // skin wired without regard to where its cells sit would place them wrong.
     if let Some(pitch_m) = pitch_m {

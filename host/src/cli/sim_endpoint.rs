@@ -11,6 +11,7 @@ use std::time::{Duration, Instant};
 
 use clap::ValueEnum;
 use skin_sim::endpoint::{Batching, Endpoint, EndpointConfig, Pacing, Running};
+use skin_sim::network::sensor_fault::SensorFault;
 use skin_sim::network::{NetworkConfig, UpdateSetup};
 
 use super::seconds;
@@ -47,6 +48,11 @@ pub struct Args {
     /// Most frames an interface port puts in one datagram (1..=72; 1 sends every frame alone).
     #[arg(long, value_name = "N", default_value_t = Batching::default().max_frames)]
     batch_frames: usize,
+    /// A broken sensor, for testing the host's screening: `accel-saturated:CELL`, `accel-stuck:CELL`,
+    /// `accel-axis:CELL.AXIS`, `accel-weak:CELL`, `proximity-rail:CELL` or `force-rail:CELL.CHANNEL`
+    /// (CELL: the network's cell index, from 0); repeatable.
+    #[arg(long, value_name = "KIND:CELL")]
+    sensor_fault: Vec<SensorFault>,
     /// Longest a frame waits at its interface port for others, microseconds of robot time.
     #[arg(long, value_name = "US", default_value_t = Batching::default().max_wait_ns / 1000, value_parser = clap::value_parser!(u64).range(0..=1_000_000))]
     batch_us: u64,
@@ -83,9 +89,12 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let config = EndpointConfig { robot: args.robot, host: args.host, pacing, batching, network };
     // Served on a thread of its own, watched from here: when it fails or
     // panics, the process ends with its error instead of serving nothing.
-    let (seed, patches) = (args.seed, args.patches);
-    let endpoint =
-        Running::spawn(move || if patches { Endpoint::patches(seed, config) } else { Endpoint::hrp2(seed, config) })?;
+    let (seed, patches, faults) = (args.seed, args.patches, args.sensor_fault);
+    let endpoint = Running::spawn(move || {
+        let mut endpoint = if patches { Endpoint::patches(seed, config) } else { Endpoint::hrp2(seed, config) }?;
+        faults.into_iter().try_for_each(|f| endpoint.break_sensor(f))?;
+        Ok(endpoint)
+    })?;
     let ports: Vec<String> = endpoint.interfaces.iter().map(ToString::to_string).collect();
     // Announced on stdout, so a script can wait for it.
     writeln!(

@@ -41,6 +41,10 @@ pub struct ExploreStart {
     pub accel_range_g: u8,
     /// The interface ports configured.
     pub ports: Vec<PortConfig>,
+    /// Cells left out of the exploration for a broken accelerometer
+    /// ([`crate::health`]); recordings from before the screening have none.
+    #[serde(default)]
+    pub left_out_cells: Vec<u16>,
 }
 
 impl ExploreStart {
@@ -62,6 +66,7 @@ impl ExploreStart {
             period_s: 0.004,
             accel_range_g: 2,
             ports: crate::config::InterfaceConfig::default().ports,
+            left_out_cells: Vec::new(),
         }
     }
 }

@@ -73,6 +73,10 @@ pub fn page(r: &Report) -> String {
     s += "</table>\n";
     #[cfg(feature = "sim")]
     super::sim::html::grasps(&mut s, r);
+    for f in &r.sensor_faults {
+        let left_out = if f.left_out { " (left out of the exploration and the map)" } else { "" };
+        let _ = writeln!(s, "<p class=\"bad\">sensor fault: {}{left_out}</p>", escape(&f.description));
+    }
     for w in &e.warnings {
         let _ = writeln!(s, "<p class=\"bad\">warning: {}</p>", escape(w));
     }

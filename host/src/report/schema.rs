@@ -159,6 +159,9 @@ pub struct Report {
     pub link: LinkSection,
     /// What the exploration learned.
     pub exploration: ExplorationSection,
+    /// Cells whose sensors read what no working one can, found before the
+    /// exploration; those with a broken accelerometer were left out of it.
+    pub sensor_faults: Vec<crate::health::SensorFault>,
     /// Network latency (simulated skins only).
     #[cfg(feature = "sim")]
     pub latency: Option<LatencySection>,

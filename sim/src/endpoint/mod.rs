@@ -230,6 +230,11 @@ impl Endpoint {
         })
     }
 
+    /// Breaks a sensor of one skin cell (see [`crate::network::sensor_fault`]).
+    pub fn break_sensor(&mut self, fault: crate::network::sensor_fault::SensorFault) -> Result<(), NetworkError> {
+        self.rig.network.break_sensor(fault)
+    }
+
     /// The robot-link address.
     pub fn robot_addr(&self) -> Result<SocketAddr, NetworkError> {
         Ok(self.robot_socket.local_addr()?)

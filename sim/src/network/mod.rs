@@ -11,6 +11,7 @@
 //! - [`scheduler`]: the event queue.
 //! - [`stimulus`]: raw sensor samples of a quiet, touched or grasping skin.
 //! - [`fault`]: cut links, dead and rebooting cells, dead interface ports.
+//! - [`sensor_fault`]: broken sensors of a cell (stuck, saturated, at a rail).
 //! - [`ledger`]: where every frame went; latency histograms.
 //! - [`simulator`]: the [`Network`] itself: build, step, datagrams out and in.
 //! - [`host`]: a minimal host (ID allocation, neighbour table) for runs
@@ -26,6 +27,7 @@ pub mod link;
 pub mod model;
 pub mod scenario;
 pub mod scheduler;
+pub mod sensor_fault;
 pub mod simulator;
 pub mod stimulus;
 pub mod topology;

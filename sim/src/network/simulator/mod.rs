@@ -59,6 +59,7 @@ use super::fault::FaultKind;
 use super::ledger::{Drops, Histogram, Ledger};
 use super::link::BitErrors;
 use super::scheduler::{Order, Scheduler};
+use super::sensor_fault::{Broken, SensorFault};
 use super::stimulus::Stimulus;
 use super::topology::{PortRef, Topology};
 use super::NetworkError;
@@ -187,6 +188,10 @@ pub struct Network {
     spare: Vec<Vec<u8>>,
     events: Scheduler<Event>,
     stimulus: Stimulus,
+    /// Cells with a broken sensor, read through their fault.
+    broken: Vec<Broken>,
+    /// The readings fed, through the broken sensors (kept to reuse its memory).
+    through_faults: Vec<Sample>,
     bit_errors: BitErrors,
     phases: rand_chacha::ChaCha8Rng,
     /// Datagrams on their way to the host, in the order they arrive.
@@ -296,6 +301,8 @@ impl Network {
             spare: Vec::new(),
             events,
             stimulus: Stimulus::new(config.stimulus, topology.positions_m(), config.seed ^ 0x5717_0001),
+            broken: Vec::new(),
+            through_faults: Vec::new(),
             bit_errors: BitErrors::new(config.bit_error_rate, config.seed ^ 0xB17E_0002),
             phases: rand_chacha::ChaCha8Rng::seed_from_u64(config.seed ^ 0xF0A5_0003),
             to_host: VecDeque::new(),
@@ -465,12 +472,37 @@ impl Network {
         }
     }
 
+    /// Breaks a sensor of one cell: from now on the readings fed to it
+    /// ([`Network::feed`]) go through `fault`.
+    pub fn break_sensor(&mut self, fault: SensorFault) -> Result<(), NetworkError> {
+        if fault.cell >= self.pulses.len() {
+            return Err(NetworkError::Flag(format!(
+                "sensor fault on cell {}: the skin has cells 0 to {}",
+                fault.cell,
+                self.pulses.len() - 1
+            )));
+        }
+        self.broken.push(Broken::new(fault));
+        Ok(())
+    }
+
     /// Raw readings from outside, one per cell, that every cell samples
     /// from now on (until the next call) instead of the stimulus: what a
     /// simulated robot feels, carried by the network as the skin would.
     /// Cells at rest wake up: the stimulus no longer says where it acts.
     pub fn feed(&mut self, raw: &[Sample]) -> Result<(), NetworkError> {
-        self.stimulus.feed(raw)?;
+        if self.broken.is_empty() {
+            self.stimulus.feed(raw)?;
+        } else {
+            self.through_faults.clear();
+            self.through_faults.extend_from_slice(raw);
+            for b in &mut self.broken {
+                if let Some(s) = self.through_faults.get_mut(b.fault.cell) {
+                    *s = b.read(*s);
+                }
+            }
+            self.stimulus.feed(&self.through_faults)?;
+        }
         if self.resting > 0 {
             (0..self.pulses.len()).for_each(|i| self.wake(i));
         }
