@@ -124,6 +124,7 @@ fn argument(arg: &clap::Arg) -> String {
     if arg.is_required_set() {
         item.push_str(" (required)");
     }
+    let mut parts = Vec::new();
     if let Some(help) = arg.get_long_help().or(arg.get_help()) {
         // Later paragraphs indented into the list item, blank lines kept blank.
         let text = sentence(&help.to_string());
@@ -132,7 +133,7 @@ fn argument(arg: &clap::Arg) -> String {
             .enumerate()
             .map(|(i, l)| if i == 0 || l.is_empty() { l.to_owned() } else { format!("  {l}") })
             .collect();
-        let _ = write!(item, ": {}", lines.join("\n"));
+        parts.push(lines.join("\n"));
     }
     let values: Vec<String> = arg
         .get_possible_values()
@@ -143,17 +144,17 @@ fn argument(arg: &clap::Arg) -> String {
             None => format!("`{}`", v.get_name()),
         })
         .collect();
-    // A flag's implicit `false` is no default worth stating.
-    let defaults: Vec<String> = if takes_value {
-        arg.get_default_values().iter().map(|v| format!("`{}`", v.to_string_lossy())).collect()
-    } else {
-        Vec::new()
-    };
     if !values.is_empty() {
-        let _ = write!(item, " Values: {}.", values.join(", "));
+        parts.push(format!("Values: {}.", values.join(", ")));
     }
-    if !defaults.is_empty() {
-        let _ = write!(item, " Default: {}.", defaults.join(" "));
+    // A flag's implicit `false` is no default worth stating.
+    if takes_value && !arg.get_default_values().is_empty() {
+        let defaults: Vec<String> =
+            arg.get_default_values().iter().map(|v| format!("`{}`", v.to_string_lossy())).collect();
+        parts.push(format!("Default: {}.", defaults.join(" ")));
+    }
+    if !parts.is_empty() {
+        let _ = write!(item, ": {}", parts.join(" "));
     }
     item
 }
@@ -218,9 +219,9 @@ mod tests {
         assert!(text.contains("## tool go\n\nGo somewhere.\n"), "{text}");
         assert!(text.contains("- `<TARGET>` (required): Where to."), "{text}");
         assert!(!text.contains("tool help"), "{text}");
-        assert!(text.contains("- `-s, --speed <M_S>` Default: `1.5`."), "{text}");
-        assert!(text.contains("Values: `walk`, `run`."), "{text}");
-        assert!(!text.contains("secret") && !text.contains("--help"), "{text}");
+        assert!(text.contains("- `-s, --speed <M_S>`: Default: `1.5`."), "{text}");
+        assert!(text.contains("- `--mode <MODE>`: Values: `walk`, `run`."), "{text}");
+        assert!(!text.contains("secret") && !text.contains("`-h, --help`"), "{text}");
     }
 
     #[test]
