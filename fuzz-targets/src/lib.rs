@@ -1,6 +1,6 @@
 //! The bodies of the fuzz targets, one per parser that takes bytes or text
-//! from outside (issue 15). `fuzz/` runs them coverage-guided under
-//! libFuzzer (nightly); this crate's `short_run` test runs them on the
+//! from outside, where hostile input arrives. `fuzz/` runs them
+//! coverage-guided under libFuzzer (nightly); this crate's `short_run` test runs them on the
 //! stable toolchain in CI, over valid seeds, their mutations and random
 //! bytes. One body, two drivers: the check is the same in both.
 //!
@@ -12,12 +12,12 @@
 use skin_host::config::{Config, PortConfig};
 use skin_host::control::params::Params;
 use skin_host::interface::Ingest;
+use skin_model::robot::{hrp2, Robot};
+use skin_model::skin::Skin;
 use skin_protocol::interface::Datagram;
 use skin_protocol::robot_link::{self, FromRobot, ToRobot};
 use skin_protocol::Frame;
 use skin_sim::network::Topology;
-use skin_sim::robot::{hrp2, Robot};
-use skin_sim::skin::Skin;
 
 /// A target: its name (the `fuzz/` binary's) and its body.
 pub type Target = (&'static str, fn(&[u8]) -> bool);

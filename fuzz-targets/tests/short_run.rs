@@ -39,7 +39,7 @@ fn seeds() -> [Vec<Vec<u8>>; TARGETS.len()] {
             link(&|out| robot_link::encode(&command, out).unwrap()),
             link(&|out| robot_link::encode(&state, out).unwrap()),
         ],
-        vec![skin_sim::robot::hrp2::urdf().into_bytes()],
+        vec![skin_model::robot::hrp2::urdf().into_bytes()],
         vec![
             Config::default().to_toml().into_bytes(),
             Params::default().to_toml().into_bytes(),

@@ -20,9 +20,9 @@ use skin_host::calibrate::check::{check, CalibrationTruth};
 use skin_host::calibrate::{calibrate, CalibrateConfig};
 use skin_host::explore::{explore, ExploreConfig, StructureConfig};
 use skin_host::robot::SimRobot;
+use skin_model::robot::{hrp2, Robot};
+use skin_model::skin::Skin;
 use skin_sim::accel::Bma250Config;
-use skin_sim::robot::{hrp2, Robot};
-use skin_sim::skin::Skin;
 use skin_sim::world::{World, WorldConfig};
 
 /// One exploration and calibration: the truth, the calibration's robot time and wall time.
@@ -104,7 +104,7 @@ fn sweep() {
         row(&label, &runs);
     }
 
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../sim/tests/fixtures/robots/panda.urdf");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../model/tests/fixtures/robots/panda.urdf");
     let panda = Robot::from_urdf_file(&path).expect("the Panda fixture");
     header(&format!("Panda (the published setting), {seeds} seeds"));
     // The exploration needs a cell on the base (its root) and one moved by the finger DoF.

@@ -15,9 +15,9 @@ use std::hint::black_box;
 use criterion::{criterion_group, criterion_main, Criterion};
 use skin_host::explore::check::Trial;
 use skin_host::explore::{ExploreConfig, StructureConfig};
+use skin_model::robot::hrp2;
+use skin_model::skin::Skin;
 use skin_sim::accel::Bma250Config;
-use skin_sim::robot::hrp2;
-use skin_sim::skin::Skin;
 use skin_sim::world::{World, WorldConfig};
 
 /// The paper's setting, then the sweep of (step rad, settle s, average s)
@@ -83,7 +83,7 @@ fn sweep(c: &mut Criterion) {
         let cfg = ExploreConfig { structure, ..ExploreConfig::default() };
         let mut t = Tally::default();
         for seed in 0..seeds {
-            let trial = Trial::run(hrp2::world(seed), &cfg);
+            let trial = Trial::run(World::hrp2(seed), &cfg);
             t.wall_s += trial.wall_time_s;
             match &trial.outcome {
                 Ok((found, truth)) => {
@@ -108,7 +108,7 @@ fn sweep(c: &mut Criterion) {
             t.smm / ok,
         );
         c.bench_function(&format!("explore step {step} settle {settle} average {average} runs {runs}"), |b| {
-            b.iter(|| black_box(Trial::run(hrp2::world(0), &cfg).tree_correct()))
+            b.iter(|| black_box(Trial::run(World::hrp2(0), &cfg).tree_correct()))
         });
     }
 }

@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 use skin_protocol::event::{DEFAULT_DELTAS, FORCE_LEVELS, HYSTERESIS, PROXIMITY_LEVELS};
+use skin_model::file::{read_text_capped, MIB};
 use skin_protocol::interface::MAX_DATAGRAM;
 use skin_protocol::message::{AccelRange, Setting, TrafficMode};
 use skin_protocol::processing::{DEFAULT_CUTOFF_HZ, DEFAULT_RATE_HZ};
@@ -309,10 +310,14 @@ const SECTION_NOTES: [(&str, &str); 3] = [
     ("[cells]", "# Written into every cell at start (paper section 2.1.4, Table 3); levels are normalized."),
 ];
 
+/// The largest configuration file read: the defaults take 2 KiB.
+pub const MAX_FILE_BYTES: usize = MIB;
+
 impl Config {
     /// Reads and checks a configuration file.
     pub fn load(path: &Path) -> Result<Config, Error> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Read { path: path.to_owned(), source })?;
+        let text =
+            read_text_capped(path, MAX_FILE_BYTES).map_err(|source| Error::Read { path: path.to_owned(), source })?;
         Config::from_toml(&text, &path.display().to_string())
     }
 

@@ -3,10 +3,11 @@
 //! The host knows nothing of robot models: it talks to the robot only
 //! through the [`robot::Robot`] trait (DoF count, velocity commands,
 //! position feedback) and to the skin only through its samples, and learns
-//! the rest from them. Only calibration reads the robot's own description
-//! (URDF, with `skin_sim::robot`'s reader and kinematics).
+//! the rest from them. Only calibration and the live view read the robot's
+//! own description (URDF, with `skin_model`'s reader and kinematics).
 //!
-//! The `sim` feature (on by default) adds the glue to the simulator: the
+//! The `sim` feature (on by default) adds the simulator (`skin-sim`, a
+//! dependency only with this feature) and the glue to it: the
 //! simulated robot, checks against its ground truth, the grasping
 //! experiment with its simulated person and objects, and the report's
 //! sections only a simulation can fill. Without it the library's API holds

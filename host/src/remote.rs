@@ -15,11 +15,11 @@
 use std::net::{SocketAddr, UdpSocket};
 use std::time::{Duration, Instant};
 
+use skin_model::spin_recv::SpinRecv;
 use skin_protocol::robot_link::{self, FromRobot, ToRobot, MAX_DOFS, MAX_NAME};
 use skin_protocol::{Address, Sample};
-use skin_sim::spin_recv::SpinRecv;
 
-use crate::interface::{DatagramReject, Event, EventKind, Interface, SilenceWatch};
+use crate::interface::{DatagramReject, Event, EventKind, Heard, Interface, SilenceWatch, WALL_BOUND};
 use crate::recording::{RecordError, Session};
 use crate::robot::{DofKind, Robot, RobotError, SampleSource};
 
@@ -30,6 +30,9 @@ const TRIES: u32 = 5;
 /// lockstep robot advances it on every command, a real-time one every
 /// period).
 const CLOCK_STALL: Duration = Duration::from_secs(2);
+
+/// The longest one wait for late datagrams blocks before the ports are judged again.
+const SILENCE_POLL: Duration = Duration::from_millis(2);
 
 /// What the robot said about itself when the link opened.
 #[derive(Clone, Debug, PartialEq)]
@@ -137,7 +140,7 @@ impl RobotLink {
             // A robot that does not know the request has revolute DoFs only.
             kinds.push(if let FromRobot::DofKind { kind, .. } = kind { kind } else { DofKind::Revolute });
         }
-        link.info = RobotInfo { dof_names: names, dof_kinds: kinds, period_s: f64::from(period_us) * 1e-6, lockstep };
+        link.info = RobotInfo { dof_names: names, dof_kinds: kinds, period_s: f64::from(period_us) / 1e6, lockstep };
         link.command = vec![0.0; usize::from(dofs)];
         link.clock_moved = Instant::now();
         link.spin = SpinRecv::for_peer(lockstep);
@@ -152,7 +155,7 @@ impl RobotLink {
 
     /// The robot's clock at the last feedback, s.
     pub fn time_s(&self) -> f64 {
-        self.time_us as f64 * 1e-6
+        self.time_us as f64 / 1e6
     }
 
     /// The link's trouble so far.
@@ -182,6 +185,9 @@ impl RobotLink {
                 self.positions.extend_from_slice(&positions);
                 Ok(())
             }
+            FromRobot::State { positions, .. } => {
+                Err(RobotError::DofCountChanged { answered: positions.len(), dofs: self.command.len() })
+            }
             other => Err(gone(self.robot, format!("answered command {seq} with {other:?}"))),
         }
     }
@@ -190,7 +196,7 @@ impl RobotLink {
     fn clock(&mut self, time_us: u64) -> Result<(), RobotError> {
         let now = Instant::now();
         if time_us < self.time_us {
-            return Err(RobotError::ClockBackwards { from_s: self.time_s(), to_s: time_us as f64 * 1e-6 });
+            return Err(RobotError::ClockBackwards { from_s: self.time_s(), to_s: time_us as f64 / 1e6 });
         }
         if time_us > self.time_us {
             self.clock_moved = now;
@@ -322,10 +328,14 @@ impl Remote {
 
     /// From now on a tick fails with [`RobotError::SkinSilent`] when an
     /// interface port that delivered sends nothing for `bound_s` of robot
-    /// time (see [`SilenceWatch`]); `None` stops watching. For the steps
-    /// where every cell sends every sample.
+    /// time and as long of wall-clock time, or [`WALL_BOUND`] of it for a
+    /// lockstep robot, whose clock may run ahead of datagrams on their way
+    /// (see [`SilenceWatch`]); `None` stops watching. For the steps where
+    /// every cell sends every sample.
     pub fn watch_silence(&mut self, bound_s: Option<f64>) {
-        self.silence = bound_s.map(SilenceWatch::new);
+        let lockstep = self.link.info.lockstep;
+        self.silence =
+            bound_s.map(|s| SilenceWatch::new(s, if lockstep { WALL_BOUND } else { Duration::from_secs_f64(s) }));
     }
 
     /// The robot link.
@@ -374,29 +384,60 @@ impl Remote {
             session.robot(link.robot, &command, &state, &link.info.dof_names);
         }
         self.events.clear();
-        loop {
-            let taken = match &mut self.recording {
-                Some(session) if session.records_datagrams() => {
-                    self.interface.poll_tapped(Duration::ZERO, &mut self.events, &mut |from, now_us, bytes| {
-                        session.datagram(from, now_us, bytes)
-                    })
-                }
-                _ => self.interface.poll(Duration::ZERO, &mut self.events),
-            }
-            .map_err(|e| RobotError::Disconnected(format!("skin interface: {e}")))?;
-            if taken == 0 {
-                break;
-            }
-        }
+        while self.take_datagrams(Duration::ZERO)? > 0 {}
+        self.judge_silence()?;
         if let Some(session) = &mut self.recording {
             session.events(&self.events, self.link.time_s());
         }
-        if let Some(watch) = &mut self.silence {
-            watch.check(self.interface.ports(), self.link.time_s()).map_err(|s| RobotError::SkinSilent {
-                ports: s.ports,
-                silent_s: s.silent_s,
-                spoofed: self.interface.counters().datagrams.rejected(DatagramReject::Spoofed),
-            })?;
+        Ok(())
+    }
+
+    /// Takes what one poll of the interface brings within `timeout` into
+    /// the tick's events (and the recording): the datagrams taken.
+    fn take_datagrams(&mut self, timeout: Duration) -> Result<usize, RobotError> {
+        match &mut self.recording {
+            Some(session) if session.records_datagrams() => {
+                self.interface.poll_tapped(timeout, &mut self.events, &mut |from, now_us, bytes| {
+                    session.datagram(from, now_us, bytes)
+                })
+            }
+            _ => self.interface.poll(timeout, &mut self.events),
+        }
+        .map_err(|e| RobotError::Disconnected(format!("skin interface: {e}")))
+    }
+
+    /// Fails when a watched port is silent in robot and wall-clock time
+    /// alike. A lockstep robot whose clock ran ahead of the datagrams is
+    /// waited for here (it waits for the next command anyway); a real-time
+    /// robot is not held: its next ticks judge again.
+    fn judge_silence(&mut self) -> Result<(), RobotError> {
+        let started = Instant::now();
+        while let Some(watch) = &mut self.silence {
+            let now = Instant::now();
+            let heard =
+                watch.check(self.interface.ports(), self.link.time_s(), now).map_err(|s| RobotError::SkinSilent {
+                    ports: s.ports,
+                    silent_s: s.silent_s,
+                    silent_wall_s: s.silent_wall_s,
+                    spoofed: self.interface.counters().datagrams.rejected(DatagramReject::Spoofed),
+                })?;
+            let Heard::Behind(until) = heard else { return Ok(()) };
+            if !self.link.info.lockstep {
+                return Ok(());
+            }
+            let until = until.min(started + WALL_BOUND);
+            if now >= until {
+                // Delivering all along, stamped behind all along: another clock.
+                let ports = watch.off_clock(self.interface.ports(), self.link.time_s());
+                if !ports.is_empty() {
+                    tracing::warn!(
+                        ?ports,
+                        "interface ports stamp their datagrams on another clock than the lockstep robot's: their samples are taken as they come, however late"
+                    );
+                }
+                return Ok(());
+            }
+            self.take_datagrams((until - now).min(SILENCE_POLL))?;
         }
         Ok(())
     }
@@ -523,7 +564,7 @@ mod tests {
     fn a_robot_with_feedback_of_the_wrong_length_is_refused() {
         // It claims three DoFs but reports two positions.
         let e = RobotLink::connect(spawn_robot(3, 1), Duration::from_millis(100)).unwrap_err();
-        assert!(e.to_string().contains("answered command"), "{e}");
+        assert_eq!(e, RobotError::DofCountChanged { answered: 2, dofs: 3 });
     }
 
     #[test]

@@ -67,24 +67,37 @@ pub enum RobotError {
         /// Wall-clock time it stood still, s.
         wall_s: f64,
     },
+    /// The robot answered with positions for another number of DoFs than
+    /// it named at the start: its description changed under the run.
+    #[error(
+        "the robot answered {answered} positions for {dofs} DoFs: its DoF count changed since the start (check its driver and configuration, then start the run again)"
+    )]
+    DofCountChanged {
+        /// Positions in the answer.
+        answered: usize,
+        /// DoFs the robot named when the link was made.
+        dofs: usize,
+    },
     /// The robot or skin stopped answering.
     #[error("lost contact: {0}")]
     Disconnected(String),
     /// Interface ports that delivered the skin's samples fell silent while
     /// the robot answered: measurements from then on would be gaps.
-    #[error("{}", skin_silent(.ports, *.silent_s, *.spoofed))]
+    #[error("{}", skin_silent(.ports, *.silent_s, *.silent_wall_s, *.spoofed))]
     SkinSilent {
         /// The silent ports' numbers.
         ports: Vec<u8>,
         /// The longest silence, s of robot time.
         silent_s: f64,
+        /// The longest silence, s of wall-clock time.
+        silent_wall_s: f64,
         /// Datagrams dropped as spoofed so far (a restarted endpoint sends
         /// from new addresses).
         spoofed: u64,
     },
 }
 
-fn skin_silent(ports: &[u8], silent_s: f64, spoofed: u64) -> String {
+fn skin_silent(ports: &[u8], silent_s: f64, silent_wall_s: f64, spoofed: u64) -> String {
     let list = ports.iter().map(u8::to_string).collect::<Vec<_>>().join(", ");
     let plural = if ports.len() == 1 { "" } else { "s" };
     let spoofed = if spoofed == 0 {
@@ -93,7 +106,7 @@ fn skin_silent(ports: &[u8], silent_s: f64, spoofed: u64) -> String {
         format!("; {spoofed} datagrams from other addresses were dropped as spoofed (a skin endpoint that restarts sends from new ones)")
     };
     format!(
-        "the skin stopped sending: interface port{plural} {list} sent nothing for {silent_s:.2} s of robot time while the robot answered{spoofed} (check the skin's power and cables, then start the run again: its measurements would have gaps)"
+        "the skin stopped sending: interface port{plural} {list} sent nothing for {silent_s:.2} s of robot time ({silent_wall_s:.2} s of wall-clock time) while the robot answered{spoofed} (check the skin's power and cables, then start the run again: its measurements would have gaps)"
     )
 }
 

@@ -17,7 +17,7 @@ use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use skin_sim::robot::Robot as Description;
+use skin_model::robot::Robot as Description;
 
 use crate::control::grasp::Transition;
 use crate::explore::KinematicTree;

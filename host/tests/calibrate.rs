@@ -10,13 +10,13 @@ use skin_host::calibrate::neighbours::{resolve, NeighbourConfig};
 use skin_host::calibrate::{calibrate, CalibrateConfig, CalibrateError, Calibration};
 use skin_host::explore::{explore, ExploreConfig, StructureConfig};
 use skin_host::robot::SimRobot;
+use skin_model::robot::{hrp2, Robot};
+use skin_model::skin::Skin;
 use skin_sim::accel::Bma250Config;
-use skin_sim::robot::{hrp2, Robot};
-use skin_sim::skin::Skin;
 use skin_sim::world::{BaseConfig, World, WorldConfig};
 
 fn fixture(name: &str) -> Robot {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../sim/tests/fixtures/robots").join(name);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../model/tests/fixtures/robots").join(name);
     Robot::from_urdf_file(&path).expect("a valid fixture")
 }
 

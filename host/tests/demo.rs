@@ -221,7 +221,7 @@ fn skin_run_drives_the_simulated_robot_served_by_another_process() {
     let recording = dir.join("again.mcap");
     // The first host also calibrates the skin on the robot's description.
     let urdf = dir.with_extension("urdf");
-    std::fs::write(&urdf, skin_sim::robot::hrp2::urdf()).unwrap();
+    std::fs::write(&urdf, skin_model::robot::hrp2::urdf()).unwrap();
     let calibrated = dir.join("first.mcap");
     let first = run(&dirs[0], &["--urdf".as_ref(), urdf.as_os_str(), "--record".as_ref(), calibrated.as_os_str()]);
     // The endpoint serves one host at a time and lets it go after 2 s of silence.
@@ -266,12 +266,13 @@ fn skin_run_drives_the_simulated_robot_served_by_another_process() {
 /// nearest to it, no two to one, as the network gives IDs of its own).
 #[test]
 fn skin_run_places_blind_cells_from_the_neighbour_tables_the_skin_reports() {
-    let robot = skin_sim::robot::hrp2::robot();
-    let truth = skin_sim::skin::Skin::patches(&robot, |l| skin_sim::robot::hrp2::skin_cells_on(&l.name), 1).unwrap();
+    let robot = skin_model::robot::hrp2::robot();
+    let truth =
+        skin_model::skin::Skin::patches(&robot, |l| skin_model::robot::hrp2::skin_cells_on(&l.name), 1).unwrap();
     let dir = scratch("pitch");
     std::fs::create_dir_all(&dir).unwrap();
     let urdf = dir.join("hrp2.urdf");
-    std::fs::write(&urdf, skin_sim::robot::hrp2::urdf()).unwrap();
+    std::fs::write(&urdf, skin_model::robot::hrp2::urdf()).unwrap();
     let run = |pitch: Option<&str>| -> (Value, String) {
         let (host, robot_addr) = (free_port(), free_port());
         let args = ["--patches", "--seed", "1", "--duration", "120", "--host", &host, "--robot", &robot_addr];
@@ -305,8 +306,8 @@ fn skin_run_places_blind_cells_from_the_neighbour_tables_the_skin_reports() {
         partial(&placed)
     );
     // The run is deterministic: what the pitch changed is what it placed.
-    let before = skin_sim::skin::Skin::from_toml_str(&robot, &blind_toml).unwrap();
-    let after = skin_sim::skin::Skin::from_toml_str(&robot, &skin_toml).unwrap();
+    let before = skin_model::skin::Skin::from_toml_str(&robot, &blind_toml).unwrap();
+    let after = skin_model::skin::Skin::from_toml_str(&robot, &skin_toml).unwrap();
     let moved: Vec<_> = after
         .cells()
         .iter()
@@ -350,11 +351,11 @@ fn check_calibration(dir: &Path, report: &Value, recording: &Path, urdf: &Path) 
     assert_eq!(c["warnings"].as_array().unwrap().len(), 0, "{c}");
     let files: Vec<&str> = report["figures"].as_array().unwrap().iter().map(|f| f["file"].as_str().unwrap()).collect();
     assert!(files.contains(&"calibration.svg"), "{files:?}");
-    let robot = skin_sim::robot::hrp2::robot();
+    let robot = skin_model::robot::hrp2::robot();
     let calibrated =
-        skin_sim::skin::Skin::from_file(&robot, &dir.join("skin.toml")).expect("the calibrated skin reads back");
+        skin_model::skin::Skin::from_file(&robot, &dir.join("skin.toml")).expect("the calibrated skin reads back");
     assert_eq!(calibrated.cells().len(), 74);
-    let with_skin = skin_sim::robot::Robot::from_urdf_file(&dir.join("robot_with_skin.urdf")).expect("a URDF");
+    let with_skin = skin_model::robot::Robot::from_urdf_file(&dir.join("robot_with_skin.urdf")).expect("a URDF");
     assert!(calibrated.cells().iter().all(|cell| with_skin.link(&format!("skin_cell_{}", cell.id.0)).is_some()));
     // ROS's own URDF parser finds a fixed frame per cell, where the skin file puts it.
     let Some(python) = common::python() else { return };

@@ -50,7 +50,7 @@ fn explore_prints_the_issues_json() {
 #[test]
 fn an_undecided_exploration_names_each_entry_and_why() {
     // A level UR5-like arm: nothing tilts its vertical first axis.
-    let urdf = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../sim/tests/fixtures/robots/ur5_robot.urdf");
+    let urdf = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../model/tests/fixtures/robots/ur5_robot.urdf");
     let urdf = urdf.to_str().unwrap();
     let out = skin(&["explore", "--urdf", urdf, "--seed", "1", "--json"]);
     assert!(!out.status.success());

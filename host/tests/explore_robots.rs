@@ -14,9 +14,9 @@ use skin_host::explore::check::Trial;
 use skin_host::explore::smm::Evaluation;
 use skin_host::explore::{explore, ExploreConfig, ExploreError, SmmConfig, StructureConfig, TreeError, Undecided};
 use skin_host::robot::SimRobot;
+use skin_model::robot::Robot;
+use skin_model::skin::Skin;
 use skin_sim::accel::Bma250Config;
-use skin_sim::robot::Robot;
-use skin_sim::skin::Skin;
 use skin_sim::world::{BaseConfig, World, WorldConfig};
 
 /// A link whose skin is a cylinder from its origin `length` along `axis`
@@ -336,7 +336,7 @@ fn the_map_recalls_the_nearest_tile_and_maps_reactions_to_joint_velocities() {
 fn the_sensory_motor_map_matches_the_tangential_directions() {
     for (evaluation, bound) in [(Evaluation::Regression, 0.06), (Evaluation::Amplitudes, 0.2)] {
         let cfg = ExploreConfig { smm: SmmConfig { evaluation, ..SmmConfig::default() }, ..ExploreConfig::default() };
-        let trial = Trial::run(skin_sim::robot::hrp2::world(11), &cfg);
+        let trial = Trial::run(skin_sim::world::World::hrp2(11), &cfg);
         let (found, truth) = trial.outcome.as_ref().unwrap();
         assert!(truth.tree_correct);
         assert!(truth.smm_mean_abs_error_moved < bound, "{evaluation:?}: {}", truth.smm_mean_abs_error_moved);
@@ -422,7 +422,7 @@ fn pr2s_grippers_are_learned_with_the_rocking_they_cause_regressed_out() {
     // above the 0.7 mm this skin truly keeps from every axis. Regressed on
     // the rocking that the cells already decided still record, their
     // lever bounds go below it.
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../sim/tests/fixtures/robots/pr2.urdf");
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../model/tests/fixtures/robots/pr2.urdf");
     let robot = Robot::from_urdf_file(&path).unwrap();
     let seed = 1;
     let skin = Skin::per_link(&robot, 4, seed).unwrap();
@@ -478,7 +478,7 @@ fn from_no_noise_to_ten_times_the_datasheet() {
 
 #[test]
 fn weights_of_well_observed_entries_agree_between_runs_and_the_rest_are_a_defined_zero() {
-    let mut rig = SimRobot::new(skin_sim::robot::hrp2::world(3));
+    let mut rig = SimRobot::new(skin_sim::world::World::hrp2(3));
     let first = explore(&mut rig, &ExploreConfig::default(), &mut |_| ()).unwrap();
     let second = explore(&mut rig, &ExploreConfig::default(), &mut |_| ()).unwrap();
     assert_eq!(first.tree, second.tree);
@@ -569,7 +569,7 @@ fn five_thousand_cells_on_a_sixty_dof_branching_robot() {
 fn urdf_folder() -> Vec<std::path::PathBuf> {
     let dir = std::env::var("SKIN_URDF_DIR")
         .map(std::path::PathBuf::from)
-        .unwrap_or_else(|_| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../sim/tests/fixtures/robots"));
+        .unwrap_or_else(|_| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../model/tests/fixtures/robots"));
     let mut files: Vec<_> = std::fs::read_dir(&dir)
         .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -686,7 +686,7 @@ impl skin_host::robot::SampleSource for BrokenEncoder {
 #[test]
 fn non_finite_position_feedback_is_refused_at_once() {
     use skin_host::robot::RobotError;
-    let mut rig = BrokenEncoder { inner: SimRobot::new(skin_sim::robot::hrp2::world(1)), ticks: 0 };
+    let mut rig = BrokenEncoder { inner: SimRobot::new(skin_sim::world::World::hrp2(1)), ticks: 0 };
     let e = explore(&mut rig, &ExploreConfig::default(), &mut |_| ()).unwrap_err();
     assert!(matches!(e, ExploreError::Robot(RobotError::FeedbackNotFinite(3))), "{e}");
     assert!(rig.ticks <= 102, "refused at the first bad feedback, not after {} ticks", rig.ticks);

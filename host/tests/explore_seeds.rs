@@ -5,16 +5,16 @@
 
 use skin_host::explore::check::Trial;
 use skin_host::explore::{ExploreConfig, StructureConfig};
+use skin_model::robot::hrp2;
+use skin_model::skin::Skin;
 use skin_sim::accel::Bma250Config;
-use skin_sim::robot::hrp2;
-use skin_sim::skin::Skin;
 use skin_sim::world::{World, WorldConfig};
 
 /// Explores seeds `0..n` and returns the failures, printing robot and wall times.
 fn run(n: u64, cfg: &ExploreConfig) -> Vec<(u64, String)> {
     let (mut failures, mut times, mut wall) = (Vec::new(), Vec::new(), 0.0);
     for seed in 0..n {
-        let trial = Trial::run(hrp2::world(seed), cfg);
+        let trial = Trial::run(World::hrp2(seed), cfg);
         wall += trial.wall_time_s;
         match &trial.outcome {
             Ok((found, truth)) if truth.tree_correct => times.push(found.structure_time_s),

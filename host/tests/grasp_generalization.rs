@@ -1,5 +1,5 @@
-//! Grasping objects nobody tuned for (issue 19): 100 generated objects, each
-//! put at a random spot within the jitter envelope, grasped with the
+//! Grasping objects nobody tuned the parameters for: 100 generated objects,
+//! each put at a random spot within the jitter envelope, grasped with the
 //! unchanged Table 4 parameters and judged by the simulator's truth; and
 //! objects that cannot be held (too wide for the arms, too heavy to pull)
 //! end in a failure, never pain or "held".

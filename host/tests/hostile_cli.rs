@@ -1,4 +1,4 @@
-//! Issue 15's hostile arguments, run as a tester would: every case ends
+//! Hostile command-line arguments, run as a tester would: every case ends
 //! with a non-zero exit code and one line naming the flag and its range,
 //! never a panic or a process left serving nothing.
 
@@ -73,6 +73,17 @@ fn sim_endpoint_stops_after_its_duration_and_says_what_it_served() {
 /// `clock(seq, since)` at the command numbered `seq`, `since` after the
 /// robot started. It serves until nobody asks for 5 s.
 fn robot(lockstep: bool, clock: fn(u32, Duration) -> u64, gain: f64) -> SocketAddr {
+    robot_answering(lockstep, clock, gain, |_| 4)
+}
+
+/// [`robot`] that answers the command numbered `seq` with `answered(seq)`
+/// positions (the first ones repeated past its four).
+fn robot_answering(
+    lockstep: bool,
+    clock: fn(u32, Duration) -> u64,
+    gain: f64,
+    answered: fn(u32) -> usize,
+) -> SocketAddr {
     let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
     socket.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
     let addr = socket.local_addr().unwrap();
@@ -91,7 +102,8 @@ fn robot(lockstep: bool, clock: fn(u32, Duration) -> u64, gain: f64) -> SocketAd
                         *q += w * 0.004;
                     }
                     let time_us = clock(seq, start.elapsed());
-                    FromRobot::State { seq, time_us, positions: positions.iter().map(|q| q * gain).collect() }
+                    let positions = positions.iter().cycle().take(answered(seq)).map(|q| q * gain).collect();
+                    FromRobot::State { seq, time_us, positions }
                 }
                 Err(_) => continue,
             };
@@ -337,7 +349,8 @@ fn a_skin_that_stops_sending_mid_run_ends_skin_run_naming_its_ports() {
     // At least the bound (50 ms); more when a loaded machine checks late.
     let silent_s: f64 = err[says.len()..].split(' ').next().and_then(|s| s.parse().ok()).expect("seconds");
     assert!((0.05..1.0).contains(&silent_s), "{err}");
-    assert!(err.contains(" s of robot time while the robot answered; "), "{err}");
+    assert!(err.contains(" s of robot time ("), "{err}");
+    assert!(err.contains(" s of wall-clock time) while the robot answered; "), "{err}");
     assert!(err.contains(" datagrams from other addresses were dropped as spoofed (a skin endpoint that restarts sends from new ones)"), "{err}");
     assert!(err.ends_with("then start the run again: its measurements would have gaps)"), "{err}");
     assert!(took < Duration::from_secs(1), "ended {took:?} after the skin stopped");
@@ -427,4 +440,188 @@ fn a_flood_of_id_requests_on_an_unpinned_port_is_named_when_the_skin_cannot_orga
     assert!(count(" ID requests refused as a flood") > 1_000, "{err}");
     assert!(err.ends_with("another sender may be using the interface ports (pin each port's address in the configuration) (check the cables and interface ports; `skin monitor` shows what arrives)"), "{err}");
     assert!(!out_dir.join("report.json").exists());
+}
+
+#[test]
+fn a_file_without_end_is_refused_naming_the_cap_and_leaves_no_out_folder() {
+    // /dev/zero says it holds 0 bytes and never ends.
+    refused(
+        &["config", "--check", "/dev/zero"],
+        "cannot read the configuration /dev/zero: larger than 1 MiB, the most read here (write one with `skin config --default --output FILE`)",
+    );
+    let out = std::env::temp_dir().join(format!("skin-hostile-cli-{}-endless", std::process::id()));
+    let out_arg = out.to_str().unwrap();
+    for (flag, says) in [
+        ("--config", "cannot read the configuration /dev/urandom: larger than 1 MiB, the most read here (write one with `skin config --default --output FILE`)"),
+        ("--urdf", "cannot read /dev/urandom: larger than 32 MiB, the most read here"),
+    ] {
+        refused(&["run", "--robot", &free_addr(), flag, "/dev/urandom", "--out", out_arg], says);
+        assert!(!out.exists(), "{flag}: a refused input left {out_arg} behind");
+    }
+}
+
+#[test]
+fn a_configuration_with_a_line_past_reason_is_quoted_cut() {
+    let file = std::env::temp_dir().join(format!("skin-hostile-cli-{}-long.toml", std::process::id()));
+    let out = std::env::temp_dir().join(format!("skin-hostile-cli-{}-long-out", std::process::id()));
+    for value in ["9".repeat(200_000), format!("{}{}", "[".repeat(100_000), "]".repeat(100_000))] {
+        std::fs::write(&file, format!("[cells]\nx = {value}\n")).unwrap();
+        let run =
+            skin(&["run", "--robot", &free_addr(), "--config", file.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{err}");
+        assert!(err.starts_with(&format!("error: {}: TOML parse error at line 2", file.display())), "{err}");
+        assert!(err.len() < 4_000, "{} bytes of error", err.len());
+        assert!(err.contains("more characters)"), "{err}");
+        assert!(!out.exists(), "a refused configuration left {} behind", out.display());
+    }
+    std::fs::remove_file(&file).unwrap();
+}
+
+#[test]
+fn integer_flags_past_their_range_are_refused_naming_it() {
+    let robot = free_addr();
+    for (args, says) in [
+        (
+            vec!["run", "--robot", &robot, "--robot-timeout-ms", "18446744073709551615"],
+            "'--robot-timeout-ms <MS>': 18446744073709551615 is not in 1..=60000",
+        ),
+        (vec!["run", "--robot", &robot, "--robot-timeout-ms", "0"], "'--robot-timeout-ms <MS>': 0 is not in 1..=60000"),
+        (vec!["run", "--robot", &robot, "--cells", "0"], "'--cells <N>': 0 is not in 1..=65279"),
+        (vec!["flash", "--image", "x", "--ports", "0"], "'--ports <PORTS>': 0 is not in 1..=254"),
+        (vec!["flash", "--image", "x", "--rate", "100000"], "'--rate <RATE>': 100000 is not in 1..=1000"),
+        (
+            vec!["loadgen", "--flush-us", "18446744073709551615"],
+            "'--flush-us <FLUSH_US>': 18446744073709551615 is not in 0..=1000000",
+        ),
+        (
+            vec!["sim-endpoint", "--batch-us", "18446744073709551615"],
+            "'--batch-us <US>': 18446744073709551615 is not in 0..=1000000",
+        ),
+        (vec!["calibrate", "--postures", "99999999999"], "'--postures <N>': 99999999999 is not in 2..=1000"),
+        (vec!["calibrate", "--periods", "4000000000"], "'--periods <N>': 4000000000 is not in 1..=1000"),
+        (vec!["explore", "--cells-per-link", "99999999999"], "'--cells-per-link <N>': 99999999999 is not in 1..=1000"),
+    ] {
+        let out = skin(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.starts_with("error: invalid value '"), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+}
+
+#[test]
+fn one_address_for_two_roles_is_refused() {
+    let addr = free_addr();
+    refused(
+        &["sim-endpoint", "--host", &addr, "--robot", &addr],
+        &format!("the host address and the robot-link address are both {addr}: the skin's datagrams and the robot's answers need an address each"),
+    );
+    refused(
+        &["run", "--interface", &addr, "--robot", &addr],
+        &format!("the interface and the robot are both at {addr}: the skin's datagrams and the robot's answers need an address each"),
+    );
+}
+
+#[test]
+fn a_restarted_robot_clock_is_named_in_rounded_seconds() {
+    // 200 commands of 4 ms reach 0.8 s, a time that microseconds times 1e-6 print as 0.7999999999999999.
+    let (code, err) =
+        run_against(robot(true, |seq, _| if seq <= 200 { 4000 * u64::from(seq) } else { 4000 }, 1.0), &[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert_eq!(
+        err.trim_end(),
+        "error: the robot's clock ran backwards, from 0.8 s to 0.004 s (was the robot restarted?)"
+    );
+}
+
+#[test]
+fn a_robot_whose_dof_count_changes_is_named_as_such() {
+    let clock = |seq, _| 4000 * u64::from(seq);
+    for (answered, says) in [
+        (robot_answering(true, clock, 1.0, |_| 5), "the robot answered 5 positions for 4 DoFs"),
+        (
+            robot_answering(true, clock, 1.0, |seq| if seq < 50 { 4 } else { 3 }),
+            "the robot answered 3 positions for 4 DoFs",
+        ),
+    ] {
+        let (code, err) = run_against(answered, &[]);
+        assert_eq!(code, Some(1), "{err}");
+        assert_eq!(
+            err.trim_end(),
+            format!("error: {says}: its DoF count changed since the start (check its driver and configuration, then start the run again)")
+        );
+    }
+}
+
+/// A relay on loopback between a skin and its host that forwards every
+/// datagram both ways faithfully, `latency` late: the skin sends to the
+/// address returned, and each of its sockets is seen by `host` from a
+/// socket of the relay's own, through which the host's answers go back.
+fn relay(host: SocketAddr, latency: Duration) -> SocketAddr {
+    type Late = (Instant, std::sync::Arc<UdpSocket>, Vec<u8>, SocketAddr);
+    let front = std::sync::Arc::new(UdpSocket::bind("127.0.0.1:0").unwrap());
+    front.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    let addr = front.local_addr().unwrap();
+    let (late, due) = std::sync::mpsc::channel::<Late>();
+    // One queue for both ways: a constant latency keeps the order.
+    std::thread::spawn(move || {
+        for (at, socket, bytes, to) in due {
+            std::thread::sleep(at.saturating_duration_since(Instant::now()));
+            let _ = socket.send_to(&bytes, to);
+        }
+    });
+    std::thread::spawn(move || {
+        let mut backs: std::collections::HashMap<SocketAddr, std::sync::Arc<UdpSocket>> = Default::default();
+        let mut buf = [0u8; 65536];
+        while let Ok((n, skin)) = front.recv_from(&mut buf) {
+            let back = backs.entry(skin).or_insert_with(|| {
+                let back = std::sync::Arc::new(UdpSocket::bind("127.0.0.1:0").unwrap());
+                back.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+                let (back_in, front, late) = (back.clone(), front.clone(), late.clone());
+                std::thread::spawn(move || {
+                    let mut buf = [0u8; 65536];
+                    while let Ok((n, _)) = back_in.recv_from(&mut buf) {
+                        let _ = late.send((Instant::now() + latency, front.clone(), buf[..n].to_vec(), skin));
+                    }
+                });
+                back
+            });
+            let _ = late.send((Instant::now() + latency, back.clone(), buf[..n].to_vec(), host));
+        }
+    });
+    addr
+}
+
+/// The structure `skin run` found against `skin sim-endpoint` (lockstep,
+/// seed 0) whose skin sends through `relay` (given the host's interface
+/// address, it returns where the skin is to send): the report's cell
+/// count, body-part sizes and joints.
+fn explored_through(relay: impl FnOnce(SocketAddr) -> SocketAddr, name: &str) -> serde_json::Value {
+    let (host, robot) = (free_addr(), free_addr());
+    let via = relay(host.parse().unwrap());
+    let mut endpoint = sim_endpoint(&via.to_string(), &robot);
+    let (run, out_dir) = exploring_run(&host, &robot, "74", &[], name);
+    let (code, stderr) = run_end(run, String::new());
+    stop(&mut endpoint);
+    assert_eq!(code, Some(0), "{stderr}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("report.json")).unwrap()).unwrap();
+    let e = &report["exploration"];
+    assert_eq!(e["warnings"], serde_json::json!([]), "{stderr}");
+    // Cell IDs follow the order the cells organized in, which timing moves.
+    let mut sizes: Vec<usize> =
+        e["body_parts"].as_array().unwrap().iter().map(|p| p.as_array().unwrap().len()).collect();
+    sizes.sort_unstable();
+    serde_json::json!({ "cells": e["cells"].as_array().unwrap().len(), "body_part_sizes": sizes, "joints": e["joints"] })
+}
+
+#[test]
+fn a_relay_adding_latency_in_lockstep_is_waited_for_not_called_silence() {
+    // The relay takes 10 ms each way; a lockstep robot's 0.05 s silence
+    // bound passes in a few ms of wall-clock time while datagrams are on
+    // their way, and their samples would lag the robot's positions.
+    let relayed = explored_through(|host| relay(host, Duration::from_millis(10)), "relay");
+    assert_eq!(relayed["joints"].as_array().unwrap().len(), 14);
+    assert_eq!(relayed, explored_through(|host| host, "direct"));
 }

@@ -4,7 +4,7 @@
 //! (The frame, the interface datagram, the robot link and URDF have theirs
 //! beside their parsers: `protocol/tests/wire.rs`,
 //! `protocol/src/robot_link.rs`, `host/tests/interface_fuzz.rs`,
-//! `sim/tests/urdf_input.rs`.) Each input gives `Ok` or a typed error,
+//! `model/tests/urdf_input.rs`.) Each input gives `Ok` or a typed error,
 //! never a panic or an allocation the size of a number in the input: any
 //! text, and mutations of valid documents (cut short, a character changed,
 //! an extreme value put anywhere). A stable-toolchain stand-in for
@@ -13,9 +13,9 @@
 use proptest::prelude::*;
 use skin_host::config::Config;
 use skin_host::control::params::Params;
+use skin_model::robot::hrp2;
+use skin_model::skin::Skin;
 use skin_sim::network::Topology;
-use skin_sim::robot::hrp2;
-use skin_sim::skin::Skin;
 
 /// Values that break parsers that trust numbers.
 const EXTREMES: [&str; 15] = [

@@ -14,6 +14,7 @@
 //! and every error of up to 3 bits is detected.
 
 use crate::address::Address;
+pub use crate::message::Kind;
 use crate::message::{Message, MAX_PAYLOAD};
 
 /// Length of every cell-2-cell frame in bytes (Table 2).
@@ -28,66 +29,6 @@ const _: () = assert!(MAX_PAYLOAD <= PAYLOAD_LEN);
 const _: () = assert!(PAYLOAD.end - PAYLOAD.start == PAYLOAD_LEN && PAYLOAD.end == CRC_AT);
 
 const CRC: crc::Crc<u16> = crc::Crc::<u16>::new(&crc::CRC_16_KERMIT);
-
-/// The message kind in byte 0 of a frame.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[repr(u8)]
-pub enum Kind {
-    /// Link probe / keep-alive.
-    Probe = 0x01,
-    /// Answer to a probe.
-    ProbeAck = 0x02,
-    /// Tree beacon.
-    Beacon = 0x03,
-    /// ID request.
-    IdRequest = 0x04,
-    /// ID assignment.
-    IdAssign = 0x05,
-    /// Neighbour report.
-    NeighbourReport = 0x06,
-    /// Sensor sample.
-    Sample = 0x10,
-    /// Tactile level event.
-    Event = 0x11,
-    /// Configuration write.
-    ConfigWrite = 0x20,
-    /// Configuration acknowledgement.
-    ConfigAck = 0x21,
-    /// Firmware update offer (down).
-    UpdateOffer = 0x30,
-    /// Firmware image chunk (down, broadcast or to the cell that missed it).
-    ImageChunk = 0x31,
-    /// A cell's firmware update report (up).
-    UpdateReport = 0x32,
-    /// Firmware update command (down).
-    UpdateCommand = 0x33,
-}
-
-impl Kind {
-    /// Every kind, in wire order.
-    pub const ALL: [Kind; 14] = [
-        Kind::Probe,
-        Kind::ProbeAck,
-        Kind::Beacon,
-        Kind::IdRequest,
-        Kind::IdAssign,
-        Kind::NeighbourReport,
-        Kind::Sample,
-        Kind::Event,
-        Kind::ConfigWrite,
-        Kind::ConfigAck,
-        Kind::UpdateOffer,
-        Kind::ImageChunk,
-        Kind::UpdateReport,
-        Kind::UpdateCommand,
-    ];
-
-    /// Kinds that only ever cross one link and are never forwarded.
-    pub fn is_link_local(self) -> bool {
-        matches!(self, Kind::Probe | Kind::ProbeAck | Kind::Beacon)
-    }
-}
 
 impl TryFrom<u8> for Kind {
     type Error = FrameError;

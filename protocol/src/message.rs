@@ -1,11 +1,10 @@
 //! The payload of every message kind.
 //!
-//! Payloads are postcard-encoded into the 13 payload bytes of a [`Frame`];
-//! `frame` proves at compile time that each one fits. Enums on the wire
-//! (ports, channels, settings) make out-of-range values undecodable instead
-//! of checks scattered over the receivers.
-//!
-//! [`Frame`]: crate::frame::Frame
+//! Payloads are postcard-encoded into the 13 payload bytes of a frame,
+//! after the message's [`Kind`]; `frame` proves at compile time that each
+//! one fits. Enums on the wire (ports, channels, settings) make
+//! out-of-range values undecodable instead of checks scattered over the
+//! receivers.
 
 use postcard::experimental::max_size::MaxSize;
 use serde::{Deserialize, Serialize};
@@ -15,7 +14,6 @@ mod update;
 pub use update::{ImageChunk, Refusal, UpdateAction, UpdateCommand, UpdateOffer, UpdateReport, UpdateState, CHUNK_LEN};
 
 use crate::address::Address;
-use crate::frame::Kind;
 use crate::sample::Sample;
 
 /// One of the four cell-2-cell ports of a hexagonal cell (Figure 6).
@@ -379,6 +377,66 @@ pub struct ConfigAck {
     pub tag: u8,
     /// False when the setting was invalid and ignored.
     pub accepted: bool,
+}
+
+/// The kind of a message: byte 0 of the frame that carries it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum Kind {
+    /// Link probe / keep-alive.
+    Probe = 0x01,
+    /// Answer to a probe.
+    ProbeAck = 0x02,
+    /// Tree beacon.
+    Beacon = 0x03,
+    /// ID request.
+    IdRequest = 0x04,
+    /// ID assignment.
+    IdAssign = 0x05,
+    /// Neighbour report.
+    NeighbourReport = 0x06,
+    /// Sensor sample.
+    Sample = 0x10,
+    /// Tactile level event.
+    Event = 0x11,
+    /// Configuration write.
+    ConfigWrite = 0x20,
+    /// Configuration acknowledgement.
+    ConfigAck = 0x21,
+    /// Firmware update offer (down).
+    UpdateOffer = 0x30,
+    /// Firmware image chunk (down, broadcast or to the cell that missed it).
+    ImageChunk = 0x31,
+    /// A cell's firmware update report (up).
+    UpdateReport = 0x32,
+    /// Firmware update command (down).
+    UpdateCommand = 0x33,
+}
+
+impl Kind {
+    /// Every kind, in wire order.
+    pub const ALL: [Kind; 14] = [
+        Kind::Probe,
+        Kind::ProbeAck,
+        Kind::Beacon,
+        Kind::IdRequest,
+        Kind::IdAssign,
+        Kind::NeighbourReport,
+        Kind::Sample,
+        Kind::Event,
+        Kind::ConfigWrite,
+        Kind::ConfigAck,
+        Kind::UpdateOffer,
+        Kind::ImageChunk,
+        Kind::UpdateReport,
+        Kind::UpdateCommand,
+    ];
+
+    /// Kinds that only ever cross one link and are never forwarded.
+    pub fn is_link_local(self) -> bool {
+        matches!(self, Kind::Probe | Kind::ProbeAck | Kind::Beacon)
+    }
 }
 
 /// Every message of the skin network; the variant is the frame's [`Kind`].

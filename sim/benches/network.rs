@@ -1,11 +1,10 @@
 //! How fast the network simulator runs against real time.
 //!
 //! - The 74-cell HRP-2 skin (five interface ports), clock-driven at 250 Hz
-//!   under a moving touch (issue 17's target: 100 times real time).
+//!   under a moving touch (the goal: 100 times real time).
 //! - A 10,000-cell skin (100x100 patch, 16 interface ports), event-driven
-//!   at 250 Hz under a moving touch (issue 17's target: 3 times real
-//!   time), with the default periods (10 ms beacon waves, 100 ms
-//!   keep-alive).
+//!   at 250 Hz under a moving touch (the goal: 3 times real time), with
+//!   the default periods (10 ms beacon waves, 100 ms keep-alive).
 //! - One hop of the protocol code alone (a cell takes a frame from a child
 //!   port and sends it on its master port), no simulator around it: the
 //!   HRP-2 run's frame arrivals per virtual second times this cost is the

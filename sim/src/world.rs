@@ -14,9 +14,9 @@ use rand_chacha::ChaCha8Rng;
 use skin_protocol::{Address, Sample};
 
 use crate::accel::{Bma250, Bma250Config, G0};
-use crate::robot::kinematics::{self, BodyState, DofMotion};
-use crate::robot::{DofKind, Robot};
-use crate::skin::{Cell, Skin};
+use skin_model::robot::kinematics::{self, BodyState, DofMotion};
+use skin_model::robot::{hrp2, DofKind, Robot};
+use skin_model::skin::{Cell, Skin};
 
 /// Physics sub-steps per control tick.
 const SUBSTEPS: u32 = 4;
@@ -193,6 +193,15 @@ impl World {
         };
         world.update_kinematics();
         world
+    }
+
+    /// The paper's experiment: the built-in robot with its 74-cell skin,
+    /// standing, BMA250 sensors; skin placement, sensor errors, noise and sway
+    /// all drawn from `seed`.
+    pub fn hrp2(seed: u64) -> World {
+        let robot = hrp2::robot();
+        let skin = Skin::with_counts(&robot, &hrp2::SKIN, seed).expect("the built-in skin fits the built-in robot");
+        World::new(robot, skin, WorldConfig { seed, ..WorldConfig::default() })
     }
 
     /// The robot.

@@ -2,8 +2,9 @@
 //! experiment: a change to the URDF reader, the kinematics or skin
 //! placement must leave them bit for bit as they were.
 
-use skin_sim::robot::hrp2;
-use skin_sim::skin::Skin;
+use skin_model::robot::hrp2;
+use skin_model::skin::Skin;
+use skin_sim::world::World;
 
 /// FNV-1a over the text, a stable digest across platforms and releases.
 fn digest(text: &str) -> u64 {
@@ -27,7 +28,7 @@ fn fingerprint() -> String {
             s += &format!("{} {} {} {:?}\n", c.id.0, c.link, c.body, c.pose);
         }
     }
-    let mut world = hrp2::world(3);
+    let mut world = World::hrp2(3);
     let mut out = Vec::new();
     for t in 0..100 {
         let w = if t < 50 { 0.4 } else { -0.4 };

@@ -95,7 +95,7 @@ fn a_bare_host_organizes_the_skin_and_moves_the_robot_in_lockstep() {
     }
     let (time_us, positions) = last.unwrap();
     assert_eq!((first_time_us, time_us), (Some(4000), 1_000_000), "one period per command");
-    let home = skin_sim::robot::hrp2::robot().home()[3];
+    let home = skin_model::robot::hrp2::robot().home()[3];
     assert!((positions[3] - home - 0.5).abs() < 0.02, "the elbow moved {} rad", positions[3] - home);
     // A retry of the last command is answered again without moving.
     let again = ask(&robot, robot_addr, &command(250, &velocities));

@@ -1,10 +1,10 @@
 //! The world's physics against equations (1)-(3) with an ideal sensor, and
 //! the robot's velocity control and position feedback.
 
+use skin_model::robot::Robot;
+use skin_model::skin::Skin;
 use skin_protocol::{Address, Sample};
 use skin_sim::accel::{Bma250Config, G0};
-use skin_sim::robot::{hrp2, Robot};
-use skin_sim::skin::Skin;
 use skin_sim::world::{BaseConfig, World, WorldConfig, WorldError};
 
 /// A turntable: a continuous vertical joint carrying a disc, and a tilting
@@ -107,7 +107,7 @@ fn velocity_control_follows_commands_within_limits_with_position_feedback() {
 #[test]
 fn a_world_is_reproducible_from_its_seed() {
     let samples = |seed| {
-        let mut w = hrp2::world(seed);
+        let mut w = World::hrp2(seed);
         let mut out = Vec::new();
         for _ in 0..20 {
             w.step(&mut out);

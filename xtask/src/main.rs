@@ -29,7 +29,8 @@ use std::process::{Command, ExitCode, Stdio};
 use std::time::Instant;
 
 const THUMB: &str = "thumbv7em-none-eabihf";
-/// The cell MCU's budget: flash and static RAM in bytes.
+/// The cell MCU's budget, flash and static RAM in bytes: what a small
+/// Cortex-M4F of a skin cell offers (`memory.x`), so the firmware fits one.
 const FLASH_BUDGET: u64 = 64 * 1024;
 const RAM_BUDGET: u64 = 16 * 1024;
 /// The bootloader's flash (`skin_firmware::flash_map::BOOTLOADER`).

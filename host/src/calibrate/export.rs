@@ -7,8 +7,9 @@ use std::fmt::Write;
 
 use nalgebra::{Isometry3, Point3, Vector3};
 use serde::Serialize;
-use skin_sim::robot::kinematics::{self, BodyState, DofMotion};
-use skin_sim::robot::Robot as Model;
+use skin_model::robot::kinematics::{self, BodyState, DofMotion};
+use skin_model::robot::Robot as Model;
+use skin_model::skin::{self, FileCell};
 
 use super::{Calibration, CellPose};
 
@@ -58,27 +59,10 @@ pub fn ros_poses(model: &Model, calibration: &Calibration) -> Vec<crate::ros::sk
 
 /// The skin description (TOML), cells grouped by link, with their IDs.
 pub fn skin_toml(model: &Model, calibration: &Calibration) -> String {
-    let mut links: Vec<&str> = calibration.cells.iter().map(|c| c.link.as_str()).collect();
-    links.sort_unstable();
-    links.dedup();
-    let mut s = String::from(
-        "# Skin calibrated by `skin calibrate`: poses in each link's frame, z along the accelerometer's z.\n",
-    );
-    for link in links {
-        let _ = writeln!(s, "\n[[link]]\nname = {}\ncell = [", toml_string(link));
-        for c in calibration.cells.iter().filter(|c| c.link == link) {
-            let pose = in_link(model, c);
-            let t = pose.translation.vector;
-            let [r, p, y] = rpy(&pose);
-            let _ = writeln!(
-                s,
-                "  {{ id = {}, xyz = [{:.6}, {:.6}, {:.6}], rpy = [{:.6}, {:.6}, {:.6}] }},",
-                c.id.0, t.x, t.y, t.z, r, p, y
-            );
-        }
-        s.push_str("]\n");
-    }
-    s
+    let cells: Vec<FileCell<'_>> =
+        calibration.cells.iter().map(|c| FileCell { id: c.id, link: &c.link, in_link: in_link(model, c) }).collect();
+    "# Skin calibrated by `skin calibrate`: poses in each link's frame, z along the accelerometer's z.\n".to_owned()
+        + &skin::skin_toml(&cells)
 }
 
 /// `urdf` with a fixed `skin_cell_<ID>` link per cell before its `</robot>`.
@@ -113,10 +97,6 @@ pub fn urdf_with_skin(urdf: &str, model: &Model, calibration: &Calibration) -> R
         );
     }
     Ok(format!("{}{frames}{}", &urdf[..end], &urdf[end..]))
-}
-
-fn toml_string(s: &str) -> String {
-    toml::Value::String(s.to_owned()).to_string()
 }
 
 fn escape(s: &str) -> String {

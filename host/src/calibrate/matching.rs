@@ -9,8 +9,8 @@
 
 use std::collections::HashMap;
 
+use skin_model::robot::Robot as Model;
 use skin_protocol::Address;
-use skin_sim::robot::Robot as Model;
 
 use super::CalibrateError;
 use crate::explore::Exploration;

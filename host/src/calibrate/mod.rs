@@ -28,10 +28,10 @@ pub mod neighbours;
 mod plan;
 
 use nalgebra::{Isometry3, Matrix3, Rotation3, Vector3};
+use skin_model::robot::kinematics::{self, BodyState, DofMotion};
+use skin_model::robot::Robot as Model;
 use skin_protocol::message::AccelRange;
 use skin_protocol::Address;
-use skin_sim::robot::kinematics::{self, BodyState, DofMotion};
-use skin_sim::robot::Robot as Model;
 
 use crate::explore::session::{Session, Window};
 use crate::explore::{Exploration, ExploreError, Progress};

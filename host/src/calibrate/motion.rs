@@ -10,10 +10,10 @@
 //! their fit, and the motion is then read at that delay for every cell.
 
 use nalgebra::{Isometry3, Vector3};
+use skin_model::robot::kinematics::{self, BodyState, DofMotion};
+use skin_model::robot::Robot as Model;
 use skin_protocol::message::G0;
 use skin_protocol::sample::ACCEL_MAX;
-use skin_sim::robot::kinematics::{self, BodyState, DofMotion};
-use skin_sim::robot::Robot as Model;
 
 use super::lever::{Lever, LinkMotion};
 use super::Candidate;

@@ -26,9 +26,9 @@
 use std::collections::HashMap;
 
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Point3, Vector3};
+use skin_model::robot::Robot as Model;
 use skin_protocol::message::NeighbourReport;
 use skin_protocol::Address;
-use skin_sim::robot::Robot as Model;
 
 use super::{at_rest_full, CellPose};
 
@@ -73,8 +73,8 @@ pub struct NeighbourConfig {
 impl Default for NeighbourConfig {
     fn default() -> Self {
         NeighbourConfig {
-            pitch_m: skin_sim::skin::CELL_PITCH_M,
-            pitch_tolerance: skin_sim::skin::PITCH_TOLERANCE,
+            pitch_m: skin_model::skin::CELL_PITCH_M,
+            pitch_tolerance: skin_model::skin::PITCH_TOLERANCE,
             max_sigma_m: 0.005,
         }
     }

@@ -4,7 +4,7 @@
 use nalgebra::Point3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use skin_sim::robot::{DofKind, Robot as Model};
+use skin_model::robot::{DofKind, Robot as Model};
 
 use super::matching::Matching;
 use super::CalibrateConfig;

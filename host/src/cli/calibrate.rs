@@ -20,8 +20,8 @@ use skin_host::explore::{explore, ExploreConfig, Progress, StructureConfig};
 use skin_host::report::check_folder;
 use skin_host::report::figures::{skin_views, SkinViews};
 use skin_host::robot::SimRobot;
-use skin_sim::robot::kinematics::{self, BodyState, DofMotion};
-use skin_sim::robot::Robot as Model;
+use skin_model::robot::kinematics::{self, BodyState, DofMotion};
+use skin_model::robot::Robot as Model;
 use skin_sim::world::World;
 
 use super::cells_json::cells_json;
@@ -34,10 +34,10 @@ pub struct Args {
     #[command(flatten)]
     sim: SimArgs,
     /// Still postures for the accelerometer frames, the start included.
-    #[arg(long, value_name = "N", default_value_t = CalibrateConfig::default().postures)]
+    #[arg(long, value_name = "N", default_value_t = CalibrateConfig::default().postures, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(2..=1000))]
     postures: usize,
     /// Excitation periods per DoF for the positions (1 Hz each).
-    #[arg(long, value_name = "N", default_value_t = CalibrateConfig::default().excitation_periods)]
+    #[arg(long, value_name = "N", default_value_t = CalibrateConfig::default().excitation_periods, value_parser = clap::value_parser!(u32).range(1..=1000))]
     periods: u32,
     /// Mounting clearance of the skin from joint axes, m, for the exploration (see `skin explore`).
     #[arg(long, value_name = "M", default_value_t = 0.0, allow_negative_numbers = true)]
@@ -82,14 +82,15 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         ..CalibrateConfig::default()
     };
     cfg.check()?;
-    if let Some(dir) = &args.out {
-        check_folder(dir)?;
-    }
     let urdf = args.sim.urdf_text()?;
     // The host's own copy of the description, as on a real robot.
     let model = args.sim.robot()?;
     let world = args.sim.world()?;
     super::world::warn_clearance(&world, args.axis_clearance);
+    // Only once every input is accepted: a refused one leaves no folder behind.
+    if let Some(dir) = &args.out {
+        check_folder(dir)?;
+    }
     let name = world.robot().name().to_owned();
     let mut rig = SimRobot::new(world);
 

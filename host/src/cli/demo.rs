@@ -30,9 +30,9 @@ use skin_host::interface::Interface;
 use skin_host::pipeline::OrganizeConfig;
 use skin_host::remote::{Remote, RobotLink};
 use skin_host::report::{check_folder, GraspSection, LatencySection, Report, TruthSection};
+use skin_model::robot::hrp2;
 use skin_sim::endpoint::{Batching, Endpoint, EndpointConfig, Pacing, Running, Truth};
 use skin_sim::network::NetworkConfig;
-use skin_sim::robot::hrp2;
 use skin_sim::scene::experiment::Setup;
 use skin_sim::scene::operator::{Note, Order};
 use skin_sim::scene::placement::{ObjectAt, Placement};
@@ -226,34 +226,6 @@ fn truth_section(
         smm_mean_abs_error: t.smm_mean_abs_error,
         smm_mean_abs_error_moved: t.smm_mean_abs_error_moved,
     })
-}
-
-/// The summary's lines on what only the simulation knows: network latency,
-/// grasps and the checks against the truth.
-pub(super) fn summary(r: &Report) -> String {
-    let mut s = String::new();
-    if let Some(l) = &r.latency {
-        s += &format!(
-            "network latency: median {} us, 99% {} us, max {} us over {} sensor frames\n",
-            l.p50_us, l.p99_us, l.max_us, l.frames
-        );
-    }
-    if let Some(g) = &r.grasps {
-        let held = g.runs.iter().filter(|r| r.succeeded).count();
-        let names: Vec<String> =
-            g.runs.iter().map(|r| format!("{} {}", r.object, r.reason.map_or("held", |why| why.name()))).collect();
-        s += &format!("grasps: {held} of {} held ({})\n", g.runs.len(), names.join(", "));
-    }
-    if let Some(truth) = &r.truth {
-        s += &format!(
-            "checked against the simulator: {} of {} cells with unique IDs, neighbour tables {}, tree {}\n",
-            if truth.ids_unique { truth.cells_with_id } else { 0 },
-            truth.cells_in_skin,
-            if truth.neighbours_correct { "true" } else { "WRONG" },
-            if truth.tree_correct { "true" } else { "WRONG" }
-        );
-    }
-    s
 }
 
 /// Every cell organized and explored, the truth matched, every object held.

@@ -27,10 +27,10 @@ pub struct Args {
     #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:7700")]
     interface: SocketAddr,
     /// Interface ports of the skin (numbered 0..N).
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u8).range(1..=254))]
     ports: u8,
     /// Cells to update: wait until that many are heard [default: those heard within --listen].
-    #[arg(long)]
+    #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=super::MAX_CELLS))]
     cells: Option<usize>,
     /// Time to listen for cells before starting, s.
     #[arg(long, default_value_t = 2.0)]
@@ -39,7 +39,7 @@ pub struct Args {
     #[arg(long, default_value_t = 60.0)]
     timeout: f64,
     /// Frames sent into each interface port per millisecond.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = 16, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1000))]
     rate: usize,
     /// Print the result table as JSON.
     #[arg(long)]
@@ -72,8 +72,7 @@ fn refusal_name(r: skin_protocol::message::Refusal) -> &'static str {
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let listen = seconds::duration("--listen", args.listen)?;
     let timeout = seconds::duration("--timeout", args.timeout)?;
-    let image = std::fs::read(&args.image)
-        .map_err(|source| skin_host::update::Error::Read { path: args.image.clone(), source })?;
+    let image = skin_host::update::read(&args.image)?;
     let config = InterfaceConfig {
         listen: args.interface,
         ports: (0..args.ports).map(|number| skin_host::config::PortConfig { number, address: None }).collect(),

@@ -150,7 +150,7 @@ pub fn summary(r: &Report, written: &[PathBuf]) -> String {
         t.smm_robot_s
     );
     #[cfg(feature = "sim")]
-    s.push_str(&super::demo::summary(r));
+    s.push_str(&r.simulation_summary());
     for w in &e.warnings {
         s += &format!("warning: {w}\n");
     }

@@ -80,7 +80,7 @@ pub struct LiveArgs {
     #[arg(long, value_name = "ENDPOINT", requires = "ros2")]
     zenoh_listen: Vec<String>,
     /// The ROS domain ID.
-    #[arg(long, value_name = "ID", default_value_t = 0, requires = "ros2")]
+    #[arg(long, value_name = "ID", default_value_t = 0, requires = "ros2", value_parser = clap::value_parser!(u32).range(0..=232))]
     ros_domain: u32,
     /// Speak to Humble (no type hashes: `TypeHashNotSupported`) instead of Jazzy and later (RIHS01).
     #[arg(long, requires = "ros2")]

@@ -28,7 +28,7 @@ pub struct Args {
     #[arg(long, default_value_t = 250.0)]
     rate: f64,
     /// Each port sends what it gathered every this many microseconds (0: one datagram per frame).
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(0..=1_000_000))]
     flush_us: u64,
     /// Clock-driven (every sample) or event-driven (send-on-delta and level events).
     #[arg(long, value_enum, default_value_t = Traffic::Clock)]

@@ -17,6 +17,7 @@ mod job;
 mod keygen;
 mod live;
 mod loadgen;
+mod message;
 mod monitor;
 #[cfg(feature = "sim")]
 mod objects;
@@ -30,6 +31,9 @@ mod sim_endpoint;
 mod world;
 
 use std::process::ExitCode;
+
+/// The most cells a `--cells` flag takes: one per cell ID the interface hands out.
+const MAX_CELLS: u64 = skin_protocol::Address::MAX_CELL as u64;
 
 use clap::{CommandFactory, Parser, Subcommand, ValueEnum};
 
@@ -129,7 +133,7 @@ pub fn main() -> ExitCode {
         }
     };
     result.unwrap_or_else(|e| {
-        eprintln!("error: {e}");
+        eprintln!("error: {}", message::cut(&e.to_string()));
         ExitCode::FAILURE
     })
 }

@@ -11,6 +11,7 @@ use std::path::PathBuf;
 
 use skin_host::grasping::GraspError;
 use skin_sim::scene::object::Object;
+use skin_sim::scene::object_error::ObjectError;
 use skin_sim::scene::object_file;
 use skin_sim::scene::placement::{ObjectAt, Placement};
 
@@ -38,7 +39,7 @@ pub struct ObjectArgs {
 /// Why the placement flags cannot be used.
 #[derive(Debug, thiserror::Error)]
 #[error("--offset/--yaw: {0}")]
-pub struct PlacementError(#[source] object_file::ObjectError);
+pub struct PlacementError(#[source] ObjectError);
 
 fn offset(text: &str) -> Result<[f64; 3], String> {
     let parts: Vec<&str> = text.split(',').collect();

@@ -14,8 +14,8 @@ use skin_host::explore::{explore, Exploration, ExploreConfig};
 use skin_host::recording::{Record, Recording};
 use skin_host::replay::Replay;
 use skin_host::report::ExplorationSection;
+use skin_model::robot::Robot;
 use skin_protocol::message::AccelRange;
-use skin_sim::robot::Robot;
 
 /// Arguments of `skin replay`.
 #[derive(clap::Args)]

@@ -23,8 +23,8 @@ use skin_host::interface::Interface;
 use skin_host::pipeline::OrganizeConfig;
 use skin_host::remote::{Remote, RobotLink};
 use skin_host::report::{check_folder, CalibrationSection};
+use skin_model::robot::Robot;
 use skin_protocol::message::AccelRange;
-use skin_sim::robot::Robot;
 
 use super::job::{self, Steps};
 use super::live::LiveArgs;
@@ -43,13 +43,13 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
     /// Cells the skin has: wait until that many have organized [default: whatever reports and stays unchanged].
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=super::MAX_CELLS))]
     cells: Option<usize>,
     /// Longest time the skin may take to organize, s, in robot time and in wall-clock time (whichever ends first).
     #[arg(long, value_name = "S", default_value_t = 30.0)]
     organize_timeout: f64,
     /// Longest wait for one answer of the robot, milliseconds.
-    #[arg(long, value_name = "MS", default_value_t = 1000)]
+    #[arg(long, value_name = "MS", default_value_t = 1000, value_parser = clap::value_parser!(u64).range(1..=60_000))]
     robot_timeout_ms: u64,
     /// The report folder (created if missing).
     #[arg(long, value_name = "DIR", default_value = "report")]
@@ -80,9 +80,9 @@ pub struct Args {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
-    /// A robot timeout of zero.
-    #[error("--robot-timeout-ms must be at least 1")]
-    RobotTimeout,
+    /// The interface and the robot link given one address.
+    #[error("the interface and the robot are both at {0}: the skin's datagrams and the robot's answers need an address each")]
+    SameAddress(std::net::SocketAddr),
     /// A cell pitch no skin has.
     #[error("--cell-pitch must lie in [0.005, 0.2] m, not {0}")]
     CellPitch(f64),
@@ -91,18 +91,15 @@ pub enum Error {
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let wall = Instant::now();
     let organize_timeout_s = seconds::positive("--organize-timeout", args.organize_timeout)?;
-    if args.robot_timeout_ms == 0 {
-        return Err(Error::RobotTimeout.into());
-    }
     let pitch_m = match args.cell_pitch {
         Some(p) if !(0.005..=0.2).contains(&p) => return Err(Error::CellPitch(p).into()),
         p => p,
     };
-    check_folder(&args.out)?;
     // A description that cannot be used is refused before the robot moves.
     let description = match &args.urdf {
         Some(path) => {
-            let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            let text = skin_model::file::read_text_capped(path, skin_model::robot::limits::MAX_BYTES)
+                .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
             let model = Robot::from_urdf_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
             Some((text, model))
         }
@@ -115,6 +112,11 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     if let Some(listen) = args.interface {
         config.interface.listen = listen;
     }
+    if config.interface.listen == args.robot {
+        return Err(Error::SameAddress(args.robot).into());
+    }
+    // Only once every input is accepted: a refused one leaves no folder behind.
+    check_folder(&args.out)?;
     let interface = Interface::bind(&config.interface)?;
     let link = RobotLink::connect(args.robot, Duration::from_millis(args.robot_timeout_ms))?;
     let source = format!(

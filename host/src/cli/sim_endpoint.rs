@@ -48,7 +48,7 @@ pub struct Args {
     #[arg(long, value_name = "N", default_value_t = Batching::default().max_frames)]
     batch_frames: usize,
     /// Longest a frame waits at its interface port for others, microseconds of robot time.
-    #[arg(long, value_name = "US", default_value_t = Batching::default().max_wait_ns / 1000)]
+    #[arg(long, value_name = "US", default_value_t = Batching::default().max_wait_ns / 1000, value_parser = clap::value_parser!(u64).range(0..=1_000_000))]
     batch_us: u64,
 }
 

@@ -4,9 +4,9 @@
 use std::path::PathBuf;
 
 use clap::ValueEnum;
+use skin_model::robot::{hrp2, Link, Robot, UrdfError};
+use skin_model::skin::{Skin, SkinError};
 use skin_sim::accel::Bma250Config;
-use skin_sim::robot::{hrp2, Link, Robot, UrdfError};
-use skin_sim::skin::{Skin, SkinError};
 use skin_sim::world::{BaseConfig, World, WorldConfig};
 
 /// Arguments that build the simulated world.
@@ -16,7 +16,7 @@ pub struct SimArgs {
     #[arg(long, value_name = "FILE")]
     pub urdf: Option<PathBuf>,
     /// Cells on every link with geometry or mass [default: 4; the built-in robot: its own 74-cell skin].
-    #[arg(long, value_name = "N", conflicts_with = "skin")]
+    #[arg(long, value_name = "N", conflicts_with = "skin", value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1000))]
     cells_per_link: Option<usize>,
     /// Skin file (TOML or JSON) listing the cells of each link with their poses.
     #[arg(long, value_name = "FILE")]
@@ -73,9 +73,8 @@ impl SimArgs {
     /// The robot description as text: the file, or the built-in one.
     pub fn urdf_text(&self) -> Result<String, Error> {
         match &self.urdf {
-            Some(path) => {
-                std::fs::read_to_string(path).map_err(|source| Error::Read { path: path.display().to_string(), source })
-            }
+            Some(path) => skin_model::file::read_text_capped(path, skin_model::robot::limits::MAX_BYTES)
+                .map_err(|source| Error::Read { path: path.display().to_string(), source }),
             None => Ok(hrp2::urdf()),
         }
     }

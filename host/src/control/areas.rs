@@ -23,6 +23,7 @@ use skin_protocol::Address;
 use super::cells::CellIndex;
 use super::reaction::Group;
 use super::ControlError;
+use skin_model::file::read_text_capped;
 
 /// What an area is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Deserialize, serde::Serialize)]
@@ -73,7 +74,7 @@ pub fn parse_specs(text: &str) -> Result<Vec<AreaSpec>, ControlError> {
 
 /// Reads the `[[area]]` tables of a TOML file.
 pub fn read_specs(path: &Path) -> Result<Vec<AreaSpec>, ControlError> {
-    let text = std::fs::read_to_string(path)
+    let text = read_text_capped(path, super::MAX_FILE_BYTES)
         .map_err(|source| ControlError::Read { path: path.display().to_string(), source })?;
     parse_specs(&text)
 }

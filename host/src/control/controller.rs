@@ -448,6 +448,7 @@ mod tests {
     /// Section 5.3: with proximity guidance the robot starts to react about
     /// 5 cm before a hand touches it (the VCNL4010 model and a hand of the
     /// simulated scene, read through a sample like any other).
+    #[cfg(feature = "sim")]
     #[test]
     fn proximity_guidance_reacts_about_5_cm_before_contact() {
         use rand::SeedableRng;

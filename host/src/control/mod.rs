@@ -22,6 +22,9 @@ pub mod trajectory;
 
 use skin_protocol::Address;
 
+/// The largest parameter, area or key-pose file read: a few KiB is usual.
+pub const MAX_FILE_BYTES: usize = skin_model::file::MIB;
+
 /// The sensory-motor map as control uses it (section 4.3.3).
 ///
 /// Sign convention of equation (11): a weight of +1 means a positive

@@ -13,6 +13,7 @@ use super::events::Levels;
 use super::reaction::CellGains;
 use super::trajectory::{Motion, Timing};
 use super::ControlError;
+use skin_model::file::read_text_capped;
 
 /// The default parameter file.
 pub const DEFAULT_TOML: &str = include_str!("../../config/grasp.toml");
@@ -184,7 +185,7 @@ impl Params {
 
     /// Reads and checks a parameter file.
     pub fn read(path: &Path) -> Result<Params, ControlError> {
-        let text = std::fs::read_to_string(path)
+        let text = read_text_capped(path, super::MAX_FILE_BYTES)
             .map_err(|source| ControlError::Read { path: path.display().to_string(), source })?;
         Params::from_toml_str(&text)
             .map_err(|e| ControlError::InFile { path: path.display().to_string(), source: Box::new(e) })

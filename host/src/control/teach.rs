@@ -17,6 +17,7 @@ use serde::{Deserialize, Serialize};
 use super::params::Guides;
 use super::reaction::CellGains;
 use super::ControlError;
+use skin_model::file::read_text_capped;
 
 /// The key poses of the grasp, in teaching order.
 pub const KEY_POSES: [&str; 4] = ["home", "open", "closed", "pulled"];
@@ -94,7 +95,7 @@ impl KeyPoses {
 
     /// Reads poses from a TOML file.
     pub fn read(path: &Path) -> Result<KeyPoses, ControlError> {
-        let text = std::fs::read_to_string(path)
+        let text = read_text_capped(path, super::MAX_FILE_BYTES)
             .map_err(|source| ControlError::Read { path: path.display().to_string(), source })?;
         KeyPoses::from_toml_str(&text)
     }

@@ -12,7 +12,7 @@
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::time::Instant;
 
-use skin_sim::robot::Drive;
+use skin_model::robot::Drive;
 use skin_sim::world::World;
 
 use super::{explore, Exploration, ExploreConfig, ExploreError, KinematicTree};

@@ -13,8 +13,8 @@ use std::collections::BTreeMap;
 use std::f64::consts::TAU;
 
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
-use skin_sim::robot::kinematics::{forward, BodyState, DofMotion};
-use skin_sim::robot::Robot as Description;
+use skin_model::robot::kinematics::{forward, BodyState, DofMotion};
+use skin_model::robot::Robot as Description;
 
 use crate::explore::KinematicTree;
 use crate::robot::DofKind;
@@ -192,7 +192,7 @@ mod tests {
 
     #[test]
     fn a_described_robot_moves_its_links_with_the_named_dofs() {
-        let model = skin_sim::robot::hrp2::robot();
+        let model = skin_model::robot::hrp2::robot();
         let names: Vec<String> = model.dofs().iter().map(|d| d.name.clone()).collect();
         let rest = described(&model, &names, &vec![0.0; names.len()]);
         assert_eq!(rest.frames.len(), model.links().len());
@@ -210,7 +210,7 @@ mod tests {
 
     #[test]
     fn a_calibrated_cell_sits_on_its_link_and_the_others_on_a_grid() {
-        let model = skin_sim::robot::hrp2::robot();
+        let model = skin_model::robot::hrp2::robot();
         let skeleton = described(&model, &[], &[]);
         let (link, frame) = skeleton.frames.last().unwrap().clone();
         let pose = CellPose { id: 7, frame: link, xyz: [0.1, 0.0, 0.0], rpy: [0.0; 3] };

@@ -15,9 +15,9 @@ use foxglove::messages::{
 };
 use nalgebra::Isometry3;
 use serde::Serialize;
+use skin_model::robot::Robot as Description;
 use skin_protocol::message::Channel;
 use skin_protocol::Sample;
-use skin_sim::robot::Robot as Description;
 
 use super::layout::{self, Skeleton};
 use crate::control::grasp::{Cause, State};

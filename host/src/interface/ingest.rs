@@ -101,6 +101,7 @@ impl Ingest {
         let stats = self.ports.get_mut(port).stats_mut();
         stats.datagrams += 1;
         stats.last_rx_us = Some(now_us);
+        stats.latest_timestamp_us = stats.latest_timestamp_us.max(Some(header.timestamp_us));
 
         let origin = Origin { port, interface: header.interface, timestamp_us: header.timestamp_us };
         let (mut accepted, mut corrupt) = (0, 0);

@@ -42,7 +42,7 @@ pub use counters::{DatagramCounters, DatagramReject, FrameCounters, FrameReject,
 pub use event::{tactile_text, Event, EventKind};
 pub use ingest::{Ingest, MAX_UNHEARD_IDS, RECLAIM_UNHEARD_US};
 pub use ports::{Port, PortStats, Ports, REBIND_QUIET_US};
-pub use silence::{silence_bound_s, SilenceWatch, Silent};
+pub use silence::{silence_bound_s, Heard, SilenceWatch, Silent, WALL_BOUND};
 
 use crate::config::InterfaceConfig;
 use crate::registry::Registry;

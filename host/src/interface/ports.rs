@@ -41,6 +41,9 @@ pub struct PortStats {
     pub restarts: u64,
     /// Host clock at the last accepted datagram, in microseconds.
     pub last_rx_us: Option<u64>,
+    /// The latest sender's clock among the accepted datagrams, in
+    /// microseconds (a simulated skin's is the simulation's clock).
+    pub latest_timestamp_us: Option<u64>,
     /// Times the port went to a new source after its old one fell silent.
     pub rebinds: u64,
 }

@@ -74,10 +74,14 @@ fn decode(topic: &str, cdr: &[u8]) -> Result<Option<Record>, String> {
     }))
 }
 
+/// The largest recording read: it is held in memory whole.
+pub const MAX_FILE_BYTES: usize = 1024 * skin_model::file::MIB;
+
 impl Recording {
     /// Reads the raw channels of the MCAP file at `path`.
     pub fn open(path: &Path) -> Result<Recording, RecordError> {
-        let bytes = std::fs::read(path).map_err(|source| RecordError::File { path: path.to_owned(), source })?;
+        let bytes = skin_model::file::read_capped(path, MAX_FILE_BYTES)
+            .map_err(|source| RecordError::File { path: path.to_owned(), source })?;
         Recording::parse(path, &bytes)
     }
 

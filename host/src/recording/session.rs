@@ -125,7 +125,7 @@ impl Session {
     }
 
     /// The robot's own description (`--urdf`), for the viewer to draw its links.
-    pub fn described(&mut self, model: &skin_sim::robot::Robot) {
+    pub fn described(&mut self, model: &skin_model::robot::Robot) {
         self.tell(|| Update::Description(Box::new(model.clone())));
     }
 

@@ -2,16 +2,8 @@
 
 use std::fmt::Write;
 
+use super::markup::{escape, row};
 use super::Report;
-
-/// Text made safe inside HTML.
-pub(super) fn escape(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
-}
-
-pub(super) fn row(out: &mut String, key: &str, value: &str) {
-    let _ = writeln!(out, "<tr><th>{}</th><td>{}</td></tr>", escape(key), escape(value));
-}
 
 /// The page.
 pub fn page(r: &Report) -> String {
@@ -97,14 +89,4 @@ pub fn page(r: &Report) -> String {
     }
     s += "<p>All data of these figures: <a href=\"report.json\">report.json</a>.</p>\n</body>\n</html>\n";
     s
-}
-
-#[cfg(test)]
-mod tests {
-    use super::escape;
-
-    #[test]
-    fn markup_is_escaped() {
-        assert_eq!(escape("<a href=\"x\">&</a>"), "&lt;a href=&quot;x&quot;&gt;&amp;&lt;/a&gt;");
-    }
 }

@@ -8,10 +8,12 @@
 //!   (network latency, grasps, checks against the truth), with their figures.
 //! - `traces` (the `sim` feature): the grasps' force and proximity traces (Figure 18), CSV and SVG.
 //! - [`figures`]: the kinds of figure (grids, trees, histograms).
+//! - `html` and `markup`: `index.html`, and the escaping and table rows it and `sim` write with.
 //! - `staging`: the folder written beside its place and renamed into it.
 
 pub mod figures;
 mod html;
+mod markup;
 mod render;
 mod schema;
 #[cfg(feature = "sim")]

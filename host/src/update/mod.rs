@@ -62,7 +62,11 @@ pub enum Error {
     },
 }
 
-/// Reads a whole file, naming it in the error.
-fn read(path: &std::path::Path) -> Result<Vec<u8>, Error> {
-    std::fs::read(path).map_err(|source| Error::Read { path: path.into(), source })
+/// The largest file read here: a program or image for a cell's 64 KiB of
+/// flash, or a key.
+pub const MAX_FILE_BYTES: usize = skin_model::file::MIB;
+
+/// Reads a whole file of at most [`MAX_FILE_BYTES`], naming it in the error.
+pub fn read(path: &std::path::Path) -> Result<Vec<u8>, Error> {
+    skin_model::file::read_capped(path, MAX_FILE_BYTES).map_err(|source| Error::Read { path: path.into(), source })
 }

@@ -17,7 +17,7 @@
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
-use super::rounds::Rounds;
+use super::rounds::{Rounds, Via};
 use super::REPAIR_WINDOW;
 use crate::address::Address;
 use crate::image::{ImageError, ImageHeader};
@@ -53,22 +53,6 @@ impl Outcome {
     /// True when nothing more will happen for this cell.
     pub fn is_final(self) -> bool {
         matches!(self, Outcome::Updated | Outcome::RolledBack | Outcome::Refused(_))
-    }
-}
-
-/// Which interface ports a frame of the update goes down.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Via {
-    /// Every interface port: offers, commands and the first pass of chunks.
-    Every,
-    /// Only this interface port: a chunk some cell of its tree asked for.
-    Port(u8),
-}
-
-impl Via {
-    /// True when the frame goes down interface port `port`.
-    pub fn includes(self, port: u8) -> bool {
-        self == Via::Every || self == Via::Port(port)
     }
 }
 

@@ -23,9 +23,9 @@ mod updater;
 
 pub use bitmap::Bitmap;
 #[cfg(feature = "std")]
-pub use distributor::{Distributor, Outcome, Outgoing, Via};
+pub use distributor::{Distributor, Outcome, Outgoing};
 #[cfg(feature = "std")]
-pub use rounds::{Rounds, ROUND_FRAMES, ROUND_TIMEOUT_US};
+pub use rounds::{Rounds, Via, ROUND_FRAMES, ROUND_TIMEOUT_US};
 pub use updater::{BootAction, BootState, Updater, QUIET_US, REPAIR_WINDOW, TRIAL_REPORT_US, TRIAL_US};
 
 use crate::app::StoreFailed;

@@ -12,7 +12,6 @@
 
 use std::collections::BTreeSet;
 
-use super::distributor::Via;
 use crate::address::Address;
 
 /// Chunk frames in one round: below the 64 frames an interface port
@@ -22,6 +21,22 @@ pub const ROUND_FRAMES: usize = 48;
 /// How long a round waits for answers: a cell that does not answer by then
 /// (off, or its answer lost) is not waited for again until it answers.
 pub const ROUND_TIMEOUT_US: u64 = 1_000_000;
+
+/// Which interface ports a frame of the update goes down.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Via {
+    /// Every interface port: offers, commands and the first pass of chunks.
+    Every,
+    /// Only this interface port: a chunk some cell of its tree asked for.
+    Port(u8),
+}
+
+impl Via {
+    /// True when the frame goes down interface port `port`.
+    pub fn includes(self, port: u8) -> bool {
+        self == Via::Every || self == Via::Port(port)
+    }
+}
 
 /// Where the chunk frames are in their rounds.
 #[derive(Clone, Debug, Default)]

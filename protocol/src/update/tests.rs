@@ -402,7 +402,7 @@ proptest! {
         missing in 1u16..80,
         calls in proptest::collection::vec(0u64..200_000, 1..400),
     ) {
-        use super::distributor::Via;
+        use super::rounds::Via;
         let (bytes, chunks) = image(Board::Mps2An386, 2, 1000, 1);
         // Cell 100, on port 7, has every chunk and never asks.
         let quiet = (Address(100), 7u8);

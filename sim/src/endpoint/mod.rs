@@ -37,12 +37,12 @@ use skin_protocol::robot_link::{self, FromRobot, Refusal, ToRobot, MAX_DOFS};
 use skin_protocol::Address;
 
 use crate::network::{Network, NetworkConfig, NetworkError, Topology};
-use crate::robot::hrp2;
 use crate::scene::experiment::Setup;
 use crate::scene::operator::Operator;
-use crate::skin::Skin;
-use crate::spin_recv::SpinRecv;
 use crate::world::{World, WorldConfig};
+use skin_model::robot::hrp2;
+use skin_model::skin::Skin;
+use skin_model::spin_recv::SpinRecv;
 
 pub use batch::Batching;
 pub use rig::Rig;
@@ -129,11 +129,11 @@ pub struct Endpoint {
 
 impl Endpoint {
     /// The paper's robot and skin: the built-in HRP-2-like upper body
-    /// (seeded as [`hrp2::world`]) wired as [`Topology::hrp2`], each arm's
+    /// (seeded as [`World::hrp2`]) wired as [`Topology::hrp2`], each arm's
     /// two patches on that arm's links from shoulder to gripper and the
     /// chest patch on the chest.
     pub fn hrp2(seed: u64, config: EndpointConfig) -> Result<Endpoint, NetworkError> {
-        let world = hrp2::world(seed);
+        let world = World::hrp2(seed);
         let world_cell = hrp2_wiring(&world);
         Endpoint::new(world, &Topology::hrp2(), world_cell, config)
     }
@@ -187,6 +187,15 @@ impl Endpoint {
         if config.host.port() == 0 {
             return Err(NetworkError::Flag(format!(
                 "host address {}: port 0 is nowhere to send to; give the port the host listens on",
+                config.host
+            )));
+        }
+        // The robot link would answer its own skin's datagrams, and the host
+        // could not bind the address the skin sends to.
+        if config.host == config.robot {
+            return Err(NetworkError::Flag(format!(
+                "the host address and the robot-link address are both {}: the skin's datagrams and the robot's \
+                 answers need an address each",
                 config.host
             )));
         }

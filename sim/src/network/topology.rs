@@ -64,6 +64,9 @@ struct GraphFile {
 /// The largest skin this simulator builds; cell IDs are 16 bit.
 pub const MAX_CELLS: usize = 60_000;
 
+/// The largest topology file read: tens of bytes per cell for a million cells.
+pub const MAX_FILE_BYTES: usize = 32 * skin_model::file::MIB;
+
 impl Topology {
     /// A graph of `cells` cells at `positions_m` (or in a row when `None`),
     /// checked: ports in range, each port used once, no cell linked to itself.
@@ -180,7 +183,7 @@ impl Topology {
         skin().expect("the HRP-2 skin is a valid topology")
     }
 
-    /// The wiring a skin was laid with (see [`crate::skin::Skin::patches`]):
+    /// The wiring a skin was laid with (see [`skin_model::skin::Skin::patches`]):
     /// `wires[i][p]` is the far end (cell, port) of port `p` of cell `i`.
     /// Each group of cells wired together gets one interface port, on the
     /// first free port of its first cell that has one, as a skin whose
@@ -241,8 +244,8 @@ impl Topology {
             Some("json") => true,
             _ => return Err(file("the file name must end in .toml or .json".into())),
         };
-        let text =
-            std::fs::read_to_string(path).map_err(|source| NetworkError::Read { path: path.to_owned(), source })?;
+        let text = skin_model::file::read_text_capped(path, MAX_FILE_BYTES)
+            .map_err(|source| NetworkError::Read { path: path.to_owned(), source })?;
         Topology::from_text(&text, json).map_err(|e| match e {
             NetworkError::Topology(why) => file(why),
             e => e,

@@ -65,7 +65,7 @@ pub fn organize(net: &mut Network, host: &mut Host, timeout_ns: u64) -> Result<(
             return Ok(());
         }
     }
-    Err(NetworkError::Flag(format!("the skin did not organize within {} s", timeout_ns as f64 * 1e-9)))
+    Err(NetworkError::Flag(format!("the skin did not organize within {} s", timeout_ns as f64 / 1e9)))
 }
 
 /// Runs the network to `until_ns`, the built-in host answering ID requests

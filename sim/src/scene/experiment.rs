@@ -16,20 +16,18 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::object::Object;
-use super::placement::Placement;
+use super::placement::{Placement, OBJECT_GAP_M};
 use super::{Placed, Scene, SharedScene, SkinModel};
-use crate::robot::kinematics::{self, BodyState, DofMotion};
-use crate::robot::{Robot, Shape as RobotShape, Surface};
-use crate::skin::{Skin, SkinError};
 use crate::world::{World, WorldConfig};
+use skin_model::robot::kinematics::{self, BodyState, DofMotion};
+use skin_model::robot::{Robot, Shape as RobotShape, Surface};
+use skin_model::skin::{Skin, SkinError};
 use skin_protocol::Address;
 
 /// Where the object stands: centre height above the chest frame origin, m.
 pub const OBJECT_HEIGHT_M: f64 = 0.15;
 /// Front of the chest (its box is 0.26 m deep, centred on the chest frame), m.
 pub const CHEST_FRONT_M: f64 = 0.13;
-/// Gap between the object and the chest's skin when it is put down, m.
-pub const OBJECT_GAP_M: f64 = 0.02;
 
 /// One arm's intended key poses (right arm; the left is its mirror image):
 /// shoulder pitch, roll, yaw, elbow, wrist yaw, wrist pitch, gripper.
@@ -394,7 +392,7 @@ fn plan_top(plan: &mut Vec<Planned>, link: String, y: f64, role: Role, side: &'s
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::robot::hrp2;
+    use skin_model::robot::hrp2;
 
     #[test]
     fn seventy_four_cells_in_the_papers_layout() {

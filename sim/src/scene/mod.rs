@@ -21,6 +21,7 @@ pub mod force;
 pub mod hand;
 pub mod held;
 pub mod object;
+pub mod object_error;
 pub mod object_file;
 pub mod operator;
 pub mod person;

@@ -10,17 +10,7 @@
 //! things. Stiffness is per force-cell contact (a 1.5 cm^2 patch): a packed
 //! computer box barely gives, a sponge gives a lot.
 
-use super::object_file;
 use super::shape::Shape;
-
-/// The object files of Figure 16, (A) to (E).
-const FIGURE_16: [&str; 5] = [
-    include_str!("../../objects/trash_bin.toml"),
-    include_str!("../../objects/sponge_rock.toml"),
-    include_str!("../../objects/moving_box.toml"),
-    include_str!("../../objects/box_lid.toml"),
-    include_str!("../../objects/delivery_box.toml"),
-];
 
 /// A rigid or soft body that the skin can touch and see.
 #[derive(Clone, Debug, PartialEq)]
@@ -37,21 +27,6 @@ pub struct Object {
     pub reflectance: f64,
     /// Coulomb friction coefficient with its support.
     pub friction: f64,
-}
-
-impl Object {
-    /// The five objects of Figure 16, (A) to (E).
-    pub fn figure_16() -> Vec<Object> {
-        FIGURE_16
-            .iter()
-            .map(|text| object_file::parse(text).expect("the shipped object files are valid").object)
-            .collect()
-    }
-
-    /// An object of Figure 16 by name.
-    pub fn by_name(name: &str) -> Option<Object> {
-        Object::figure_16().into_iter().find(|o| o.name == name)
-    }
 }
 
 #[cfg(test)]

@@ -1,4 +1,5 @@
-//! Object files: an object of the simulator's shapes, and where it is put.
+//! Object files: an object of the simulator's shapes, and where it is put;
+//! the five objects of Figure 16 ship as such files, compiled in.
 //!
 //! ```toml
 //! name = "paint_bucket"
@@ -27,6 +28,7 @@ use nalgebra::Vector3;
 use serde::Deserialize;
 
 use super::object::Object;
+use super::object_error::ObjectError;
 use super::placement::{in_range, ObjectAt, Placement};
 use super::shape::Shape;
 
@@ -35,47 +37,25 @@ const MAX_HALF_M: f64 = 1.0;
 /// Longest object name, bytes.
 const MAX_NAME: usize = 64;
 
-/// Why an object file cannot be used.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum ObjectError {
-    /// The file or folder could not be read.
-    #[error("cannot read object file {path}: {source}")]
-    Read {
-        /// The file or folder.
-        path: String,
-        /// The I/O error.
-        #[source]
-        source: std::io::Error,
-    },
-    /// A mistake in a file, which is named.
-    #[error("object file {path}: {source}")]
-    InFile {
-        /// The file.
-        path: String,
-        /// The mistake.
-        #[source]
-        source: Box<ObjectError>,
-    },
-    /// Not TOML, a key missing or unknown, or a value of the wrong type.
-    #[error("not an object description: {0}")]
-    Toml(#[source] toml::de::Error),
-    /// A value out of its range.
-    #[error("`{key}` = {value}: expected {expected}")]
-    Range {
-        /// The key.
-        key: String,
-        /// The value given.
-        value: f64,
-        /// The range.
-        expected: &'static str,
-    },
-    /// A name that cannot name a file or a command-line choice.
-    #[error("`name` = {0:?}: expected 1 to 64 letters, digits, '_' or '-', and not \"all\" or \"none\"")]
-    Name(String),
-    /// A folder without object files.
-    #[error("no object files (*.toml) in {0}")]
-    EmptyFolder(String),
+/// The object files of Figure 16, (A) to (E).
+const FIGURE_16: [&str; 5] = [
+    include_str!("../../objects/trash_bin.toml"),
+    include_str!("../../objects/sponge_rock.toml"),
+    include_str!("../../objects/moving_box.toml"),
+    include_str!("../../objects/box_lid.toml"),
+    include_str!("../../objects/delivery_box.toml"),
+];
+
+impl Object {
+    /// The five objects of Figure 16, (A) to (E).
+    pub fn figure_16() -> Vec<Object> {
+        FIGURE_16.iter().map(|text| parse(text).expect("the shipped object files are valid").object).collect()
+    }
+
+    /// An object of Figure 16 by name.
+    pub fn by_name(name: &str) -> Option<Object> {
+        Object::figure_16().into_iter().find(|o| o.name == name)
+    }
 }
 
 /// The file as written.
@@ -186,8 +166,8 @@ pub fn read(path: &Path) -> Result<Vec<ObjectAt>, ObjectError> {
         .iter()
         .map(|file| {
             let path = file.display().to_string();
-            let text =
-                std::fs::read_to_string(file).map_err(|source| ObjectError::Read { path: path.clone(), source })?;
+            let text = skin_model::file::read_text_capped(file, skin_model::file::MIB)
+                .map_err(|source| ObjectError::Read { path: path.clone(), source })?;
             parse(&text).map_err(|e| ObjectError::InFile { path, source: Box::new(e) })
         })
         .collect()

@@ -23,8 +23,8 @@ use super::held::{Arm, ObjectTruth};
 use super::person::{self, Guiding, Teacher};
 use super::placement::ObjectAt;
 use super::{Placed, SharedScene};
-use crate::robot::Robot;
 use crate::world::World;
+use skin_model::robot::Robot;
 
 /// Longest a person tries to teach one key pose, s.
 const TEACH_LIMIT_S: f64 = 60.0;
@@ -240,10 +240,9 @@ impl Operator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::robot::hrp2;
-    use crate::scene::experiment::OBJECT_GAP_M;
     use crate::scene::object::Object;
-    use crate::scene::placement::Placement;
+    use crate::scene::placement::{Placement, OBJECT_GAP_M};
+    use skin_model::robot::hrp2;
 
     #[test]
     fn orders_are_carried_out_at_period_boundaries_and_answered() {

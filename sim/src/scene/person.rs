@@ -13,8 +13,8 @@ use nalgebra::{Isometry3, Point3, Vector3};
 use super::experiment::body_poses;
 use super::hand::Hand;
 use super::proximity::Vcnl4010;
-use crate::robot::Robot;
-use crate::skin::Skin;
+use skin_model::robot::Robot;
+use skin_model::skin::Skin;
 
 /// How the person guides.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -109,8 +109,8 @@ pub fn pat(cell: &Isometry3<f64>, skin_offset_m: f64, depth_m: f64) -> Hand {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::robot::hrp2;
     use crate::scene::experiment::{intended_pose, Setup};
+    use skin_model::robot::hrp2;
 
     #[test]
     fn the_person_pushes_cells_that_should_move_inwards() {

@@ -1,8 +1,8 @@
 //! Where an object is put down between the arms.
 //!
 //! The experiment's default spot is centred between the arms, the object's
-//! back 2 cm in front of the chest's skin (see
-//! [`super::experiment::object_pose`]); a placement moves it from there and
+//! back [`OBJECT_GAP_M`] in front of the chest's skin (the experiment's
+//! `object_pose`); a placement moves it from there and
 //! turns it about the vertical. Users never put things exactly in the
 //! middle, so a seeded jitter draws placements within a stated envelope.
 
@@ -11,7 +11,11 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::object::Object;
-use super::object_file::ObjectError;
+use super::object_error::ObjectError;
+
+/// Gap between the object and the chest's skin when it is put down at
+/// the default spot, m.
+pub const OBJECT_GAP_M: f64 = 0.02;
 
 /// Largest offset along any axis an object file or flag may give, m: past
 /// this the object is out of the arms' reach.
@@ -59,7 +63,7 @@ impl Placement {
         for (axis, v) in ["offset_m[0]", "offset_m[1]", "offset_m[2]"].into_iter().zip(self.offset_m.iter()) {
             in_range(axis, *v, -MAX_OFFSET_M, MAX_OFFSET_M, "an offset in [-0.5, 0.5] m")?;
         }
-        let back = -super::experiment::OBJECT_GAP_M;
+        let back = -OBJECT_GAP_M;
         in_range(
             "offset_m[0]",
             self.offset_m.x,

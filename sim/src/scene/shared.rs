@@ -62,10 +62,10 @@ impl Tactile for Sensors {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::robot::hrp2;
     use crate::scene::experiment::Setup;
     use crate::scene::{person, SkinModel};
     use crate::world::{World, WorldConfig};
+    use skin_model::robot::hrp2;
 
     #[test]
     fn a_pat_reaches_the_samples_of_the_patted_cell() {

@@ -2,7 +2,7 @@
 
 use std::fmt::Write;
 
-use crate::report::html::{escape, row};
+use crate::report::markup::{escape, row};
 use crate::report::Report;
 
 /// The summary table's rows for the network latency and the checks

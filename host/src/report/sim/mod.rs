@@ -4,6 +4,7 @@
 
 pub(super) mod html;
 mod render;
+mod summary;
 
 use serde::Serialize;
 use skin_sim::network::ledger::quantile;

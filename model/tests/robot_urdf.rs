@@ -1,7 +1,7 @@
 //! Loading robots from URDF: what becomes a DoF, what is welded or
 //! followed, and a clear error naming the element for everything else.
 
-use skin_sim::robot::{DofKind, Drive, Robot, Surface, UrdfError};
+use skin_model::robot::{DofKind, Drive, Robot, Surface, UrdfError};
 
 /// A small arm exercising every joint kind the loader accepts.
 const ARM: &str = r#"<robot name="arm">
@@ -163,7 +163,7 @@ fn the_fixture_robots_load_with_their_dofs_and_take_skin() {
         let r = Robot::from_urdf_file(&dir.join(format!("{file}.urdf"))).unwrap();
         let count = |k| r.dofs().iter().filter(|d| d.kind == k).count();
         assert_eq!((count(DofKind::Revolute), count(DofKind::Prismatic)), (revolute, prismatic), "{file}");
-        let skin = skin_sim::skin::Skin::per_link(&r, 3, 1).unwrap();
+        let skin = skin_model::skin::Skin::per_link(&r, 3, 1).unwrap();
         assert!(skin.cells().iter().all(|c| c.pose.translation.vector.iter().all(|v| v.is_finite())), "{file}");
     }
 }
@@ -171,7 +171,7 @@ fn the_fixture_robots_load_with_their_dofs_and_take_skin() {
 /// Loads every `*.urdf` of the folder `SKIN_URDF_DIR` (public descriptions
 /// kept out of the repository), puts 3 cells on every link with a surface,
 /// and prints a table: `SKIN_URDF_DIR=../robots-public cargo test -p
-/// skin-sim --test robot_urdf -- --ignored --nocapture`.
+/// skin-model --test robot_urdf -- --ignored --nocapture`.
 #[test]
 #[ignore = "needs a folder of URDFs in SKIN_URDF_DIR"]
 fn every_urdf_in_a_folder_loads() {
@@ -199,7 +199,7 @@ fn every_urdf_in_a_folder_loads() {
         };
         let count = |k| r.dofs().iter().filter(|d| d.kind == k).count();
         let surfaces = |f: fn(&Surface) -> bool| r.links().iter().filter(|l| f(&l.surface)).count();
-        let skin = skin_sim::skin::Skin::per_link(&r, 3, 1).unwrap();
+        let skin = skin_model::skin::Skin::per_link(&r, 3, 1).unwrap();
         println!(
             "{name:<24} {:>4} {:>4} {:>6} {:>5} {:>6} {:>5} {:>5} {:>10.1} {:>6}",
             count(DofKind::Revolute),

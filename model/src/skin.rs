@@ -9,19 +9,17 @@
 //! also knows which cell is wired to which: the neighbour tables its
 //! self-organization would report.
 
+mod file;
 mod patches;
-
-use std::collections::BTreeSet;
-use std::path::Path;
 
 use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use serde::Deserialize;
 use skin_protocol::message::{Neighbour, NeighbourReport, Port};
 use skin_protocol::Address;
 
+pub use file::{skin_toml, FileCell};
 pub use patches::{CELL_PITCH_M, PITCH_TOLERANCE};
 
 use crate::robot::{DofKind, Link, Robot, Shape, Surface};
@@ -171,39 +169,6 @@ impl Skin {
             .collect()
     }
 
-    /// Cells from a skin file, TOML or JSON by its extension.
-    pub fn from_file(robot: &Robot, path: &Path) -> Result<Skin, SkinError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| SkinError::Read { path: path.display().to_string(), source: e })?;
-        match path.extension().and_then(|e| e.to_str()) {
-            Some("toml") => Skin::from_toml_str(robot, &text),
-            Some("json") => Skin::from_json_str(robot, &text),
-            _ => Err(SkinError::Format(path.display().to_string())),
-        }
-    }
-
-    /// Cells from a TOML skin description:
-    ///
-    /// ```toml
-    /// [[link]]
-    /// name = "forearm_link"
-    /// cell = [{ xyz = [0.0, 0.05, 0.2], rpy = [-1.5708, 0.0, 0.0] }, { xyz = [0.05, 0.0, 0.1], rpy = [0.0, 1.5708, 0.0], id = 9 }]
-    /// ```
-    ///
-    /// Poses are in the link frame, z of the cell along the outward normal;
-    /// `rpy` defaults to zero and cells without `id` get the smallest free ones.
-    pub fn from_toml_str(robot: &Robot, text: &str) -> Result<Skin, SkinError> {
-        let file: SkinFile = toml::from_str(text).map_err(|e| SkinError::Parse(e.to_string()))?;
-        file.build(robot)
-    }
-
-    /// Cells from a JSON skin description, the same fields as the TOML one:
-    /// `{"link": [{"name": "forearm_link", "cell": [{"xyz": [0, 0.05, 0.2]}]}]}`.
-    pub fn from_json_str(robot: &Robot, text: &str) -> Result<Skin, SkinError> {
-        let file: SkinFile = serde_json::from_str(text).map_err(|e| SkinError::Parse(e.to_string()))?;
-        file.build(robot)
-    }
-
     /// All cells.
     pub fn cells(&self) -> &[Cell] {
         &self.cells
@@ -246,68 +211,6 @@ fn check_count(n: usize) -> Result<(), SkinError> {
         0 => Err(SkinError::NoCells),
         n if n > usize::from(Address::MAX_CELL) => Err(SkinError::TooMany(n)),
         _ => Ok(()),
-    }
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SkinFile {
-    link: Vec<LinkCells>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct LinkCells {
-    name: String,
-    #[serde(default)]
-    cell: Vec<CellSpec>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct CellSpec {
-    xyz: [f64; 3],
-    #[serde(default)]
-    rpy: [f64; 3],
-    id: Option<u32>,
-}
-
-impl SkinFile {
-    fn build(self, robot: &Robot) -> Result<Skin, SkinError> {
-        let mut cells = Vec::new();
-        let mut taken = BTreeSet::new();
-        for l in &self.link {
-            let link = robot.link(&l.name).ok_or_else(|| SkinError::UnknownLink(l.name.clone()))?;
-            for c in &l.cell {
-                if !c.xyz.iter().chain(&c.rpy).all(|v| v.is_finite()) {
-                    return Err(SkinError::NotFinite(l.name.clone()));
-                }
-                let id = match c.id {
-                    Some(id) => {
-                        let a = u16::try_from(id).ok().and_then(Address::cell).ok_or(SkinError::BadId(id))?;
-                        if !taken.insert(a.0) {
-                            return Err(SkinError::DuplicateId(a.0));
-                        }
-                        a
-                    }
-                    None => Address::UNASSIGNED,
-                };
-                let [r, p, y] = c.rpy;
-                let in_link = Isometry3::from_parts(
-                    Translation3::from(Vector3::from(c.xyz)),
-                    UnitQuaternion::from_euler_angles(r, p, y),
-                );
-                let pose = link.in_body * in_link;
-                let axis_clearance_m = clearance(&joint_axes(robot, link.body), &Point3::from(pose.translation.vector));
-                cells.push(Cell { id, link: link.name.clone(), body: link.body, pose, axis_clearance_m });
-            }
-        }
-        check_count(cells.len())?;
-        let mut free = (1..=Address::MAX_CELL).filter(|id| !taken.contains(id));
-        for c in cells.iter_mut().filter(|c| c.id == Address::UNASSIGNED) {
-            c.id = Address(free.next().expect("check_count leaves enough free IDs"));
-        }
-        Ok(Skin { cells, wires: Vec::new() })
     }
 }
 
@@ -468,6 +371,8 @@ fn frame_with_normal(normal: &Vector3<f64>, angle: f64) -> UnitQuaternion<f64> {
 
 #[cfg(test)]
 mod tests {
+    use std::collections::BTreeSet;
+
     use super::*;
 
     #[test]
@@ -538,29 +443,5 @@ mod tests {
         // Cells from a file: on the axis of the joint carrying them.
         let on_axis = Skin::from_toml_str(&tiny, "[[link]]\nname = \"b\"\ncell = [{ xyz = [0, 0, 0.01] }]").unwrap();
         assert_eq!(on_axis.cells()[0].axis_clearance_m, 0.0);
-    }
-
-    #[test]
-    fn skin_files_name_what_is_wrong() {
-        let robot = hrp2::robot();
-        let toml = r#"
-            [[link]]
-            name = "RARM_LINK3"
-            cell = [{ xyz = [0.0, 0.045, -0.1], rpy = [-1.5708, 0.0, 0.0], id = 5 }, { xyz = [0.045, 0.0, -0.1] }]
-        "#;
-        let skin = Skin::from_toml_str(&robot, toml).unwrap();
-        assert_eq!(skin.cells().iter().map(|c| c.id.0).collect::<Vec<_>>(), [5, 1]);
-        let json = r#"{"link": [{"name": "RARM_LINK3", "cell": [{"xyz": [0, 0.045, -0.1]}]}]}"#;
-        assert_eq!(Skin::from_json_str(&robot, json).unwrap().cells().len(), 1);
-        let unknown = Skin::from_toml_str(&robot, "[[link]]\nname = \"TAIL\"\ncell = [{ xyz = [0, 0, 0] }]");
-        assert!(matches!(unknown, Err(SkinError::UnknownLink(l)) if l == "TAIL"));
-        let typo = Skin::from_toml_str(&robot, "[[link]]\nname = \"CHEST\"\ncell = [{ xzy = [0, 0, 0] }]");
-        assert!(matches!(typo, Err(SkinError::Parse(m)) if m.contains("xzy")));
-        let twice = "[[link]]\nname = \"CHEST\"\ncell = [{ xyz = [0, 0, 0], id = 3 }, { xyz = [0, 0, 0], id = 3 }]";
-        assert!(matches!(Skin::from_toml_str(&robot, twice), Err(SkinError::DuplicateId(3))));
-        let big = "[[link]]\nname = \"CHEST\"\ncell = [{ xyz = [0, 0, 0], id = 70000 }]";
-        assert!(matches!(Skin::from_toml_str(&robot, big), Err(SkinError::BadId(70000))));
-        assert!(matches!(Skin::from_toml_str(&robot, "link = []"), Err(SkinError::NoCells)));
-        assert!(matches!(Skin::per_link(&robot, 0, 1), Err(SkinError::NoCells)));
     }
 }

@@ -1,12 +1,12 @@
-//! A robot as the simulator sees it: rigid bodies joined by revolute and
-//! prismatic joints.
+//! A robot as its description gives it: rigid bodies joined by revolute
+//! and prismatic joints.
 //!
 //! A URDF robot is reduced to what the skin can feel: links joined by fixed
 //! joints are merged into one rigid [`Body`]; revolute, continuous and
 //! prismatic joints are the degrees of freedom ([`Dof`]) the host drives,
 //! each of a [`DofKind`]; a mimic joint is a [`Joint`] that follows its
-//! master DoF. Only the simulator reads this model; the host learns it back
-//! from the skin.
+//! master DoF. A world moves this model; the host learns the tree back
+//! from the skin and reads the model only to calibrate and to draw it.
 
 pub mod hrp2;
 pub mod kinematics;

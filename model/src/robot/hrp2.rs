@@ -12,8 +12,6 @@
 use std::fmt::Write;
 
 use super::Robot;
-use crate::skin::Skin;
-use crate::world::{World, WorldConfig};
 
 /// Cells per link of the built-in skin: 14 on the chest and 30 per arm.
 pub const SKIN: [(&str, usize); 15] = [
@@ -205,15 +203,6 @@ pub fn robot() -> Robot {
         .collect();
     robot.set_home(&home).expect("one home angle per DoF");
     robot
-}
-
-/// The paper's experiment: the built-in robot with its 74-cell skin,
-/// standing, BMA250 sensors; skin placement, sensor errors, noise and sway
-/// all drawn from `seed`.
-pub fn world(seed: u64) -> World {
-    let robot = robot();
-    let skin = Skin::with_counts(&robot, &SKIN, seed).expect("the built-in skin fits the built-in robot");
-    World::new(robot, skin, WorldConfig { seed, ..WorldConfig::default() })
 }
 
 #[cfg(test)]

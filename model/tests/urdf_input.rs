@@ -5,9 +5,9 @@
 use std::time::{Duration, Instant};
 
 use proptest::prelude::*;
-use skin_sim::robot::limits::{MAX_DEPTH, MAX_DOFS, MAX_LINKS};
-use skin_sim::robot::{DofKind, Drive, Robot, Surface, UrdfError};
-use skin_sim::skin::Skin;
+use skin_model::robot::limits::{MAX_DEPTH, MAX_DOFS, MAX_LINKS};
+use skin_model::robot::{DofKind, Drive, Robot, Surface, UrdfError};
+use skin_model::skin::Skin;
 
 /// A gripper on a slide, written as exporters and xacro write them: every
 /// element the method does not need, and meshes that are not there.
