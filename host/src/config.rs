@@ -15,8 +15,8 @@ use std::ops::RangeInclusive;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use skin_protocol::event::{DEFAULT_DELTAS, FORCE_LEVELS, HYSTERESIS, PROXIMITY_LEVELS};
 use skin_model::file::{read_text_capped, MIB};
+use skin_protocol::event::{DEFAULT_DELTAS, FORCE_LEVELS, HYSTERESIS, PROXIMITY_LEVELS};
 use skin_protocol::interface::MAX_DATAGRAM;
 use skin_protocol::message::{AccelRange, Setting, TrafficMode};
 use skin_protocol::processing::{DEFAULT_CUTOFF_HZ, DEFAULT_RATE_HZ};
