@@ -15,12 +15,15 @@ use std::ops::RangeInclusive;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use skin_protocol::event::{DEFAULT_DELTAS, FORCE_LEVELS, HYSTERESIS, PROXIMITY_LEVELS};
 use skin_model::file::{read_text_capped, MIB};
+use skin_protocol::event::{DEFAULT_DELTAS, FORCE_LEVELS, HYSTERESIS, PROXIMITY_LEVELS};
 use skin_protocol::interface::MAX_DATAGRAM;
 use skin_protocol::message::{AccelRange, Setting, TrafficMode};
 use skin_protocol::processing::{DEFAULT_CUTOFF_HZ, DEFAULT_RATE_HZ};
 use skin_protocol::Address;
+
+mod keys;
+pub use keys::{keys, KeyDoc};
 
 /// Why a configuration could not be used.
 #[derive(Debug, thiserror::Error)]
@@ -133,6 +136,9 @@ const RATE_HZ: RangeInclusive<f32> = 1.0..=10_000.0;
 /// 100 either way is calibration, beyond it a typo that saturates every
 /// force level.
 const FORCE_GAIN: RangeInclusive<f32> = 0.01..=100.0;
+/// Datagrams per receive call: at least one, and no more than the batched
+/// receive takes at once (its `MAX_BATCH`).
+const BATCH: RangeInclusive<usize> = 1..=1024;
 
 /// The settings written into every cell (section 2.1.4, Table 3).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -267,8 +273,8 @@ impl InterfaceConfig {
         if self.recv_buffer_bytes < MAX_DATAGRAM {
             return Err(("recv_buffer_bytes".into(), format!("must be at least {MAX_DATAGRAM} (one datagram)")));
         }
-        if !(1..=1024).contains(&self.batch) {
-            return Err(("batch".into(), "must be in 1..=1024".into()));
+        if !BATCH.contains(&self.batch) {
+            return Err(("batch".into(), format!("must be in {}..={}", BATCH.start(), BATCH.end())));
         }
         if self.ports.is_empty() {
             return Err(("ports".into(), "is empty: configure at least one interface port".into()));

@@ -4,6 +4,8 @@
 //! - `cargo xtask ci`: installs what a fresh machine lacks, then runs every
 //!   check CI runs, one line per step, and a final `N passed, N failed`.
 //! - `cargo xtask install`: only the installation part.
+//! - `cargo xtask book`: builds the book (`docs/`) with mdBook and checks
+//!   its internal links and those of the README.
 //! - `cargo xtask firmware`: builds the cell firmware and the bootloader
 //!   for both boards and checks them against their flash and RAM budget.
 //! - `cargo xtask qemu-net --cells N`: a hexagonal patch of N QEMU cells.
@@ -18,6 +20,7 @@ mod elf;
 #[allow(dead_code)]
 mod flash_map;
 mod hex;
+mod links;
 
 use std::env;
 use std::fs;
@@ -102,6 +105,8 @@ fn ci_steps() -> Vec<Step> {
             "build -p skin-firmware --profile firmware --target thumbv7em-none-eabihf --features stm32f4 --bins",
         ),
         Step { name: "firmware size within budget", action: Action::Check(firmware_size) },
+        Step { name: "book (mdbook build docs)", action: Action::Run("mdbook", vec!["build", "docs"]) },
+        Step { name: "book and README internal links", action: Action::Check(book_links) },
         cargo("QEMU tests (fault exits, 7-cell network)", "test -p skin-tests --test qemu -- --ignored"),
         cargo(
             "QEMU update tests (7 cells: update, kill mid-write, refusals, rollback; a hanging trial image)",
@@ -120,6 +125,8 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("ci") => return ci(&root),
         Some("install") => install(),
+        Some("book") => run("mdbook", &["build", "docs"])
+            .and_then(|()| book_links().map(|l| l.iter().for_each(|l| println!("{l}")))),
         Some("firmware") => firmware(),
         Some("qemu-net") => qemu_net(&args[1..]),
         Some("image") => image(&args[1..]).map(drop),
@@ -129,7 +136,8 @@ fn main() -> ExitCode {
             eprintln!(
                 "usage: cargo xtask <command>\n\n  \
                  ci                   install what is missing, then run every CI check\n  \
-                 install              only install what is missing (rustup target and components, qemu-system-arm, openssl, Python readers)\n  \
+                 install              only install what is missing (rustup target and components, qemu-system-arm, openssl, Python readers, mdbook)\n  \
+                 book                 build the book into docs/book and check its internal links and the README's\n  \
                  firmware             build the cell firmware and bootloader for both boards and check their size\n  \
                  qemu-net --cells N   run a hexagonal patch of N QEMU cells (more flags: --json, --keep)\n  \
                  image --key KEY --version V [--board qemu|stm32f4] [--out FILE]\n                       \
@@ -278,6 +286,7 @@ fn install() -> Result<(), String> {
     .filter(|(program, args)| !succeeds(program, args))
     .map(|(program, _)| program)
     .collect();
+    mdbook()?;
     if !missing.is_empty() {
         let root = output("id", &["-u"]).is_some_and(|u| u.trim() == "0");
         if !root {
@@ -289,6 +298,31 @@ fn install() -> Result<(), String> {
         run("apt-get", &args)?;
     }
     python_readers()
+}
+
+/// The mdBook the book is built with; CI installs exactly this one.
+const MDBOOK_VERSION: &str = "0.5.4";
+
+/// Installs [`MDBOOK_VERSION`] of mdBook unless it is there, without the
+/// default features (a file watcher, a web server with tokio and axum, and
+/// search), which `mdbook build` does not need: 122 crates to compile.
+fn mdbook() -> Result<(), String> {
+    let installed = output("mdbook", &["--version"]);
+    if installed.is_some_and(|v| v.trim() == format!("mdbook v{MDBOOK_VERSION}")) {
+        return Ok(());
+    }
+    run("cargo", &["install", "mdbook", "--version", MDBOOK_VERSION, "--locked", "--no-default-features"])
+}
+
+/// Every relative link and anchor of the README and the book resolves.
+fn book_links() -> Result<Vec<String>, String> {
+    let pages = links::pages(Path::new("."))?;
+    let broken = links::check(&pages)?;
+    if broken.is_empty() {
+        Ok(vec![format!("{} pages, every internal link resolves", pages.len())])
+    } else {
+        Err(format!("{} broken links:\n      {}", broken.len(), broken.join("\n      ")))
+    }
 }
 
 /// The Python readers the tests check our files and our live topics with

@@ -37,7 +37,7 @@ use std::process::ExitCode;
 /// The most cells a `--cells` flag takes: one per cell ID the interface hands out.
 const MAX_CELLS: u64 = skin_protocol::Address::MAX_CELL as u64;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand, ValueEnum};
 
 /// The robot PC side of a self-organizing, multi-modal robot skin.
 #[derive(Parser)]
@@ -80,6 +80,21 @@ enum Command {
     Sign(sign::Args),
     /// Update every cell of the skin to a signed image through the interface ports.
     Flash(flash::Args),
+    /// Print a reference page of the book (generated, compared by a test).
+    #[command(hide = true)]
+    Reference {
+        /// Which page.
+        page: ReferencePage,
+    },
+}
+
+/// The book's generated reference pages.
+#[derive(Clone, Copy, ValueEnum)]
+enum ReferencePage {
+    /// `docs/src/reference/cli.md`.
+    Cli,
+    /// `docs/src/reference/config.md`.
+    Config,
 }
 
 /// Runs the subcommand; errors are printed as one line, never a backtrace.
@@ -117,6 +132,16 @@ pub fn main() -> ExitCode {
         Command::Keygen(args) => keygen::run(args),
         Command::Sign(args) => sign::run(args),
         Command::Flash(args) => flash::run(args),
+        Command::Reference { page } => {
+            print!(
+                "{}",
+                match page {
+                    ReferencePage::Cli => skin_host::reference::cli_markdown(&Cli::command()),
+                    ReferencePage::Config => skin_host::reference::config_markdown(),
+                }
+            );
+            Ok(ExitCode::SUCCESS)
+        }
     };
     result.unwrap_or_else(|e| {
         eprintln!("error: {}", message::cut(&e.to_string()));
