@@ -105,11 +105,12 @@ pub struct CellView {
 /// Runs the robot's control period with zero velocities until the skin
 /// has organized: every cell heard has reported a neighbour table with a
 /// master port, none changed for `settle_s`, and the expected number of
-/// cells (if given) is there. `progress` gets the cells with a table.
+/// cells (if given) is there. `progress` gets, every control period, the
+/// cells with a table and the robot time spent, s.
 pub fn organize(
     remote: &mut Remote,
     cfg: &OrganizeConfig,
-    progress: &mut dyn FnMut(usize),
+    progress: &mut dyn FnMut(usize, f64),
 ) -> Result<Organized, PipelineError> {
     let zero = vec![0.0; remote.dof_count()];
     remote.command_velocities(&zero)?;
@@ -126,8 +127,8 @@ pub fn organize(
         if state != seen {
             seen = state;
             last_change_s = now_s;
-            progress(with_tables);
         }
+        progress(with_tables, now_s - start_s);
         let complete = with_tables == registry.len()
             && !registry.is_empty()
             && cfg.expected_cells.is_none_or(|n| registry.len() >= n);

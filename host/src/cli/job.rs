@@ -58,8 +58,9 @@ pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
     let mut timing = Timing::default();
     let wall = Instant::now();
     let mut organizing = Progress::new("self-organization", "cells with neighbour tables");
-    let mut organized = organize(remote, &steps.organize, &mut |n| {
+    let mut organized = organize(remote, &steps.organize, &mut |n, spent_s| {
         organizing.set(n as u64, steps.organize.expected_cells.unwrap_or(n) as u64);
+        organizing.robot_time(spent_s, Some(steps.organize.timeout_s));
     })?;
     organized.settings_written = organized.cells.len() * steps.settings.len();
     organized.settings_acknowledged = write_settings(remote, &steps.settings, ACK_WAIT_S)?;
