@@ -1,5 +1,5 @@
 //! ROS 2 over Zenoh, checked by a subscriber we did not write: `skin demo
-//! --quick --ros2` publishes while a Python `eclipse-zenoh` peer (multicast
+//! --quick --ros2 --ros2-middleware zenoh` publishes while a Python `eclipse-zenoh` peer (multicast
 //! off, connecting to the endpoint the demo prints) subscribes on
 //! rmw_zenoh's key expressions, decodes every topic's CDR with rosbags,
 //! reads the attachments, collects the liveliness tokens, and joins late
@@ -17,7 +17,8 @@ fn a_zenoh_peer_sees_the_demo_as_rmw_zenoh_publishes() {
     let Some(python) = common::python() else { return };
     let dir = std::env::temp_dir().join(format!("skin-ros2-live-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let args = ["demo", "--quick", "--no-record", "--json", "--ros2", "--imu", "--out"].map(OsStr::new);
+    let args = ["demo", "--quick", "--no-record", "--json", "--ros2", "--ros2-middleware", "zenoh", "--imu", "--out"]
+        .map(OsStr::new);
     let (demo, announced, drain) =
         common::spawn_announcing(&[&args[..], &[dir.as_os_str()]].concat(), "ROS 2 over Zenoh:");
     let words: Vec<&str> = announced.split_whitespace().collect();

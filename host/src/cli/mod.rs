@@ -81,7 +81,12 @@ pub fn main() -> ExitCode {
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()))
+        // RustDDS warns of every peer it has no route to yet (each packet
+        // while discovery settles on loopback): errors only, unless asked.
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| "warn,rustdds=error,ros2_client=error".into()),
+        )
         .init();
     let result = match Cli::parse().command {
         #[cfg(feature = "sim")]
