@@ -87,5 +87,7 @@ fn rclpy_on_fast_dds_sees_the_demo_as_a_ros_2_node() {
     assert_eq!(late["count"], 1, "late joiner: {}", got["late"]);
     assert_eq!(late["first"]["start"], "<?xml version=\"1.0\"?>");
     assert_eq!(late["first"]["end"], "</robot>\n");
+    let (median, p99) = rclpy::latency(&got, "rclpy's callback over DDS");
+    assert!(0.0 < median && median <= p99, "a message is received after it is stamped");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -102,5 +102,7 @@ fn a_zenoh_peer_sees_the_demo_as_rmw_zenoh_publishes() {
     for topic in ["/tf_static", "/robot_description"] {
         assert_eq!(one(topic)["count"], 1, "late joiner on {topic}: {}", got["late"]);
     }
+    let (median, p99) = common::rclpy::latency(&got, "a Python zenoh peer's callback");
+    assert!(0.0 < median && median <= p99, "a message is received after it is stamped");
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -89,7 +89,7 @@ fn ci_steps() -> Vec<Step> {
         cargo("tests (host)", "test --workspace"),
         cargo(
             "tests (ROS 2 over DDS and Zenoh, a ros2_control robot, the Foxglove view: unit, rclpy on Fast DDS, a Python zenoh peer, a Python Foxglove client)",
-            "test -p skin-host --features ros2 --lib --test ros2_dds --test ros2_live --test foxglove_live",
+            "test -p skin-host --features ros2 --lib --test ros2_dds --test ros2_control --test ros2_live --test foxglove_live",
         ),
         cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
         cargo(

@@ -81,11 +81,11 @@ pub fn main() -> ExitCode {
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        // RustDDS warns of every peer it has no route to yet (each packet
-        // while discovery settles on loopback): errors only, unless asked.
+        // RustDDS logs every peer it has no route to yet and, on loopback
+        // only, each multicast group it cannot leave: silent unless asked.
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| "warn,rustdds=error,ros2_client=error".into()),
+                .unwrap_or_else(|_| "warn,rustdds=off,ros2_client=error".into()),
         )
         .init();
     let result = match Cli::parse().command {

@@ -66,3 +66,18 @@ pub fn json_of(script: &str, out: &std::process::Output) -> serde_json::Value {
     assert!(out.status.success(), "{script} failed: {stderr}");
     serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{script} printed no JSON ({e}): {stderr}"))
 }
+
+/// The median and 99th percentile of the sorted `/skin/cells` latencies, printed
+/// (the figure of the results) and returned; none is a failure.
+pub fn latency(got: &serde_json::Value, what: &str) -> (f64, f64) {
+    let l: Vec<f64> = got["cells_latency_ms"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    assert!(!l.is_empty(), "no /skin/cells latency measured");
+    let at = |q: f64| l[((l.len() - 1) as f64 * q).round() as usize];
+    eprintln!(
+        "/skin/cells from its stamp to {what}: median {:.2} ms, p99 {:.2} ms over {} messages",
+        at(0.5),
+        at(0.99),
+        l.len()
+    );
+    (at(0.5), at(0.99))
+}

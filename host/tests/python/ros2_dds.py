@@ -53,8 +53,14 @@ def describe(topic, msg):
     return {}
 
 
+cells_latency_ms = []  # /skin/cells: receipt in rclpy's callback minus the header stamp
+
+
 def keep(into, topic):
     def on_message(msg):
+        if topic == "/skin/cells" and into is live:
+            stamp = msg.header.stamp.sec * 1e9 + msg.header.stamp.nanosec
+            cells_latency_ms.append((time.time_ns() - stamp) / 1e6)
         entry = into.setdefault(topic, {"count": 0, "first": describe(topic, msg), "stamps": []})
         entry["count"] += 1
         if len(entry["stamps"]) < 5:
@@ -121,7 +127,7 @@ graph = {
     ),
     "qos": {t: [qos_text(i) for i in publishers_of(t)] for t in list(VOLATILE) + LATCHED},
 }
-print(json.dumps({"rmw": rmw, "live": live, "late": late, "graph": graph}))
+print(json.dumps({"rmw": rmw, "live": live, "late": late, "graph": graph, "cells_latency_ms": sorted(cells_latency_ms)}))
 late_node.destroy_node()
 node.destroy_node()
 rclpy.shutdown()

@@ -12,8 +12,11 @@ Usage: ros2_robot.py ROBOT_LINK_ADDR CONTROLLER SECONDS [--joints a,b]
 [--states-for S]. --joints declares other joints than the simulated
 robot's (a wrong controller); --states-for stops /joint_states after S
 seconds of motion, as a broadcaster that died. Prints "ready" on stderr once
-serving, and one JSON object on stdout at the end (SIGTERM or SECONDS):
-every command received with its wall time.
+serving and "moving" at the first non-zero command, and one JSON object on
+stdout at the end (SIGTERM or SECONDS): every command received with its
+wall time. With the simulator in lockstep, its time advances one period
+per step of this loop, so a loaded machine slows the world instead of
+breaking it.
 """
 
 import json
@@ -132,6 +135,7 @@ def on_command(msg):
     held = [v if math.isfinite(v) else float("nan") for v in msg.data]
     if moved_at is None and any(v != 0.0 for v in held):
         moved_at = time.monotonic()
+        print("moving", file=sys.stderr, flush=True)
 
 
 controller.create_subscription(Float64MultiArray, f"/{CONTROLLER}/commands", on_command, 10)

@@ -4,7 +4,7 @@ use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use ros2_client::dds::{Client, Node as RosNode, ServiceMapping, Subscription};
 use ros2_client::qos::{Durability, History, Reliability, WhenFull};
@@ -34,6 +34,17 @@ struct Ros {
     commands: CommandWriter,
     /// The last positions, in the controller's joint order.
     positions: Vec<f64>,
+    /// The stamp of the `/joint_states` they came in, s since the epoch.
+    stamp_s: f64,
+    /// The stamp of the positions the host was last answered with.
+    answered_s: Option<f64>,
+    /// The first stamp: the robot's clock on the link counts from it.
+    first_stamp_s: Option<f64>,
+    /// The robot's clock last told the host, µs (never backwards).
+    time_us: u64,
+    /// Per new command: how old the `/joint_states` behind it was, ms
+    /// (from its stamp to the command's sending, on this host's clock).
+    latencies_ms: Vec<f32>,
     heard: Instant,
     _node: RosNode,
 }
@@ -54,6 +65,23 @@ impl Ros {
         }
     }
 
+    /// Says how old the `/joint_states` behind the commands were.
+    fn report(&mut self) {
+        let l = &mut self.latencies_ms;
+        if l.is_empty() {
+            return;
+        }
+        l.sort_by(f32::total_cmp);
+        let at = |q: f64| l[((l.len() - 1) as f64 * q).round() as usize];
+        eprintln!(
+            "ros2_control: {} commands; from a /joint_states stamp to the command it caused: median {:.2} ms, p99 {:.2} ms, max {:.2} ms",
+            l.len(),
+            at(0.5),
+            at(0.99),
+            at(1.0)
+        );
+    }
+
     /// Takes every `/joint_states` that arrived; the positions of the last
     /// one that reports every joint.
     fn take_states(&mut self) {
@@ -62,6 +90,7 @@ impl Ros {
                 Ok(Some((state, _))) => {
                     if let Ok(p) = state.positions_of(&self.joints) {
                         self.positions = p;
+                        self.stamp_s = f64::from(state.header.stamp.sec) + f64::from(state.header.stamp.nanosec) * 1e-9;
                         self.heard = Instant::now();
                     }
                 }
@@ -126,8 +155,19 @@ impl Ros2Robot {
             .create_publisher(&(&reliable).into())
             .and_then(|p| p.create_datawriter_no_key::<Float64MultiArray, CDRSerializerAdapter<_>>(&topic, None))
             .map_err(|e| DdsError::create(&commands_name, e))?;
-        let mut ros =
-            Ros { joints: joints.clone(), states, commands, positions: Vec::new(), heard: Instant::now(), _node: node };
+        let mut ros = Ros {
+            joints: joints.clone(),
+            states,
+            commands,
+            positions: Vec::new(),
+            stamp_s: 0.0,
+            answered_s: None,
+            first_stamp_s: None,
+            time_us: 0,
+            latencies_ms: Vec::new(),
+            heard: Instant::now(),
+            _node: node,
+        };
         first_state(&mut ros, config)?;
         let socket = UdpSocket::bind((Ipv4Addr::LOCALHOST, 0))?;
         socket.set_read_timeout(Some(Duration::from_millis(1)))?;
@@ -236,7 +276,6 @@ fn first_state(ros: &mut Ros, config: &ControlConfig) -> Result<(), ControlError
 /// Answers the robot link until stopped; ends the process on a signal or
 /// a silent `/joint_states`, after the zero command.
 fn serve(ros: &mut Ros, socket: &UdpSocket, stop: &AtomicBool) {
-    let start = Instant::now();
     let mut buf = [0u8; robot_link::MAX_DATAGRAM + 1];
     let mut out = [0u8; robot_link::MAX_DATAGRAM];
     let mut last_seq = None;
@@ -247,6 +286,7 @@ fn serve(ros: &mut Ros, socket: &UdpSocket, stop: &AtomicBool) {
         ros.take_states();
         if stop.load(Ordering::SeqCst) {
             ros.zero();
+            ros.report();
             return;
         }
         if let Some(signal) = signals::received() {
@@ -282,7 +322,7 @@ fn serve(ros: &mut Ros, socket: &UdpSocket, stop: &AtomicBool) {
                 if matches!(request, ToRobot::Command { .. }) {
                     commanded = Instant::now();
                 }
-                answer(ros, request, &mut last_seq, &mut commanding, start)
+                answer(ros, request, &mut last_seq, &mut commanding)
             }
             Err(e) => {
                 tracing::debug!("ros2_control: an unreadable robot-link datagram from {from}: {e:?}");
@@ -330,14 +370,18 @@ fn answer(
             }
             if *last_seq != Some(seq) {
                 ros.command(velocities.to_vec());
+                if let (Some(stamp), Ok(now)) = (ros.answered_s, SystemTime::now().duration_since(UNIX_EPOCH)) {
+                    ros.latencies_ms.push(((now.as_secs_f64() - stamp) * 1e3) as f32);
+                }
                 *last_seq = Some(seq);
                 *commanding = true;
             }
-            FromRobot::State {
-                seq,
-                time_us: start.elapsed().as_micros() as u64,
-                positions: ros.positions.iter().copied().collect(),
-            }
+            ros.answered_s = Some(ros.stamp_s);
+            // The robot's time is that of its /joint_states, so a robot
+            // (or simulator) that runs slow is seen slow, as on the link.
+            let first = *ros.first_stamp_s.get_or_insert(ros.stamp_s);
+            ros.time_us = ros.time_us.max(((ros.stamp_s - first).max(0.0) * 1e6) as u64);
+            FromRobot::State { seq, time_us: ros.time_us, positions: ros.positions.iter().copied().collect() }
         }
     }
 }

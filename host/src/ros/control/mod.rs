@@ -64,7 +64,7 @@ impl ControlConfig {
             joints: None,
             domain,
             localhost_only: crate::ros::dds::localhost_only_from_env(),
-            timeout: Duration::from_secs(5),
+            timeout: Duration::from_secs(10),
         })
     }
 }
