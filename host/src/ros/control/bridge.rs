@@ -178,6 +178,9 @@ impl Ros2Robot {
             let stop = stop.clone();
             std::thread::Builder::new().name("ros2_control".to_owned()).spawn(move || {
                 let _context = context;
+                if let Err(e) = signals::unblock() {
+                    tracing::warn!("ros2_control: SIGINT and SIGTERM stay blocked: {e}");
+                }
                 serve(&mut ros, &socket, &stop);
             })?
         };
@@ -308,7 +311,14 @@ fn serve(ros: &mut Ros, socket: &UdpSocket, stop: &AtomicBool) {
         }
         let (n, from) = match socket.recv_from(&mut buf) {
             Ok(got) => got,
-            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => continue,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut | std::io::ErrorKind::Interrupted
+                ) =>
+            {
+                continue
+            }
             Err(e) => {
                 tracing::warn!("ros2_control: the robot link failed: {e}");
                 continue;
@@ -336,13 +346,7 @@ fn serve(ros: &mut Ros, socket: &UdpSocket, stop: &AtomicBool) {
 }
 
 /// The answer to one robot-link request.
-fn answer(
-    ros: &mut Ros,
-    request: ToRobot,
-    last_seq: &mut Option<u32>,
-    commanding: &mut bool,
-    start: Instant,
-) -> FromRobot {
+fn answer(ros: &mut Ros, request: ToRobot, last_seq: &mut Option<u32>, commanding: &mut bool) -> FromRobot {
     let dofs = ros.joints.len();
     match request {
         ToRobot::Hello => FromRobot::Info { dofs: dofs as u8, period_us: PERIOD_US, lockstep: false },
