@@ -34,14 +34,7 @@ fn rclpy_on_fast_dds_sees_the_demo_as_a_ros_2_node() {
     // The graph: the node, its publishers with their types, and their QoS.
     let graph = &got["graph"];
     assert!(graph["nodes"].as_array().unwrap().iter().any(|n| n == "/skin"), "{graph}");
-    let types = [
-        ("/skin/cells", "sensor_msgs/msg/PointCloud2"),
-        ("/joint_states", "sensor_msgs/msg/JointState"),
-        ("/skin/imu", "sensor_msgs/msg/Imu"),
-        ("/skin/events", "visualization_msgs/msg/MarkerArray"),
-        ("/tf_static", "tf2_msgs/msg/TFMessage"),
-        ("/robot_description", "std_msgs/msg/String"),
-    ];
+    let types = common::TOPIC_TYPES;
     for (topic, ty) in types {
         let listed = graph["skin_publishers"].as_array().unwrap();
         assert!(

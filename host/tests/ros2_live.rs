@@ -45,14 +45,7 @@ fn a_zenoh_peer_sees_the_demo_as_rmw_zenoh_publishes() {
         assert_eq!(entries.len(), 1, "{topic} on one key only: {entries:?}");
         &entries[0]
     };
-    let types = [
-        ("/skin/cells", "sensor_msgs/msg/PointCloud2"),
-        ("/joint_states", "sensor_msgs/msg/JointState"),
-        ("/skin/imu", "sensor_msgs/msg/Imu"),
-        ("/skin/events", "visualization_msgs/msg/MarkerArray"),
-        ("/tf_static", "tf2_msgs/msg/TFMessage"),
-        ("/robot_description", "std_msgs/msg/String"),
-    ];
+    let types = common::TOPIC_TYPES;
     let tokens: Vec<&str> = got["tokens"].as_array().unwrap().iter().map(|t| t.as_str().unwrap()).collect();
     assert!(tokens.contains(&format!("@ros2_lv/0/{zid}/0/0/NN/%/%/skin").as_str()), "the node's token: {tokens:?}");
     let mut gids = Vec::new();

@@ -11,6 +11,17 @@ use std::thread::JoinHandle;
 #[allow(dead_code, reason = "the rclpy tests' helpers; the other tests share this module")]
 pub mod rclpy;
 
+/// The skin's live topics and their types, as every middleware publishes them.
+#[allow(dead_code, reason = "the live tests' table; the other tests share this module")]
+pub const TOPIC_TYPES: [(&str, &str); 6] = [
+    ("/skin/cells", "sensor_msgs/msg/PointCloud2"),
+    ("/joint_states", "sensor_msgs/msg/JointState"),
+    ("/skin/imu", "sensor_msgs/msg/Imu"),
+    ("/skin/events", "visualization_msgs/msg/MarkerArray"),
+    ("/tf_static", "tf2_msgs/msg/TFMessage"),
+    ("/robot_description", "std_msgs/msg/String"),
+];
+
 #[allow(dead_code, reason = "the Python readers' helper; the rclpy tests share this module")]
 /// The venv's Python, or `None` (after saying so loudly) when this
 /// machine has no Python at all. A machine with Python but without the

@@ -361,14 +361,7 @@ fn answer(ros: &mut Ros, request: ToRobot, last_seq: &mut Option<u32>, commandin
         }
         ToRobot::DofKind { .. } => FromRobot::Refused { seq: 0, reason: Refusal::NoSuchDof },
         ToRobot::Command { seq, velocities } => {
-            let refusal = if velocities.len() != dofs {
-                Some(Refusal::WrongLength)
-            } else if velocities.iter().any(|v| !v.is_finite()) {
-                Some(Refusal::NotFinite)
-            } else {
-                None
-            };
-            if let Some(reason) = refusal {
+            if let Some(reason) = Refusal::of_command(&velocities, dofs) {
                 ros.zero();
                 return FromRobot::Refused { seq, reason };
             }
