@@ -26,10 +26,14 @@ impl<F: NorFlash> FlashSlot<F> {
     /// The slot of `len` bytes at `base`: whole erase sectors within the
     /// flash, written a chunk at a time.
     pub fn new(flash: F, base: u32, len: u32) -> Result<FlashSlot<F>, SlotLayoutError> {
-        let aligned = |v: u32| v as usize % F::ERASE_SIZE == 0;
+        let aligned = |v: u32| (v as usize).is_multiple_of(F::ERASE_SIZE);
         let fits = (base as usize).checked_add(len as usize).is_some_and(|end| end <= flash.capacity());
-        let ok =
-            aligned(base) && aligned(len) && len > 0 && fits && CHUNK_LEN % F::WRITE_SIZE == 0 && F::READ_SIZE == 1;
+        let ok = aligned(base)
+            && aligned(len)
+            && len > 0
+            && fits
+            && CHUNK_LEN.is_multiple_of(F::WRITE_SIZE)
+            && F::READ_SIZE == 1;
         if ok {
             Ok(FlashSlot { flash: RefCell::new(flash), base, len })
         } else {

@@ -283,7 +283,7 @@ mod tests {
                 }
                 node.handle_updates(*t);
             }
-            if *t % 4_000 == 0 {
+            if t.is_multiple_of(4_000) {
                 node.sample(&Sample::new(500, [100, 100, 100], [0, 0, 256], 800, 0).unwrap());
             }
             *t += 100;

@@ -97,13 +97,13 @@ impl<F: NorFlash, T: Record> Store<F, T> {
         #[allow(clippy::let_unit_value)]
         let () = T::FITS;
         let half_len = len / 2;
-        let aligned = |v: u32, to: usize| v as usize % to == 0;
+        let aligned = |v: u32, to: usize| (v as usize).is_multiple_of(to);
         let layout_ok = half_len as usize >= SLOT
             && aligned(base, F::ERASE_SIZE)
             && aligned(half_len, F::ERASE_SIZE)
             && len == 2 * half_len
-            && SLOT % F::READ_SIZE == 0
-            && SLOT % F::WRITE_SIZE == 0
+            && SLOT.is_multiple_of(F::READ_SIZE)
+            && SLOT.is_multiple_of(F::WRITE_SIZE)
             && base as usize + len as usize <= flash.capacity();
         if !layout_ok {
             return Err(StoreError::Layout);

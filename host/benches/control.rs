@@ -115,8 +115,10 @@ impl Rig {
         // there), spread over the skin but not on the pat area.
         let stride = 100 / case.touched_percent;
         let touched = (2..=n as u16).step_by(stride).map(|c| (Address(c), sample(0.05, 0.0))).collect();
-        let quiet =
-            (2..=n as u16).filter(|c| (c - 2) as usize % stride != 0).map(|c| (Address(c), sample(0.0, 0.0))).collect();
+        let quiet = (2..=n as u16)
+            .filter(|c| !((c - 2) as usize).is_multiple_of(stride))
+            .map(|c| (Address(c), sample(0.0, 0.0)))
+            .collect();
         Rig { controller, map, pose, touched, quiet, traffic: case.traffic, time_s: PERIOD_S }
     }
 

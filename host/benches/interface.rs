@@ -15,9 +15,11 @@
 //!      and messages written per second;
 //!    - with `--features ros2`, publishing on (`--ros2`: the ROS 2 topics
 //!      over Zenoh, to a subscriber in the same process connected over
-//!      loopback TCP): loss, the receiving thread's CPU and the other
-//!      threads' (load generator, Zenoh's runtime), and messages and bytes
-//!      the subscriber got per second;
+//!      loopback TCP; and over DDS, to a `/skin/cells` subscriber in the
+//!      same process on a participant of its own, loopback only): loss, the
+//!      receiving thread's CPU and the other threads' (load generator,
+//!      Zenoh's runtime or RustDDS's threads), and messages and bytes the
+//!      subscriber got per second;
 //!    - with `--features foxglove` (or `ros2`), the Foxglove view on
 //!      (`--foxglove`), a WebSocket client in the same process subscribed
 //!      to every channel: loss, the receiving thread's CPU and the other
@@ -26,7 +28,7 @@
 //!
 //! `cargo bench -p skin-host --bench interface [--features ros2]` (about 4 minutes);
 //! `SKIN_BENCH_SECONDS` sets the length of each loopback run (default 10);
-//! `SKIN_BENCH_ONLY_PUBLISH=1` runs only publishing (Zenoh, Foxglove) and its baselines.
+//! `SKIN_BENCH_ONLY_PUBLISH=1` runs only publishing (Zenoh, DDS, Foxglove) and its baselines.
 
 use std::hint::black_box;
 use std::net::SocketAddr;
@@ -126,6 +128,9 @@ enum Output {
     /// Publishes the ROS 2 topics over Zenoh to a subscriber.
     #[cfg(feature = "ros2")]
     Publish,
+    /// Publishes the ROS 2 topics over DDS to a `/skin/cells` subscriber.
+    #[cfg(feature = "ros2")]
+    PublishDds,
     /// Serves the Foxglove view to a subscribed client.
     #[cfg(feature = "foxglove")]
     Foxglove,
@@ -168,6 +173,64 @@ fn subscriber(node: &skin_host::ros::rmw_zenoh::Node) -> (zenoh::Session, zenoh:
     // Until the subscription has reached the publisher's side.
     thread::sleep(Duration::from_millis(500));
     (session, sub, counts)
+}
+
+/// `sensor_msgs/PointCloud2` as serde reads it from CDR.
+#[cfg(feature = "ros2")]
+#[derive(serde::Deserialize)]
+#[allow(dead_code, reason = "decoded whole, as a subscriber would; only the data's length is counted")]
+struct PointCloud2 {
+    stamp: (i32, u32),
+    frame_id: String,
+    height: u32,
+    width: u32,
+    fields: Vec<(String, u32, u8, u32)>,
+    is_bigendian: bool,
+    point_step: u32,
+    row_step: u32,
+    data: Vec<u8>,
+    is_dense: bool,
+}
+
+/// A DDS subscriber to `/skin/cells` in `domain` (its own participant,
+/// loopback only), taking on its own thread until the returned flag is set;
+/// counts messages and point-data bytes.
+#[cfg(feature = "ros2")]
+fn dds_subscriber(domain: u16) -> (Arc<AtomicBool>, Counts) {
+    use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions};
+    let participant = rustdds::DomainParticipantBuilder::new(domain)
+        .with_only_networks([std::net::IpAddr::from([127, 0, 0, 1])])
+        .build()
+        .expect("the subscriber's participant");
+    let context = ros2_client::dds::Context::from_domain_participant(participant).expect("context");
+    let mut node = context.new_node(NodeName::new("/", "bench").expect("name"), NodeOptions::new()).expect("node");
+    let qos = ros2_client::QosProfile::publisher_default().history(ros2_client::qos::History::KeepLast { depth: 10 });
+    let topic = node
+        .create_topic(
+            &Name::parse("/skin/cells").expect("topic"),
+            MessageTypeName::new("sensor_msgs", "PointCloud2"),
+            &qos,
+        )
+        .expect("topic");
+    let sub = node.create_subscription::<PointCloud2>(&topic, Some(qos)).expect("subscription");
+    let counts = Arc::new((std::sync::atomic::AtomicU64::new(0), std::sync::atomic::AtomicU64::new(0)));
+    let done = Arc::new(AtomicBool::new(false));
+    let (c, d) = (counts.clone(), done.clone());
+    thread::spawn(move || {
+        let _alive = (&context, &node);
+        while !d.load(Ordering::Relaxed) {
+            match sub.take() {
+                Ok(Some((cloud, _))) => {
+                    c.0.fetch_add(1, Ordering::Relaxed);
+                    c.1.fetch_add(cloud.data.len() as u64, Ordering::Relaxed);
+                }
+                _ => thread::sleep(Duration::from_micros(500)),
+            }
+        }
+    });
+    // Until discovery has matched it with the publisher's participant.
+    thread::sleep(Duration::from_millis(500));
+    (done, counts)
 }
 
 /// A Foxglove client at `addr` that subscribes to every channel advertised
@@ -294,6 +357,21 @@ fn loopback(
                     let (zenoh_session, zenoh_subscriber, counts) = subscriber(&node);
                     published = Some(Box::new(move || {
                         let _alive = (&zenoh_session, &zenoh_subscriber);
+                        (counts.0.load(Ordering::Relaxed), counts.1.load(Ordering::Relaxed))
+                    }));
+                    let mut s = Session::live(AccelRange::G2, false);
+                    s.add_outlet(Box::new(node));
+                    Some(s)
+                }
+                #[cfg(feature = "ros2")]
+                Output::PublishDds => {
+                    use skin_host::ros::dds::{DdsConfig, Node};
+                    let domain = 200 + (std::process::id() % 30) as u16;
+                    let config = DdsConfig { domain, node: "skin".to_owned(), localhost_only: true };
+                    let node = Node::open(&config).expect("open the DDS node");
+                    let (done, counts) = dds_subscriber(domain);
+                    published = Some(Box::new(move || {
+                        done.store(true, Ordering::Relaxed);
                         (counts.0.load(Ordering::Relaxed), counts.1.load(Ordering::Relaxed))
                     }));
                     let mut s = Session::live(AccelRange::G2, false);
@@ -445,6 +523,8 @@ fn loopback_report(seconds: f64) {
     runs.extend([
         (heavy_skin(1000), "each port sends every 1 ms, PUBLISHING over Zenoh", Output::Publish),
         (hrp2.clone(), "74 cells on 5 ports, each sends every 1 ms, PUBLISHING over Zenoh", Output::Publish),
+        (heavy_skin(1000), "each port sends every 1 ms, PUBLISHING over DDS", Output::PublishDds),
+        (hrp2.clone(), "74 cells on 5 ports, each sends every 1 ms, PUBLISHING over DDS", Output::PublishDds),
     ]);
     #[cfg(feature = "foxglove")]
     runs.extend([
@@ -483,7 +563,7 @@ fn loopback_report(seconds: f64) {
             InterfaceConfig::default().recv_buffer_bytes,
         );
         println!(
-            "    kernel UDP receive-buffer overflows (system-wide): {}; the other threads (load generator; publishing: Zenoh's runtime, or the view's thread, the SDK's runtime and the client): {}",
+            "    kernel UDP receive-buffer overflows (system-wide): {}; the other threads (load generator; publishing: Zenoh's runtime or RustDDS's threads and the subscriber, or the view's thread, the SDK's runtime and the client): {}",
             delta(drops0, rcvbuf_errors()),
             process_cpu.map_or("CPU unknown".into(), |cpu| format!("{:.1} % of a core", 100.0 * cpu / sent.wall_time_s))
         );

@@ -31,7 +31,8 @@
 //! - [`view`]: what a live viewer is told, over a queue that drops rather than blocks.
 //! - `foxglove` (the `foxglove` feature): the live 3D view in Foxglove, over the SDK's WebSocket server.
 // Denied, not forbidden: the batched receive of `interface::socket` calls
-// `recvmmsg`/`sendmmsg` and is the one module allowed to.
+// `recvmmsg`/`sendmmsg`, and `ros::control`'s signal handling calls
+// `sigaction`/`pthread_sigmask`; they are the modules allowed to.
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 

@@ -1,5 +1,5 @@
 //! ROS 2 over Zenoh, checked by a subscriber we did not write: `skin demo
-//! --quick --ros2` publishes while a Python `eclipse-zenoh` peer (multicast
+//! --quick --ros2 --ros2-middleware zenoh` publishes while a Python `eclipse-zenoh` peer (multicast
 //! off, connecting to the endpoint the demo prints) subscribes on
 //! rmw_zenoh's key expressions, decodes every topic's CDR with rosbags,
 //! reads the attachments, collects the liveliness tokens, and joins late
@@ -17,7 +17,8 @@ fn a_zenoh_peer_sees_the_demo_as_rmw_zenoh_publishes() {
     let Some(python) = common::python() else { return };
     let dir = std::env::temp_dir().join(format!("skin-ros2-live-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let args = ["demo", "--quick", "--no-record", "--json", "--ros2", "--imu", "--out"].map(OsStr::new);
+    let args = ["demo", "--quick", "--no-record", "--json", "--ros2", "--ros2-middleware", "zenoh", "--imu", "--out"]
+        .map(OsStr::new);
     let (demo, announced, drain) =
         common::spawn_announcing(&[&args[..], &[dir.as_os_str()]].concat(), "ROS 2 over Zenoh:");
     let words: Vec<&str> = announced.split_whitespace().collect();
@@ -44,14 +45,7 @@ fn a_zenoh_peer_sees_the_demo_as_rmw_zenoh_publishes() {
         assert_eq!(entries.len(), 1, "{topic} on one key only: {entries:?}");
         &entries[0]
     };
-    let types = [
-        ("/skin/cells", "sensor_msgs/msg/PointCloud2"),
-        ("/joint_states", "sensor_msgs/msg/JointState"),
-        ("/skin/imu", "sensor_msgs/msg/Imu"),
-        ("/skin/events", "visualization_msgs/msg/MarkerArray"),
-        ("/tf_static", "tf2_msgs/msg/TFMessage"),
-        ("/robot_description", "std_msgs/msg/String"),
-    ];
+    let types = common::TOPIC_TYPES;
     let tokens: Vec<&str> = got["tokens"].as_array().unwrap().iter().map(|t| t.as_str().unwrap()).collect();
     assert!(tokens.contains(&format!("@ros2_lv/0/{zid}/0/0/NN/%/%/skin").as_str()), "the node's token: {tokens:?}");
     let mut gids = Vec::new();
@@ -101,5 +95,7 @@ fn a_zenoh_peer_sees_the_demo_as_rmw_zenoh_publishes() {
     for topic in ["/tf_static", "/robot_description"] {
         assert_eq!(one(topic)["count"], 1, "late joiner on {topic}: {}", got["late"]);
     }
+    let (median, p99) = common::rclpy::latency(&got, "a Python zenoh peer's callback");
+    assert!(0.0 < median && median <= p99, "a message is received after it is stamped");
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -36,7 +36,7 @@ pub fn read_text_capped(path: &Path, max_bytes: usize) -> Result<String, Error> 
 
 /// `bytes` for people: whole MiB where it is, bytes otherwise.
 fn size(bytes: usize) -> String {
-    if bytes >= MIB && bytes % MIB == 0 {
+    if bytes >= MIB && bytes.is_multiple_of(MIB) {
         format!("{} MiB", bytes / MIB)
     } else {
         format!("{bytes} bytes")

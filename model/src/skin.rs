@@ -300,7 +300,7 @@ fn shape_point(shape: &Shape, rng: &mut ChaCha8Rng) -> (Point3<f64>, Vector3<f64
             let faces = [s.y * s.z, s.y * s.z, s.z * s.x, s.z * s.x, s.x * s.y, s.x * s.y];
             let face = pick(&faces, rng);
             let axis = face / 2;
-            let sign = if face % 2 == 0 { 1.0 } else { -1.0 };
+            let sign = if face.is_multiple_of(2) { 1.0 } else { -1.0 };
             let mut p = Vector3::from_fn(|i, _| s[i] * rng.random_range(-0.5..0.5));
             p[axis] = sign * s[axis] / 2.0;
             let mut n = Vector3::zeros();

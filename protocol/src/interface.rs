@@ -93,7 +93,7 @@ impl<'a> Datagram<'a> {
     /// Checks length, magic and version.
     pub fn parse(bytes: &'a [u8]) -> Result<Datagram<'a>, DatagramError> {
         let len = bytes.len();
-        if !(HEADER_LEN + FRAME_LEN..=MAX_DATAGRAM).contains(&len) || (len - HEADER_LEN) % FRAME_LEN != 0 {
+        if !(HEADER_LEN + FRAME_LEN..=MAX_DATAGRAM).contains(&len) || !(len - HEADER_LEN).is_multiple_of(FRAME_LEN) {
             return Err(DatagramError::BadLength(len));
         }
         if bytes[0..2] != MAGIC {

@@ -147,6 +147,19 @@ pub enum Refusal {
     Busy,
 }
 
+impl Refusal {
+    /// Why a command of `velocities` cannot drive a robot of `dofs` DoFs, if it cannot.
+    pub fn of_command(velocities: &[f64], dofs: usize) -> Option<Refusal> {
+        if velocities.len() != dofs {
+            Some(Refusal::WrongLength)
+        } else if velocities.iter().any(|v| !v.is_finite()) {
+            Some(Refusal::NotFinite)
+        } else {
+            None
+        }
+    }
+}
+
 /// Why bytes are not a robot-link datagram.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -223,6 +236,14 @@ mod tests {
         if n < MAX_DATAGRAM {
             assert_eq!(decode::<T>(&buf[..n + 1]), Err(LinkError::BadBody));
         }
+    }
+
+    #[test]
+    fn a_command_is_refused_for_its_length_then_for_a_non_finite_value() {
+        assert_eq!(Refusal::of_command(&[0.0, 1.0], 2), None);
+        assert_eq!(Refusal::of_command(&[0.0], 2), Some(Refusal::WrongLength));
+        assert_eq!(Refusal::of_command(&[f64::NAN], 2), Some(Refusal::WrongLength));
+        assert_eq!(Refusal::of_command(&[0.0, f64::INFINITY], 2), Some(Refusal::NotFinite));
     }
 
     #[test]

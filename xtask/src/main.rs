@@ -92,8 +92,8 @@ fn ci_steps() -> Vec<Step> {
         cargo("docs", r#"doc --workspace --no-deps --config build.rustdocflags=["-D","warnings"]"#),
         cargo("tests (host)", "test --workspace"),
         cargo(
-            "tests (ROS 2 over Zenoh and the Foxglove view: unit, a Python zenoh peer, a Python Foxglove client)",
-            "test -p skin-host --features ros2 --lib --test ros2_live --test foxglove_live",
+            "tests (ROS 2 over DDS and Zenoh, a ros2_control robot, the Foxglove view: unit, rclpy on Fast DDS, a Python zenoh peer, a Python Foxglove client)",
+            "test -p skin-host --features ros2 --lib --test ros2_dds --test ros2_control --test ros2_live --test foxglove_live",
         ),
         cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
         cargo(
@@ -297,7 +297,8 @@ fn install() -> Result<(), String> {
         args.extend(&missing);
         run("apt-get", &args)?;
     }
-    python_readers()
+    python_readers()?;
+    ros_python()
 }
 
 /// The mdBook the book is built with; CI installs exactly this one.
@@ -356,6 +357,46 @@ fn python_readers() -> Result<(), String> {
     if !succeeds(python, &["-c", "import rosbags, mcap_ros2, zenoh, urdf_parser_py, websockets, google.protobuf"]) {
         let mut args = vec!["-m", "pip", "install", "-q"];
         args.extend(PYTHON_READERS);
+        run(python, &args)?;
+    }
+    Ok(())
+}
+
+/// Real ROS 2 Jazzy from PyPI, pinned: rclpy on Fast DDS (the default
+/// RMW) and the message packages of the skin's topics and of
+/// ros2_control's velocity controllers; tf2_msgs has no wheel.
+const ROS_WHEELS: [&str; 8] = [
+    "ros-jazzy-rclpy==7.1.6",
+    "ros-jazzy-rmw-fastrtps-cpp==8.4.3",
+    "ros-jazzy-builtin-interfaces==2.0.3",
+    "ros-jazzy-rcl-interfaces==2.0.3",
+    "ros-jazzy-std-msgs==5.3.6",
+    "ros-jazzy-sensor-msgs==5.3.6",
+    "ros-jazzy-geometry-msgs==5.3.6",
+    "ros-jazzy-visualization-msgs==5.3.6",
+];
+
+/// Creates the venv `target/rosenv` with [`ROS_WHEELS`] (apart from the
+/// readers' venv: ROS pins its own Python packages), for the tests that
+/// check the skin with rclpy; the wheels are built for Python 3.11.
+fn ros_python() -> Result<(), String> {
+    let Some(python3_11) = ["python3.11", "python3"].into_iter().find(|p| {
+        output(p, &["-c", "import sys; print(sys.version_info[:2] == (3, 11))"]).is_some_and(|o| o.trim() == "True")
+    }) else {
+        eprintln!("xtask: no Python 3.11: the rclpy tests of ROS 2 over DDS will be skipped");
+        return Ok(());
+    };
+    let venv = target_dir().join("rosenv");
+    let python = venv.join("bin").join("python");
+    let python = python.to_str().ok_or("the target directory's path is not UTF-8")?;
+    if !Path::new(python).exists() {
+        run(python3_11, &["-m", "venv", venv.to_str().ok_or("the target directory's path is not UTF-8")?])?;
+    }
+    let check =
+        "import rclpy, rmw_fastrtps_cpp, sensor_msgs.msg, std_msgs.msg, visualization_msgs.msg, rcl_interfaces.srv";
+    if !succeeds(python, &["-c", check]) {
+        let mut args = vec!["-m", "pip", "install", "-q"];
+        args.extend(ROS_WHEELS);
         run(python, &args)?;
     }
     Ok(())

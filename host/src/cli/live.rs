@@ -1,5 +1,6 @@
 //! `--ros2` on `skin run` and `skin demo`: the ROS 2 topics published
-//! live over Zenoh in rmw_zenoh's format (the `ros2` feature), besides or
+//! live over DDS as the default RMWs speak it, or over Zenoh in
+//! rmw_zenoh's format (the `ros2` feature), besides or
 //! instead of a recording; and `--foxglove` on those and `skin monitor`:
 //! the live 3D view in Foxglove (the `foxglove` feature, which `ros2`
 //! includes).
@@ -67,22 +68,35 @@ impl FoxgloveArgs {
     }
 }
 
+/// The ROS 2 middleware `--ros2` publishes on.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Middleware {
+    /// DDS/RTPS, the default RMW's middleware (Fast DDS, Cyclone DDS).
+    #[default]
+    Dds,
+    /// Zenoh, as rmw_zenoh speaks it.
+    Zenoh,
+}
+
 /// The live-output flags.
 #[derive(clap::Args, Debug, Default)]
 pub struct LiveArgs {
-    /// Publish the ROS 2 topics live over Zenoh as rmw_zenoh does (`ros2 topic list` on a ROS 2 machine sees them).
+    /// Publish the ROS 2 topics live (`ros2 topic list` on a ROS 2 machine sees them), over DDS unless `--ros2-middleware zenoh`.
     #[arg(long)]
     ros2: bool,
-    /// A Zenoh router or peer to connect to, e.g. `tcp/192.168.1.10:7447` (the robot PC's `rmw_zenohd`); repeatable.
+    /// The middleware of `--ros2`: DDS as the default RMW (rmw_fastrtps_cpp) speaks it, or Zenoh as rmw_zenoh does.
+    #[arg(long, value_enum, value_name = "MIDDLEWARE", default_value_t = Middleware::Dds, requires = "ros2")]
+    ros2_middleware: Middleware,
+    /// With `--ros2-middleware zenoh`: a Zenoh router or peer to connect to, e.g. `tcp/192.168.1.10:7447` (the robot PC's `rmw_zenohd`); repeatable.
     #[arg(long, value_name = "ENDPOINT", requires = "ros2")]
     zenoh_connect: Vec<String>,
-    /// A Zenoh endpoint to listen on [default: tcp/127.0.0.1:0]; repeatable.
+    /// With `--ros2-middleware zenoh`: a Zenoh endpoint to listen on [default: tcp/127.0.0.1:0]; repeatable.
     #[arg(long, value_name = "ENDPOINT", requires = "ros2")]
     zenoh_listen: Vec<String>,
-    /// The ROS domain ID.
+    /// The ROS domain ID (over DDS, `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` or `ROS_LOCALHOST_ONLY=1` keep it on this host).
     #[arg(long, value_name = "ID", default_value_t = 0, requires = "ros2", value_parser = clap::value_parser!(u32).range(0..=232))]
     ros_domain: u32,
-    /// Speak to Humble (no type hashes: `TypeHashNotSupported`) instead of Jazzy and later (RIHS01).
+    /// With `--ros2-middleware zenoh`: speak to Humble (no type hashes: `TypeHashNotSupported`) instead of Jazzy and later (RIHS01).
     #[arg(long, requires = "ros2")]
     ros_humble: bool,
     #[command(flatten)]
@@ -93,10 +107,20 @@ pub struct LiveArgs {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum LiveError {
-    /// `--ros2` on a binary built without Zenoh.
+    /// `--ros2` on a binary built without ROS 2.
     #[cfg(not(feature = "ros2"))]
-    #[error("this `skin` was built without ROS 2 over Zenoh; build it with `cargo build --release -p skin-host --features ros2`")]
+    #[error(
+        "this `skin` was built without live ROS 2; build it with `cargo build --release -p skin-host --features ros2`"
+    )]
     NotBuilt,
+    /// The DDS participant or node did not start.
+    #[cfg(feature = "ros2")]
+    #[error(transparent)]
+    Dds(#[from] skin_host::ros::dds::DdsError),
+    /// The ros2_control robot could not be driven.
+    #[cfg(feature = "ros2")]
+    #[error(transparent)]
+    Control(#[from] skin_host::ros::control::ControlError),
     /// The Zenoh session did not start.
     #[cfg(feature = "ros2")]
     #[error(transparent)]
@@ -139,6 +163,30 @@ impl LiveArgs {
 
     #[cfg(feature = "ros2")]
     fn start_ros2(&self, session: &mut Session) -> Result<(), LiveError> {
+        match self.ros2_middleware {
+            Middleware::Dds => self.start_dds(session),
+            Middleware::Zenoh => self.start_zenoh(session),
+        }
+    }
+
+    #[cfg(feature = "ros2")]
+    fn start_dds(&self, session: &mut Session) -> Result<(), LiveError> {
+        use skin_host::ros::dds::{DdsConfig, DdsError, Node};
+        let domain = u16::try_from(self.ros_domain).map_err(|_| DdsError::Domain(self.ros_domain))?;
+        let config = DdsConfig::new(domain);
+        let node = Node::open(&config)?;
+        eprintln!(
+            "ROS 2 over DDS: node {} in domain {}{}",
+            node.name(),
+            node.domain(),
+            if config.localhost_only { ", on this host only" } else { "" }
+        );
+        session.add_outlet(Box::new(node));
+        Ok(())
+    }
+
+    #[cfg(feature = "ros2")]
+    fn start_zenoh(&self, session: &mut Session) -> Result<(), LiveError> {
         use skin_host::ros::rmw_zenoh::{Node, TypeHashes, ZenohConfig};
         let node = Node::open(ZenohConfig {
             connect: self.zenoh_connect.clone(),
@@ -159,6 +207,89 @@ impl LiveArgs {
 
     #[cfg(not(feature = "ros2"))]
     fn start_ros2(&self, _session: &mut Session) -> Result<(), LiveError> {
+        Err(LiveError::NotBuilt)
+    }
+}
+
+/// `--robot` of `skin run`: a robot-link address, or `ros2[:CONTROLLER]`,
+/// a ros2_control robot over DDS (the `ros2` feature).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum RobotTarget {
+    /// A robot-link server.
+    Link(SocketAddr),
+    /// A ros2_control robot: what followed `ros2` (empty or `:CONTROLLER`).
+    Ros2(String),
+}
+
+impl std::str::FromStr for RobotTarget {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<RobotTarget, String> {
+        match s.strip_prefix("ros2") {
+            Some(rest) if rest.is_empty() || rest.starts_with(':') => Ok(RobotTarget::Ros2(rest.to_owned())),
+            _ => s
+                .parse()
+                .map(RobotTarget::Link)
+                .map_err(|e| format!("{e}: --robot is a robot-link address (127.0.0.1:7800) or ros2[:CONTROLLER]")),
+        }
+    }
+}
+
+impl std::fmt::Display for RobotTarget {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RobotTarget::Link(addr) => write!(f, "{addr}"),
+            RobotTarget::Ros2(spec) => write!(f, "ros2{spec}"),
+        }
+    }
+}
+
+/// What keeps a ros2_control robot served: dropping it sends the zero command.
+#[derive(Debug)]
+pub struct RobotServer {
+    #[cfg(feature = "ros2")]
+    _robot: Option<skin_host::ros::control::Ros2Robot>,
+}
+
+impl RobotTarget {
+    /// The robot-link address to connect to: the one given, or that of a
+    /// ros2_control bridge started here in the ROS domain of
+    /// `ROS_DOMAIN_ID` (0 when unset), with what keeps it running.
+    pub fn serve(&self) -> Result<(SocketAddr, RobotServer), LiveError> {
+        match self {
+            RobotTarget::Link(addr) => Ok((
+                *addr,
+                RobotServer {
+                    #[cfg(feature = "ros2")]
+                    _robot: None,
+                },
+            )),
+            RobotTarget::Ros2(spec) => self.serve_ros2(spec),
+        }
+    }
+
+    #[cfg(feature = "ros2")]
+    fn serve_ros2(&self, spec: &str) -> Result<(SocketAddr, RobotServer), LiveError> {
+        use skin_host::ros::control::{ControlConfig, Ros2Robot};
+        use skin_host::ros::dds::DdsError;
+        let domain = match std::env::var("ROS_DOMAIN_ID") {
+            Ok(d) if !d.trim().is_empty() => {
+                d.trim().parse::<u16>().map_err(|_| DdsError::Domain(d.trim().parse().unwrap_or(u32::MAX)))?
+            }
+            _ => 0,
+        };
+        let config = ControlConfig::parse(spec, domain)?;
+        let robot = Ros2Robot::start(&config)?;
+        eprintln!(
+            "ROS 2 robot: controller /{} with joints {} (domain {domain}), /joint_states heard",
+            config.controller,
+            robot.joints().join(" ")
+        );
+        Ok((robot.addr(), RobotServer { _robot: Some(robot) }))
+    }
+
+    #[cfg(not(feature = "ros2"))]
+    fn serve_ros2(&self, _spec: &str) -> Result<(SocketAddr, RobotServer), LiveError> {
         Err(LiveError::NotBuilt)
     }
 }

@@ -102,7 +102,12 @@ pub fn main() -> ExitCode {
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()))
+        // RustDDS logs every peer it has no route to yet and, on loopback
+        // only, each multicast group it cannot leave: silent unless asked.
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| "warn,rustdds=off,ros2_client=error".into()),
+        )
         .init();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,

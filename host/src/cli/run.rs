@@ -29,7 +29,7 @@ use skin_model::robot::Robot;
 use skin_protocol::message::AccelRange;
 
 use super::job::{self, Steps};
-use super::live::LiveArgs;
+use super::live::{LiveArgs, RobotTarget};
 use super::progress::Progress;
 use super::seconds;
 use super::structure_args::StructureArgs;
@@ -40,9 +40,10 @@ pub struct Args {
     /// Address to listen on for the skin's interface ports [default: the configuration's `interface.listen`].
     #[arg(long, value_name = "ADDR")]
     interface: Option<SocketAddr>,
-    /// The robot's robot-link address.
-    #[arg(long, value_name = "ADDR")]
-    robot: SocketAddr,
+    /// The robot: its robot-link address, or `ros2[:CONTROLLER]` for a ros2_control robot over DDS
+    /// (velocities to CONTROLLER, default forward_velocity_controller; positions from /joint_states).
+    #[arg(long, value_name = "ADDR|ros2[:CONTROLLER]")]
+    robot: RobotTarget,
     /// Configuration file (interface ports, cell settings) [default: the built-in defaults, see `skin config --default`].
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
@@ -124,13 +125,16 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     if let Some(listen) = args.interface {
         config.interface.listen = listen;
     }
-    if config.interface.listen == args.robot {
-        return Err(Error::SameAddress(args.robot).into());
+    if args.robot == RobotTarget::Link(config.interface.listen) {
+        return Err(Error::SameAddress(config.interface.listen).into());
     }
     // Only once every input is accepted: a refused one leaves no folder behind.
     check_folder(&args.out)?;
     let interface = Interface::bind(&config.interface)?;
-    let link = RobotLink::connect(args.robot, Duration::from_millis(args.robot_timeout_ms))?;
+    // A ros2_control robot is served on a loopback robot link; dropping
+    // `_robot` (also on an error or a panic) sends it the zero command.
+    let (robot, _robot) = args.robot.serve()?;
+    let link = RobotLink::connect(robot, Duration::from_millis(args.robot_timeout_ms))?;
     let source = format!(
         "The robot at {} ({} DoFs, {}) and the skin heard on {}.",
         args.robot,

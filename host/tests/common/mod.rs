@@ -8,6 +8,21 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::thread::JoinHandle;
 
+#[allow(dead_code, reason = "the rclpy tests' helpers; the other tests share this module")]
+pub mod rclpy;
+
+/// The skin's live topics and their types, as every middleware publishes them.
+#[allow(dead_code, reason = "the live tests' table; the other tests share this module")]
+pub const TOPIC_TYPES: [(&str, &str); 6] = [
+    ("/skin/cells", "sensor_msgs/msg/PointCloud2"),
+    ("/joint_states", "sensor_msgs/msg/JointState"),
+    ("/skin/imu", "sensor_msgs/msg/Imu"),
+    ("/skin/events", "visualization_msgs/msg/MarkerArray"),
+    ("/tf_static", "tf2_msgs/msg/TFMessage"),
+    ("/robot_description", "std_msgs/msg/String"),
+];
+
+#[allow(dead_code, reason = "the Python readers' helper; the rclpy tests share this module")]
 /// The venv's Python, or `None` (after saying so loudly) when this
 /// machine has no Python at all. A machine with Python but without the
 /// venv fails: the readers are part of the test setup.
@@ -29,6 +44,7 @@ pub fn python() -> Option<PathBuf> {
     );
 }
 
+#[allow(dead_code, reason = "the Python readers' helper; the rclpy tests share this module")]
 /// Runs `script` (in tests/python) with `args`; its stdout as JSON.
 pub fn run_json(python: &Path, script: &str, args: &[&Path]) -> serde_json::Value {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python").join(script);
@@ -44,17 +60,18 @@ pub fn run_json(python: &Path, script: &str, args: &[&Path]) -> serde_json::Valu
 /// stderr (so the run never blocks on it) that returns it.
 #[allow(dead_code, reason = "the live tests' helper; the other tests share this module")]
 pub fn spawn_announcing(args: &[&OsStr], marker: &str) -> (Child, String, JoinHandle<String>) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_skin"))
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    announcing(Command::new(env!("CARGO_BIN_EXE_skin")).args(args), marker)
+}
+
+/// [`spawn_announcing`] of any command.
+#[allow(dead_code, reason = "the live tests' helper; the other tests share this module")]
+pub fn announcing(command: &mut Command, marker: &str) -> (Child, String, JoinHandle<String>) {
+    let mut child = command.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
     let mut stderr = BufReader::new(child.stderr.take().unwrap());
     let mut announced = String::new();
     while !announced.contains(marker) {
         announced.clear();
-        assert!(stderr.read_line(&mut announced).unwrap() > 0, "skin ended without announcing {marker:?}");
+        assert!(stderr.read_line(&mut announced).unwrap() > 0, "the program ended without announcing {marker:?}");
     }
     let drain = std::thread::spawn(move || {
         let mut rest = String::new();

@@ -48,12 +48,15 @@ lock = threading.Lock()
 samples = {}  # key -> [count, first payload, attachments of the first few]
 late = {}  # the same, of what the late joiner got
 tokens = set()
+cells_latency_ms = []  # /skin/cells: receipt here minus the source time in the attachment
 
 
 def keep(into):
     def on_sample(sample):
         key = str(sample.key_expr)
         attachment = sample.attachment.to_bytes() if sample.attachment is not None else None
+        if into is samples and "/skin/cells/" in key and attachment is not None and len(attachment) >= 16:
+            cells_latency_ms.append((time.time_ns() - struct.unpack_from("<q", attachment, 8)[0]) / 1e6)
         with lock:
             entry = into.setdefault(key, [0, sample.payload.to_bytes(), []])
             entry[0] += 1
@@ -153,7 +156,13 @@ def describe(snapshot):
 
 print(
     json.dumps(
-        {"topics": describe(snapshot), "late": describe(late_snapshot), "tokens": got_tokens, "peers": peers}
+        {
+            "topics": describe(snapshot),
+            "late": describe(late_snapshot),
+            "tokens": got_tokens,
+            "peers": peers,
+            "cells_latency_ms": sorted(cells_latency_ms),
+        }
     )
 )
 for s in late_subscribers:

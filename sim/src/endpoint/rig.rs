@@ -158,14 +158,7 @@ impl Rig {
                         return Ok(answer.clone());
                     }
                 }
-                let refusal = if velocities.len() != dofs.len() {
-                    Some(Refusal::WrongLength)
-                } else if velocities.iter().any(|v| !v.is_finite()) {
-                    Some(Refusal::NotFinite)
-                } else {
-                    None
-                };
-                if let Some(reason) = refusal {
+                if let Some(reason) = Refusal::of_command(&velocities, dofs.len()) {
                     self.served.refused += 1;
                     return Ok(FromRobot::Refused { seq, reason });
                 }

@@ -186,7 +186,7 @@ impl Operator {
                     self.act = Act::Resting { pose, teacher, start_s, ticks_left: REST_TICKS - 1 };
                 } else {
                     let ticks = ((t - start_s) / world.config().tick_s).round() as u64;
-                    if ticks % (LOG_EVERY_S / world.config().tick_s).round() as u64 == 0 {
+                    if ticks.is_multiple_of((LOG_EVERY_S / world.config().tick_s).round() as u64) {
                         tracing::debug!(pose, time_s = t - start_s, error_m = ?teacher.error_m(poses), "teaching");
                     }
                     let sensor = scene.skin().proximity;

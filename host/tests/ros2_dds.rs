@@ -1,0 +1,86 @@
+//! ROS 2 over DDS, checked by the real ROS 2 client library on the real
+//! default middleware: while `skin demo --quick --ros2` publishes, an
+//! rclpy node on Fast DDS (rmw_fastrtps_cpp) subscribes to every topic,
+//! reads the graph, and a second node joins late to get the
+//! transient-local `/robot_description`. All in a domain of the test's own,
+//! on loopback.
+
+mod common;
+
+use std::ffi::OsStr;
+
+use common::rclpy::{self, Domain};
+use serde_json::Value;
+
+#[test]
+fn rclpy_on_fast_dds_sees_the_demo_as_a_ros_2_node() {
+    let Some(python) = rclpy::python() else { return };
+    let domain = Domain::unique();
+    let dir = std::env::temp_dir().join(format!("skin-ros2-dds-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    // rclpy first: its participant is up before the first message.
+    let checker = domain.python(&python, "ros2_dds.py", &["120"]).stdout(std::process::Stdio::piped()).spawn().unwrap();
+    let id = domain.0.to_string();
+    let args =
+        ["demo", "--quick", "--no-record", "--json", "--ros2", "--imu", "--ros-domain", &id, "--out"].map(OsStr::new);
+    let (demo, announced, drain) = domain.spawn_skin(&[&args[..], &[dir.as_os_str()]].concat(), "ROS 2 over DDS:");
+    assert!(announced.contains(&format!("node /skin in domain {id}, on this host only")), "{announced}");
+    let out = demo.wait_with_output().unwrap();
+    let rest = drain.join().unwrap();
+    assert!(out.status.success(), "the demo failed: {rest}");
+    let got = rclpy::json_of("ros2_dds.py", &checker.wait_with_output().unwrap());
+
+    assert_eq!(got["rmw"], "rmw_fastrtps_cpp", "the checker runs on Fast DDS");
+    // The graph: the node, its publishers with their types, and their QoS.
+    let graph = &got["graph"];
+    assert!(graph["nodes"].as_array().unwrap().iter().any(|n| n == "/skin"), "{graph}");
+    let types = common::TOPIC_TYPES;
+    for (topic, ty) in types {
+        let listed = graph["skin_publishers"].as_array().unwrap();
+        assert!(
+            listed.iter().any(|p| p[0] == topic && p[1] == serde_json::json!([ty])),
+            "/skin publishes {topic}: {listed:?}"
+        );
+        let qos = graph["qos"][topic].as_array().unwrap();
+        assert_eq!(qos.len(), 1, "one publisher of /skin on {topic}: {qos:?}");
+        assert_eq!(qos[0]["node"], "/skin");
+        assert_eq!(qos[0]["type"], ty);
+        assert_eq!(qos[0]["reliability"], "RELIABLE", "{topic}");
+        let durability =
+            if matches!(topic, "/tf_static" | "/robot_description") { "TRANSIENT_LOCAL" } else { "VOLATILE" };
+        assert_eq!(qos[0]["durability"], durability, "{topic}");
+    }
+
+    // The messages, decoded by rclpy's own type support.
+    let live = |topic: &str| -> &Value {
+        got["live"].get(topic).unwrap_or_else(|| panic!("rclpy heard nothing on {topic}: {}", got["live"]))
+    };
+    let cells = &live("/skin/cells")["last"];
+    assert_eq!(cells["points"], 74, "{cells}");
+    assert_eq!(cells["bytes"], 74 * 40);
+    assert_eq!(
+        cells["fields"],
+        serde_json::json!(["x", "y", "z", "proximity", "force", "temperature", "ax", "ay", "az", "id"])
+    );
+    assert_eq!(cells["frame"], "skin_part_0");
+    let joints = &live("/joint_states")["last"];
+    assert_eq!((joints["joints"].as_u64(), joints["positions"].as_u64()), (Some(14), Some(14)), "{joints}");
+    assert_eq!(joints["finite"], true);
+    let g = live("/skin/imu")["last"]["g"].as_f64().unwrap();
+    assert!((0.5..1.5).contains(&g), "a cell feels about 1 g, not {g} g");
+    assert!(live("/skin/imu")["last"]["frame"].as_str().unwrap().starts_with("skin_cell_"));
+    assert!(live("/skin/events")["first"]["markers"].as_u64().unwrap() > 0);
+    // A stream, not one message: the cloud and joint states many times.
+    for topic in ["/skin/cells", "/joint_states", "/skin/imu"] {
+        assert!(live(topic)["count"].as_u64().unwrap() >= 10, "{topic}: {}", live(topic));
+    }
+
+    // The late joiner got the one cached description, exactly once.
+    let late = &got["late"]["/robot_description"];
+    assert_eq!(late["count"], 1, "late joiner: {}", got["late"]);
+    assert_eq!(late["first"]["start"], "<?xml version=\"1.0\"?>");
+    assert_eq!(late["first"]["end"], "</robot>\n");
+    let (median, p99) = rclpy::latency(&got, "rclpy's callback over DDS");
+    assert!(0.0 < median && median <= p99, "a message is received after it is stamped");
+    let _ = std::fs::remove_dir_all(&dir);
+}
