@@ -9,7 +9,7 @@
 //!   forward kinematics to second order, and the built-in HRP-2-like robot.
 //! - [`skin`]: skin cells on links: the skin file (TOML or JSON) and cells
 //!   laid on link surfaces, at random or in wired patches.
-//! - [`file`]: a whole file read under a cap, so that a wrong path such as
+//! - [`mod@file`]: a whole file read under a cap, so that a wrong path such as
 //!   `/dev/zero` is refused naming the cap instead of filling memory.
 //! - [`spin_recv`]: the receive at either end of a robot link in lockstep,
 //!   which tries before it sleeps.

@@ -397,7 +397,7 @@ impl NorFlash for FlashFile {
     const ERASE_SIZE: usize = SECTOR;
 
     fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
-        if from as usize % SECTOR != 0 || to as usize % SECTOR != 0 || from > to {
+        if !(from as usize).is_multiple_of(SECTOR) || !(to as usize).is_multiple_of(SECTOR) || from > to {
             return Err(NorFlashErrorKind::NotAligned);
         }
         check(from, (to - from) as usize, FILE_LEN)?;
