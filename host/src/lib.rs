@@ -27,7 +27,7 @@
 //! - [`ros`]: ROS 2 message types, their CDR encoding and type hashes, and the skin's topics.
 //! - [`recording`]: a run recorded into an MCAP file (raw datagrams and ROS 2 topics), and read back.
 //! - [`replay`]: a recording played back as a robot and skin, to explore again.
-//! - [`reference`]: the book's command-line and configuration references, generated.
+//! - [`mod@reference`]: the book's command-line and configuration references, generated.
 //! - [`view`]: what a live viewer is told, over a queue that drops rather than blocks.
 //! - `foxglove` (the `foxglove` feature): the live 3D view in Foxglove, over the SDK's WebSocket server.
 // Denied, not forbidden: the batched receive of `interface::socket` calls
