@@ -609,8 +609,11 @@ fn explored(
     more: &[&str],
     name: &str,
 ) -> (serde_json::Value, serde_json::Value, String) {
-    let (host, robot) = (free_addr(), free_addr());
+    // The relay binds before the robot's address is chosen, so that the
+    // two cannot be given the same free port.
+    let host = free_addr();
     let via = relay(host.parse().unwrap());
+    let robot = free_addr();
     let mut endpoint = sim_endpoint_with(&via.to_string(), &robot, more);
     let (run, out_dir) = exploring_run(&host, &robot, "74", &[], name);
     let (code, stderr) = run_end(run, String::new());
