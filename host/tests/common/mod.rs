@@ -22,14 +22,19 @@ pub const TOPIC_TYPES: [(&str, &str); 6] = [
     ("/robot_description", "std_msgs/msg/String"),
 ];
 
+/// The cargo target directory, where `cargo xtask install` puts the venvs.
+pub fn target_dir() -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../target"))
+}
+
 #[allow(dead_code, reason = "the Python readers' helper; the rclpy tests share this module")]
 /// The venv's Python, or `None` (after saying so loudly) when this
 /// machine has no Python at all. A machine with Python but without the
 /// venv fails: the readers are part of the test setup.
 pub fn python() -> Option<PathBuf> {
-    let target = std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../target"));
+    let target = target_dir();
     let venv = target.join("pyenv/bin/python");
     if venv.exists() {
         return Some(venv);

@@ -11,9 +11,7 @@ use std::thread::JoinHandle;
 /// The ROS venv's Python, or `None` after saying loudly that the test did
 /// not run (the only reason to skip: no venv on this machine).
 pub fn python() -> Option<PathBuf> {
-    let target = std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../target"));
+    let target = super::target_dir();
     let venv = target.join("rosenv/bin/python");
     if venv.exists() {
         return Some(venv);
