@@ -144,6 +144,7 @@ fn report(
         "warnings": c.warnings,
         "exploration_warnings": found.warnings,
         "assumed": found.assumed,
+        "levers": super::explore::levers(found),
         "neighbours": neighbours,
         "truth": truth,
     })
