@@ -174,7 +174,7 @@ fn noise_sweep(c: &mut Criterion) {
 /// The UR5 of the simulator's fixtures on a rigid base, four cells a link,
 /// `scale` times the datasheet's noise.
 fn ur5_world(seed: u64, scale: f64) -> World {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../sim/tests/fixtures/robots/ur5_robot.urdf");
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../model/tests/fixtures/robots/ur5_robot.urdf");
     let robot = skin_model::robot::Robot::from_urdf_file(&path).expect("the fixture reads");
     let skin = Skin::per_link(&robot, 4, seed).expect("the skin fits");
     let accel = Bma250Config::default().with_noise_scale(scale);
