@@ -10,7 +10,9 @@
 //! seeds (default 20), robot time and wrong trees against noise. Last, the
 //! smallest lever decided: a UR5 on a rigid base, whose first axis is
 //! vertical and untiltable, at 1, 3 and 10 times the noise over
-//! `SKIN_BENCH_LEVER_SEEDS` seeds (default 5): the lever bound the pooled
+//! `SKIN_BENCH_LEVER_SEEDS` seeds (default 5): the smallest lever the
+//! evidence decides near that axis (a lever this large or larger would
+//! have been decided at every entry there) and the lever bound the pooled
 //! steps reached on the cells the default clearance then settles, against
 //! robot time. `cargo bench -p skin-host --bench explore`.
 
@@ -68,6 +70,9 @@ struct Tally {
     /// Largest lever bound reached on the entries assumed, summed and worst, m.
     lever_m: f64,
     worst_lever_m: f64,
+    /// The smallest lever decided near an axis, summed and worst, m.
+    smallest_m: f64,
+    worst_smallest_m: f64,
     ok: u32,
 }
 
@@ -83,6 +88,9 @@ impl Tally {
                 let reached = found.assumed.iter().map(|a| a.lever_bound_m).fold(0.0, f64::max);
                 self.lever_m += reached;
                 self.worst_lever_m = self.worst_lever_m.max(reached);
+                let smallest = found.levers.smallest_decided_m().unwrap_or(0.0);
+                self.smallest_m += smallest;
+                self.worst_smallest_m = self.worst_smallest_m.max(smallest);
                 self.ok += 1;
                 self.wrong += usize::from(!truth.tree_correct);
             }
@@ -166,7 +174,7 @@ fn noise_sweep(c: &mut Criterion) {
 /// The UR5 of the simulator's fixtures on a rigid base, four cells a link,
 /// `scale` times the datasheet's noise.
 fn ur5_world(seed: u64, scale: f64) -> World {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../sim/tests/fixtures/robots/ur5_robot.urdf");
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../model/tests/fixtures/robots/ur5_robot.urdf");
     let robot = skin_model::robot::Robot::from_urdf_file(&path).expect("the fixture reads");
     let skin = Skin::per_link(&robot, 4, seed).expect("the skin fits");
     let accel = Bma250Config::default().with_noise_scale(scale);
@@ -176,8 +184,16 @@ fn ur5_world(seed: u64, scale: f64) -> World {
 fn lever_sweep(c: &mut Criterion) {
     let seeds: u64 = std::env::var("SKIN_BENCH_LEVER_SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(5);
     println!(
-        "\n{:>5} | {:>12} {:>13} | {:>14} {:>15} | {:>10} {:>10}",
-        "noise", "robot s mean", "robot s worst", "lever mm mean", "lever mm worst", "wrong tree", "diagnostic"
+        "\n{:>5} | {:>12} {:>13} | {:>17} {:>18} | {:>14} {:>15} | {:>10} {:>10}",
+        "noise",
+        "robot s mean",
+        "robot s worst",
+        "smallest mm mean",
+        "smallest mm worst",
+        "bound mm mean",
+        "bound mm worst",
+        "wrong tree",
+        "diagnostic"
     );
     let cfg = ExploreConfig::default();
     for scale in [1.0, 3.0, 10.0] {
@@ -187,9 +203,11 @@ fn lever_sweep(c: &mut Criterion) {
         }
         let ok = f64::from(t.ok.max(1));
         println!(
-            "{scale:>5} | {:>12.2} {:>13.2} | {:>14.3} {:>15.3} | {:>4}/{seeds:<5} {:>4}/{seeds:<5}",
+            "{scale:>5} | {:>12.2} {:>13.2} | {:>17.3} {:>18.3} | {:>14.3} {:>15.3} | {:>4}/{seeds:<5} {:>4}/{seeds:<5}",
             t.time_s / ok,
             t.worst_s,
+            1e3 * t.smallest_m / ok,
+            1e3 * t.worst_smallest_m,
             1e3 * t.lever_m / ok,
             1e3 * t.worst_lever_m,
             t.wrong,

@@ -255,6 +255,10 @@ impl<R: Robot> Robot for Screened<'_, R> {
         self.rig.dof_kinds()
     }
 
+    fn velocity_limits(&self) -> Vec<Option<f64>> {
+        self.rig.velocity_limits()
+    }
+
     fn command_velocities(&mut self, omega_rad_s: &[f64]) -> Result<(), RobotError> {
         self.rig.command_velocities(omega_rad_s)
     }

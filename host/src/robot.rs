@@ -125,6 +125,14 @@ pub trait Robot {
         vec![DofKind::Revolute; self.dof_count()]
     }
 
+    /// Each DoF's velocity limit, rad/s (m/s for a prismatic one), where
+    /// the robot says: the exploration steps faster within it to see
+    /// smaller levers sooner, and keeps its default steps where it is
+    /// unknown.
+    fn velocity_limits(&self) -> Vec<Option<f64>> {
+        vec![None; self.dof_count()]
+    }
+
     /// Number of revolute DoFs.
     fn dof_count(&self) -> usize {
         self.dof_names().len()

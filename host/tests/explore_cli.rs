@@ -47,6 +47,11 @@ fn explore_prints_the_issues_json() {
         ["static", "dynamic", "tree", "clearance", "wire"].iter().map(|k| evidence[k].as_u64().unwrap()).sum();
     assert_eq!(decided, 74 * 14);
     assert_eq!(v["assumed"].as_array().unwrap().len() as u64, evidence["clearance"].as_u64().unwrap());
+    // What decided by gravity needs no lever: 0 there.
+    let seen = v["levers"]["seen_m"].as_array().unwrap();
+    assert_eq!(seen.len(), 74);
+    let zeros = seen.iter().flat_map(|row| row.as_array().unwrap()).filter(|x| x.as_f64() == Some(0.0)).count();
+    assert!(zeros as u64 >= evidence["static"].as_u64().unwrap(), "{zeros}");
 }
 
 #[test]
@@ -76,6 +81,15 @@ fn a_strict_exploration_names_each_undecided_entry_and_why_and_the_default_state
         assert!(a["assumption"].as_str().unwrap().contains("default mounting clearance of 1.00 mm"), "{a}");
         assert!(a["lever_bound_m"].as_f64().unwrap() < 0.001, "{a}");
     }
+    // Every entry says the smallest lever its evidence would have decided
+    // as a movement; near the first axis, the evidence reached 1 mm before
+    // the clearance settled what showed less.
+    let seen = v["levers"]["seen_m"].as_array().unwrap();
+    assert_eq!(seen.len() as u64, v["cells"].as_u64().unwrap());
+    assert!(seen.iter().all(|row| row.as_array().unwrap().len() == 6));
+    assert_eq!(v["levers"]["near_axis_entries"].as_u64().unwrap(), assumed.len() as u64);
+    let smallest = v["levers"]["smallest_decided_m"].as_f64().unwrap();
+    assert!(smallest > 0.0 && smallest <= 0.001, "{smallest} m");
     let warnings = v["warnings"].as_array().unwrap();
     assert!(warnings.iter().any(|w| w.as_str().unwrap().contains("--strict refuses instead")), "{warnings:?}");
     // Declaring the mounting clearance settles them on the declaration.

@@ -144,6 +144,7 @@ fn report(
         "warnings": c.warnings,
         "exploration_warnings": found.warnings,
         "assumed": found.assumed,
+        "levers": super::explore::levers(found),
         "neighbours": neighbours,
         "truth": truth,
     })
@@ -200,6 +201,9 @@ fn summary(
         "  robot time: exploration {exploration_s:.1} s + calibration {:.1} s; wall time {wall_time_s:.2} s\n",
         c.robot_time_s
     );
+    if let Some(line) = super::explore::levers_line(found) {
+        s += &format!("{line}\n");
+    }
     for w in found.warnings.iter().chain(&c.warnings) {
         s += &format!("warning: {w}\n");
     }

@@ -154,6 +154,7 @@ fn report(name: &str, found: &Exploration, truth: &TruthReport, wall_time_s: f64
         "limbs": tree.limbs(),
         "warnings": found.warnings,
         "assumed": found.assumed,
+        "levers": levers(found),
         "truth": {
             "cell_links": truth.cell_links.iter().map(|(id, l)| (id.to_string(), json!(l))).collect::<serde_json::Map<_, _>>(),
             "tree_correct": truth.tree_correct,
@@ -180,6 +181,29 @@ fn evidence(found: &Exploration) -> Value {
         }
     }
     json!({"static": by_static, "dynamic": dynamic, "tree": tree, "clearance": clearance, "wire": wire})
+}
+
+/// What the evidence could see at every entry: the smallest lever it
+/// would have decided as a movement, m (rows: cells, columns: DoFs; null
+/// where the motion saturated), and its largest over the entries near an
+/// axis, where gravity did not tell.
+pub(super) fn levers(found: &Exploration) -> Value {
+    json!({
+        "seen_m": found.levers.rows(),
+        "near_axis_entries": found.levers.near_axis_entries(),
+        "smallest_decided_m": found.levers.smallest_decided_m(),
+    })
+}
+
+/// The line of the human summary on the levers the evidence decided.
+pub(super) fn levers_line(found: &Exploration) -> Option<String> {
+    let smallest = found.levers.smallest_decided_m()?;
+    Some(format!(
+        "levers: at the {} entries near an axis where gravity did not tell, evidence decides any lever of {:.2} mm or more{}",
+        found.levers.near_axis_entries(),
+        smallest * 1e3,
+        if found.assumed.is_empty() { "" } else { "; below it, the entries assumed rest on the clearance" }
+    ))
 }
 
 /// Writes `text` and a newline to stdout; a reader that went away (a
@@ -220,6 +244,9 @@ fn summary(name: &str, found: &Exploration, truth: &TruthReport, wall_time_s: f6
         truth.smm_mean_abs_error,
         truth.smm_mean_abs_error_moved
     );
+    if let Some(line) = levers_line(found) {
+        s += &format!("\n{line}");
+    }
     for w in &found.warnings {
         s += &format!("\nwarning: {w}");
     }

@@ -228,6 +228,16 @@ pub(crate) enum Reading {
     Unknown(Doubt),
 }
 
+/// What one step says of its DoF as a whole (see [`Step::verdict`]).
+struct Verdict {
+    blind: bool,
+    /// Half the median gravity change, at least `floor`, m/s^2.
+    threshold: f64,
+    /// The paper's static threshold, m/s^2.
+    floor: f64,
+    coupled: bool,
+}
+
 /// What one step of one DoF says about every cell.
 pub(crate) struct Step {
     /// Evidence per cell.
@@ -289,11 +299,12 @@ impl Step {
             .all(|e| e.static_saturated || e.static_mps2 + cfg.confidence_sigmas * e.static_sigma < floor)
     }
 
-    /// Reads every cell, and tells whether the DoF was static-blind (no
-    /// cell showed a gravity change above the paper's threshold: a
-    /// revolute axis within about 6 degrees of vertical in this posture, or
-    /// a prismatic DoF, which turns nothing).
-    pub fn decide(&self, cfg: &StructureConfig, kind: DofKind) -> (Vec<Reading>, bool) {
+    /// What the step says of the DoF as a whole: whether the static test
+    /// was blind (no cell showed a gravity change above the paper's
+    /// threshold: a revolute axis within about 6 degrees of vertical in
+    /// this posture, or a prismatic DoF, which turns nothing), the static
+    /// threshold, and whether the DoF is coupled.
+    fn verdict(&self, cfg: &StructureConfig, kind: DofKind) -> Verdict {
         let k = cfg.confidence_sigmas;
         let floor = self.floor(cfg);
         let mut changed: Vec<f64> = if kind == DofKind::Prismatic {
@@ -326,6 +337,38 @@ impl Step {
             let unturned = !blind && e.static_mps2 + k * e.static_sigma < threshold;
             unequal || (unturned && e.lever_m - k * e.lever_sigma > SURE_LEVER * cfg.lever_threshold_m)
         });
+        Verdict { blind, threshold, floor, coupled }
+    }
+
+    /// Per cell, the smallest lever to the DoF this one step would have
+    /// decided as a movement, m: 0 where the static test had power (every
+    /// cell a revolute DoF moves turns with it, on its axis too) or the DoF
+    /// is prismatic (a moved cell shows the whole axis wherever it sits);
+    /// else the lever threshold of [`Step::decide`] plus the margin of the
+    /// lever's noise (infinite where the motion saturated).
+    pub fn seen(&self, cfg: &StructureConfig, kind: DofKind) -> Vec<f64> {
+        let v = self.verdict(cfg, kind);
+        let k = cfg.confidence_sigmas;
+        self.evidence
+            .iter()
+            .map(|e| {
+                if kind == DofKind::Prismatic || (!v.blind && !v.coupled && !e.static_saturated) {
+                    0.0
+                } else if e.trace_saturated || !e.lever_sigma.is_finite() {
+                    f64::INFINITY
+                } else {
+                    let moved = if v.coupled { SURE_LEVER } else { 1.0 } * cfg.lever_threshold_m;
+                    moved + k * e.lever_sigma
+                }
+            })
+            .collect()
+    }
+
+    /// Reads every cell, and tells whether the DoF was static-blind (see
+    /// [`Step::verdict`]).
+    pub fn decide(&self, cfg: &StructureConfig, kind: DofKind) -> (Vec<Reading>, bool) {
+        let k = cfg.confidence_sigmas;
+        let Verdict { blind, threshold, floor, coupled } = self.verdict(cfg, kind);
         // A lever below this can be the base rocking, not a movement: a
         // standing robot still rings from the step before. Repeats of a
         // blind step, pooled once the ringing is gone, go down to
@@ -537,6 +580,23 @@ mod tests {
         // gravity's help (smaller ones need pooled repeats: `structure`).
         let step = Step::measure(&rest(g), &rest(g), &stepped(0.2, 0.03, g), 0.004, 0.038);
         assert_eq!(step.decide(&cfg, DofKind::Revolute).0[0], Reading::Moved { by_static: false });
+    }
+
+    #[test]
+    fn one_step_sees_any_lever_where_gravity_tells_and_only_large_ones_about_a_vertical_axis() {
+        let cfg = StructureConfig::default();
+        // About a vertical axis the gravity test is blind: only a lever
+        // above the threshold, with its noise margin, is seen.
+        let g = [0.0, 0.0, G0];
+        let blind = Step::measure(&rest(g), &rest(g), &stepped(0.2, 0.0, g), 0.004, 0.038);
+        let seen = blind.seen(&cfg, DofKind::Revolute)[0];
+        assert!(seen > cfg.lever_threshold_m && seen < 2.0 * cfg.lever_threshold_m, "{seen} m");
+        // Turning gravity by the step: a cell on the axis shows it too.
+        let turned = [G0 * 0.2f64.sin(), 0.0, G0 * 0.2f64.cos()];
+        let tilted = Step::measure(&rest(g), &rest(turned), &stepped(0.2, 0.0, g), 0.004, 0.038);
+        assert_eq!(tilted.seen(&cfg, DofKind::Revolute), vec![0.0]);
+        // A prismatic DoF shows its axis wherever the cell sits.
+        assert_eq!(blind.seen(&cfg, DofKind::Prismatic), vec![0.0]);
     }
 
     #[test]

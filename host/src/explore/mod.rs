@@ -126,6 +126,53 @@ pub struct Assumed {
     pub lever_bound_m: f64,
 }
 
+/// What the evidence could see at each entry of the activity matrix: the
+/// smallest lever to the DoF it would have decided as a movement, given
+/// the sensors' noise and quantization (the lever's own margin) and the
+/// base's rocking (the still cells' floor). 0 where the gravity test had
+/// power or the DoF is prismatic: a moved cell shows it wherever it sits.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Levers {
+    dofs: usize,
+    /// Per entry (cell-major), m.
+    seen_m: Vec<f64>,
+    /// Per entry: its DoF's axis stood aligned with gravity, or the DoF
+    /// is coupled, and one step showed no lever that decided it: the cell
+    /// sits near the axis or is still, and pooled levers, a tilt, the
+    /// wires, the tree or the clearance decided it.
+    near_axis: Vec<bool>,
+}
+
+impl Levers {
+    /// The smallest lever to DoF `d` that cell `u`'s evidence would have
+    /// decided as a movement, m (infinite where its motion saturated).
+    pub fn seen_m(&self, u: usize, d: usize) -> f64 {
+        self.seen_m[u * self.dofs + d]
+    }
+
+    /// Cell `u` sat near DoF `d`'s axis or still, where gravity did not tell.
+    pub fn near_axis(&self, u: usize, d: usize) -> bool {
+        self.near_axis[u * self.dofs + d]
+    }
+
+    /// The entries near an axis, where gravity did not tell.
+    pub fn near_axis_entries(&self) -> usize {
+        self.near_axis.iter().filter(|&&b| b).count()
+    }
+
+    /// The smallest lever decided: at every entry near an axis where
+    /// gravity did not tell, a lever this large or larger would have been
+    /// decided by evidence, m (`None`: there was no such entry).
+    pub fn smallest_decided_m(&self) -> Option<f64> {
+        self.seen_m.iter().zip(&self.near_axis).filter(|(_, &b)| b).map(|(&s, _)| s).reduce(f64::max)
+    }
+
+    /// One row per cell of [`Levers::seen_m`], m.
+    pub fn rows(&self) -> Vec<Vec<f64>> {
+        self.seen_m.chunks(self.dofs.max(1)).map(<[f64]>::to_vec).collect()
+    }
+}
+
 /// Where the exploration is, for progress bars.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Progress {
@@ -161,6 +208,8 @@ pub struct Exploration {
     pub warnings: Vec<String>,
     /// Entries decided on a mounting clearance, each with its lever bound.
     pub assumed: Vec<Assumed>,
+    /// What the evidence could see at every entry.
+    pub levers: Levers,
     /// The structural exploration's still windows with their postures:
     /// the calibration's gravity fit starts from them.
     pub(crate) stills: Vec<(Vec<f64>, session::Window)>,
@@ -222,6 +271,11 @@ pub fn explore_wired<R: Robot + SampleSource>(
         return Err(ExploreError::Undecided(undecided));
     }
     let (assumed, warnings) = assumptions(&outcome, &cfg.structure, &cells, &dof_names);
+    let levers = Levers {
+        dofs: dof_names.len(),
+        seen_m: outcome.seen.clone(),
+        near_axis: outcome.lever_bounds.iter().map(|b| b.is_finite()).collect(),
+    };
     let structure::Outcome { activity, postures, stills, .. } = outcome;
     let merged = merge::merge(&activity.rows());
     let tree = KinematicTree::new(&merged, &cells, &dof_names)?;
@@ -245,6 +299,7 @@ pub fn explore_wired<R: Robot + SampleSource>(
         smm_time_s,
         warnings,
         assumed,
+        levers,
         stills,
     })
 }

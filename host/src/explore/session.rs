@@ -154,6 +154,11 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
         self.rig.positions()
     }
 
+    /// DoF `d`'s velocity limit, where the robot says.
+    pub fn velocity_limit(&self, d: usize) -> Option<f64> {
+        self.rig.velocity_limits().get(d).copied().flatten()
+    }
+
     /// Sends the current command, waits one tick and takes in its samples.
     fn tick(&mut self) -> Result<(), ExploreError> {
         self.rig.command_velocities(&self.command)?;

@@ -56,6 +56,21 @@ pub fn page(r: &Report) -> String {
             t.explore_wall_s
         ),
     );
+    if let Some(smallest) = e.smallest_lever_decided_m {
+        let assumed = if e.assumed.is_empty() {
+            String::new()
+        } else {
+            format!("; {} entries below it rest on the mounting clearance", e.assumed.len())
+        };
+        row(
+            &mut s,
+            "levers",
+            &format!(
+                "near an axis where gravity did not tell, evidence decides any lever of {:.2} mm or more{assumed}",
+                smallest * 1e3
+            ),
+        );
+    }
     let i = &r.interface;
     row(
         &mut s,

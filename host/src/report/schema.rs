@@ -89,6 +89,12 @@ pub struct ExplorationSection {
     pub warnings: Vec<String>,
     /// Entries decided on a mounting clearance, not on evidence alone.
     pub assumed: Vec<Assumed>,
+    /// Per cell and DoF, the smallest lever the evidence would have
+    /// decided as a movement, m (null where the motion saturated).
+    pub lever_seen_m: Vec<Vec<f64>>,
+    /// Its largest over the entries near an axis, where gravity did not
+    /// tell: any lever this large or larger was decided by evidence, m.
+    pub smallest_lever_decided_m: Option<f64>,
 }
 
 /// The skin calibrated on the robot's description.
@@ -203,6 +209,8 @@ impl ExplorationSection {
             smm_weights: (0..found.cells.len()).map(|u| tile.weights(u).to_vec()).collect(),
             warnings: found.warnings.clone(),
             assumed: found.assumed.clone(),
+            lever_seen_m: found.levers.rows(),
+            smallest_lever_decided_m: found.levers.smallest_decided_m(),
         }
     }
 }

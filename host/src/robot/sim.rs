@@ -41,6 +41,16 @@ impl Robot for SimRobot {
         self.world.robot().dofs().iter().map(|d| d.kind).collect()
     }
 
+    /// The description's limits, which the world clips commands to.
+    fn velocity_limits(&self) -> Vec<Option<f64>> {
+        self.world
+            .robot()
+            .dofs()
+            .iter()
+            .map(|d| (d.max_velocity.is_finite() && d.max_velocity > 0.0).then_some(d.max_velocity))
+            .collect()
+    }
+
     fn command_velocities(&mut self, omega_rad_s: &[f64]) -> Result<(), RobotError> {
         Ok(self.world.command(omega_rad_s)?)
     }
