@@ -11,7 +11,7 @@
 mod common;
 
 use std::ffi::OsStr;
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Read};
 use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -102,12 +102,22 @@ impl Rig {
     /// Stops the robot node: every command it received, with wall times.
     fn finish(mut self) -> Value {
         let _ = Command::new("kill").args(["-TERM", &self.robot.id().to_string()]).status();
-        let out = self.robot.wait_with_output().unwrap();
+        let mut stdout = Vec::new();
+        self.robot.stdout.take().unwrap().read_to_end(&mut stdout).unwrap();
+        let status = self.robot.wait().unwrap();
         let rest: Vec<String> = self.robot_lines.try_iter().collect();
-        let _ = self.endpoint.kill();
-        let _ = self.endpoint.wait();
         let _ = std::fs::remove_dir_all(&self.out);
-        rclpy::json_of("ros2_robot.py", &Output { stderr: rest.join("\n").into_bytes(), ..out })
+        rclpy::json_of("ros2_robot.py", &Output { status, stdout, stderr: rest.join("\n").into_bytes() })
+    }
+}
+
+/// A test that fails leaves no robot node or simulator behind.
+impl Drop for Rig {
+    fn drop(&mut self) {
+        for child in [&mut self.robot, &mut self.endpoint] {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
     }
 }
 
@@ -287,8 +297,10 @@ fn a_robot_in_another_ros_domain_is_not_seen() {
     assert_eq!(commands, vec![], "no command at all");
 }
 
-/// A run's calibrated cells from its skin.toml: ID, link, pose.
-type Cells = Vec<(u16, String, nalgebra::Isometry3<f64>)>;
+/// One calibrated cell of a run's skin.toml: ID, link, pose.
+type Cell = (u16, String, nalgebra::Isometry3<f64>);
+/// A run's calibrated cells.
+type Cells = Vec<Cell>;
 
 fn calibrated(robot: &skin_model::robot::Robot, dir: &Path) -> Cells {
     let text = std::fs::read_to_string(dir.join("skin.toml")).unwrap();
@@ -299,10 +311,7 @@ fn calibrated(robot: &skin_model::robot::Robot, dir: &Path) -> Cells {
 /// The cells of `a` and `b` paired: on the same link, nearest first, each
 /// once. A skin numbers itself as its cells boot, so two runs give the same
 /// cells other IDs; where they were calibrated is what tells them apart.
-fn paired<'c>(
-    a: &'c Cells,
-    b: &'c Cells,
-) -> Vec<(&'c (u16, String, nalgebra::Isometry3<f64>), &'c (u16, String, nalgebra::Isometry3<f64>))> {
+fn paired<'c>(a: &'c Cells, b: &'c Cells) -> Vec<(&'c Cell, &'c Cell)> {
     let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
     for (i, x) in a.iter().enumerate() {
         for (j, y) in b.iter().enumerate().filter(|(_, y)| y.1 == x.1) {

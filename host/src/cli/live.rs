@@ -270,8 +270,10 @@ pub struct RobotServer {
     _robot: Option<skin_host::ros::control::Ros2Robot>,
 }
 
-/// What `--robot ros2` is told besides the controller.
+/// What `--robot ros2` is told besides the controller (read by the
+/// ros2_control bridge only, which a build without ROS 2 lacks).
 #[derive(Debug, Default)]
+#[cfg_attr(not(feature = "ros2"), allow(dead_code))]
 pub struct Ros2Setup<'a> {
     /// The ROS domain.
     pub domain: u32,
