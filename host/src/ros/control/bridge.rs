@@ -60,6 +60,12 @@ struct Ros {
     states_taken: u64,
     /// How many had been taken when the host was last answered.
     states_answered: u64,
+    /// The stamp of the positions the host was last answered with.
+    answered_stamp_s: f64,
+    /// Whether stamps advance every cycle (they measured the period): a
+    /// state is then the next cycle's only when its stamp is newer, not a
+    /// repetition of the last.
+    stamps_advance: bool,
     /// When the positions the host was last answered with arrived.
     answered_arrival: Option<Instant>,
     /// The first stamp: the robot's clock on the link counts from it.
@@ -140,13 +146,18 @@ impl Ros {
     }
 
     /// Takes `/joint_states` until one newer than those the host was last
-    /// answered with arrives, or [`NEXT_STATE_MOST`] (two periods at most)
-    /// passes.
+    /// answered with arrives (by stamp where stamps advance, else by
+    /// arrival), or [`NEXT_STATE_MOST`] (two periods at most) passes.
     fn await_next_state(&mut self) {
         let until = Instant::now() + (2 * self.period).min(NEXT_STATE_MOST);
         loop {
             self.take_states();
-            if self.states_taken > self.states_answered || Instant::now() >= until {
+            let next = if self.stamps_advance {
+                self.stamp_s > self.answered_stamp_s
+            } else {
+                self.states_taken > self.states_answered
+            };
+            if next || Instant::now() >= until {
                 return;
             }
             std::thread::sleep(Duration::from_micros(100));
@@ -236,6 +247,8 @@ impl Ros2Robot {
             stamp_s: 0.0,
             states_taken: 0,
             states_answered: 0,
+            answered_stamp_s: f64::NEG_INFINITY,
+            stamps_advance: false,
             answered_arrival: None,
             first_stamp_s: None,
             time_us: 0,
@@ -246,6 +259,7 @@ impl Ros2Robot {
         first_state(&mut ros, config)?;
         let measured = measure_period(&mut ros);
         ros.period = measured.period;
+        ros.stamps_advance = measured.by_stamps;
         let (limits, source) = kinds_and_limits(&description, &joints, config)?;
         ros.limits = limits;
         let told = Told { joints: joints.clone(), period: ros.period, period_from: measured.from, limits_from: source };
@@ -360,6 +374,7 @@ fn joints_parameter(node: &mut RosNode, config: &ControlConfig, wait: Duration) 
 struct Measured {
     period: Duration,
     from: &'static str,
+    by_stamps: bool,
 }
 
 /// The robot's control period: the median step between the stamps of the
@@ -391,7 +406,7 @@ fn measure_period(ros: &mut Ros) -> Measured {
         (None, None) => (f64::from(PERIOD_RANGE_US.1) / 1e6, "nothing: /joint_states came too rarely"),
     };
     let us = ((seconds * 1e6).round() as u32).clamp(PERIOD_RANGE_US.0, PERIOD_RANGE_US.1);
-    Measured { period: Duration::from_micros(u64::from(us)), from }
+    Measured { period: Duration::from_micros(u64::from(us)), from, by_stamps: by_stamps.is_some() }
 }
 
 /// The joints' kinds and limits: from `/robot_description` when the robot
@@ -556,6 +571,7 @@ fn answer(ros: &mut Ros, request: ToRobot, last_seq: &mut Option<u32>, commandin
                 ros.await_next_state();
             }
             ros.states_answered = ros.states_taken;
+            ros.answered_stamp_s = ros.stamp_s;
             ros.answered_arrival = Some(ros.heard);
             // The robot's time is that of its /joint_states, so a robot
             // (or simulator) that runs slow is seen slow, as on the link.
