@@ -49,6 +49,19 @@ fn seconds_no_clock_holds_are_refused_naming_the_flag() {
 }
 
 #[test]
+fn ros_flags_nothing_uses_are_refused_before_the_robot_is_asked() {
+    let robot = free_addr();
+    let domain = "--ros-domain is the domain of --ros2 or of --robot ros2, and neither was given";
+    refused(&["run", "--robot", &robot, "--ros-domain", "3"], domain);
+    refused(&["demo", "--quick", "--ros-domain", "3"], domain);
+    refused(
+        &["run", "--robot", &robot, "--robot-joints", "a,b"],
+        "--robot-joints names a ros2_control controller's joints: it needs --robot ros2",
+    );
+    refused(&["run", "--robot", "ros2", "--robot-joints", "a,a"], "--robot-joints: \"a\" is blank or named twice");
+}
+
+#[test]
 fn a_cell_pitch_no_skin_has_is_refused_before_the_robot_is_asked() {
     let robot = free_addr();
     for value in ["0", "-0.025", "NaN", "inf", "0.5"] {

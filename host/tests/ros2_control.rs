@@ -1,14 +1,17 @@
 //! `skin run --robot ros2` against a ros2_control robot as rclpy sees
 //! one: `joint_state_broadcaster` and a forward velocity controller with a
-//! `joints` parameter at 500 Hz (tests/python/ros2_robot.py), whose
-//! hardware is `skin sim-endpoint`'s simulated robot, so its motion moves
-//! the simulated skin. The faults where a forward controller's habit of
-//! holding its last command forever matters: SIGTERM mid-motion, a
-//! `/joint_states` that falls silent, a controller with the wrong joints.
+//! `joints` parameter at the robot's control period
+//! (tests/python/ros2_robot.py), whose hardware is `skin sim-endpoint`'s
+//! simulated robot, so its motion moves the simulated skin: explored and
+//! calibrated as over the robot link. The faults where a forward
+//! controller's habit of holding its last command forever matters: SIGTERM
+//! mid-motion, a `/joint_states` that falls silent, a controller with the
+//! wrong joints or none known; and the ROS domain kept apart.
 
 mod common;
 
-use std::io::{BufRead, BufReader};
+use std::ffi::OsStr;
+use std::io::{BufRead, BufReader, Read};
 use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -78,12 +81,19 @@ impl Rig {
         }
     }
 
-    /// `skin run --robot ros2` on this rig, once it has the robot.
-    fn run(&self) -> (Child, std::thread::JoinHandle<String>) {
-        let id = self.domain.0.to_string();
-        let args = ["run", "--robot", "ros2", "--cells", "74", "--json", "--interface", &self.host];
+    /// `skin run --robot ros2 ARGS` on this rig, once it has the robot, in
+    /// its domain by `--ros-domain` (`ROS_DOMAIN_ID` left unset).
+    fn run(&self, extra: &[&OsStr]) -> (Child, std::thread::JoinHandle<String>) {
+        self.run_in(self.domain.0, extra)
+    }
+
+    /// As [`Rig::run`] in ROS domain `domain`.
+    fn run_in(&self, domain: u16, extra: &[&OsStr]) -> (Child, std::thread::JoinHandle<String>) {
+        let id = domain.to_string();
+        let args =
+            ["run", "--robot", "ros2", "--cells", "74", "--json", "--interface", &self.host, "--ros-domain", &id];
         let mut command = Command::new(env!("CARGO_BIN_EXE_skin"));
-        command.args(args).arg("--out").arg(&self.out).envs(self.domain.env()).env("ROS_DOMAIN_ID", &id);
+        command.args(args).args(extra).arg("--out").arg(&self.out).envs(self.domain.env()).env_remove("ROS_DOMAIN_ID");
         // No line awaited (an empty marker): the run's stderr drained.
         let (child, _, drain) = common::announcing(&mut command, "");
         (child, drain)
@@ -92,12 +102,22 @@ impl Rig {
     /// Stops the robot node: every command it received, with wall times.
     fn finish(mut self) -> Value {
         let _ = Command::new("kill").args(["-TERM", &self.robot.id().to_string()]).status();
-        let out = self.robot.wait_with_output().unwrap();
+        let mut stdout = Vec::new();
+        self.robot.stdout.take().unwrap().read_to_end(&mut stdout).unwrap();
+        let status = self.robot.wait().unwrap();
         let rest: Vec<String> = self.robot_lines.try_iter().collect();
-        let _ = self.endpoint.kill();
-        let _ = self.endpoint.wait();
         let _ = std::fs::remove_dir_all(&self.out);
-        rclpy::json_of("ros2_robot.py", &Output { stderr: rest.join("\n").into_bytes(), ..out })
+        rclpy::json_of("ros2_robot.py", &Output { status, stdout, stderr: rest.join("\n").into_bytes() })
+    }
+}
+
+/// A test that fails leaves no robot node or simulator behind.
+impl Drop for Rig {
+    fn drop(&mut self) {
+        for child in [&mut self.robot, &mut self.endpoint] {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
     }
 }
 
@@ -144,11 +164,45 @@ fn ended(child: &mut Child, within: Duration) -> (std::process::ExitStatus, f64)
     }
 }
 
+/// The simulated robot's URDF with every joint's speed limit `velocity`
+/// (rad/s) written to a file, and its joints in command order.
+fn description(name: &str, velocity: Option<f64>) -> (PathBuf, Vec<String>) {
+    let mut urdf = skin_model::robot::hrp2::urdf();
+    if let Some(v) = velocity {
+        urdf = with_attribute(&urdf, "velocity", &v.to_string());
+    }
+    let robot = skin_model::robot::Robot::from_urdf_str(&urdf).unwrap();
+    let joints = robot.dofs().iter().map(|d| d.name.clone()).collect();
+    let path = std::env::temp_dir().join(format!("skin-ros2-control-{}-{name}.urdf", std::process::id()));
+    std::fs::write(&path, urdf).unwrap();
+    (path, joints)
+}
+
+/// XML `text` with the value of every attribute `name` replaced by `value`.
+fn with_attribute(text: &str, name: &str, value: &str) -> String {
+    let key = format!(" {name}=\"");
+    let mut out = String::new();
+    let mut rest = text;
+    while let Some(at) = rest.find(&key) {
+        let (head, tail) = rest.split_at(at + key.len());
+        out += head;
+        out += value;
+        rest = &tail[tail.find('"').unwrap()..];
+    }
+    out + rest
+}
+
 #[test]
 fn sigterm_mid_motion_leaves_a_zero_command_as_the_controllers_last() {
     let Some(python) = rclpy::python() else { return };
-    let mut rig = Rig::start(&python, "sigterm", &[]);
-    let (mut run, drain) = rig.run();
+    // A controller without parameter services, its joints configured
+    // instead; a description whose speed limit the bridge must keep.
+    const LIMIT: f64 = 0.05;
+    let (urdf, joints) = description("sigterm", Some(LIMIT));
+    let urdf_arg = urdf.to_str().unwrap();
+    let mut rig = Rig::start(&python, "sigterm", &["--no-parameters", "1", "--description", urdf_arg]);
+    let joints = joints.join(",");
+    let (mut run, drain) = rig.run(&["--robot-joints".as_ref(), joints.as_ref()]);
     rig.robot_says("moving", Some(&mut run));
     std::thread::sleep(Duration::from_millis(300));
     let signalled = now_s();
@@ -157,10 +211,15 @@ fn sigterm_mid_motion_leaves_a_zero_command_as_the_controllers_last() {
     let stderr = drain.join().unwrap();
     assert_eq!(status.code(), Some(128 + 15), "{stderr}");
     assert!(stderr.contains("zero command"), "{stderr}");
+    assert!(stderr.contains("joint kinds and limits from /robot_description"), "{stderr}");
     let got = rig.finish();
+    let _ = std::fs::remove_file(&urdf);
     let commands = commands(&got);
     let moving = commands.iter().filter(|(_, v)| v.iter().any(|x| *x != 0.0)).count();
     assert!(moving > 10, "the robot moved before the signal: {moving} commands");
+    // The exploration asks for more than the limit; the bridge sends no more.
+    let fastest = commands.iter().flat_map(|(_, v)| v.iter().map(|x| x.abs())).fold(0.0, f64::max);
+    assert!((fastest - LIMIT).abs() < 1e-9, "the fastest command {fastest} rad/s, the limit {LIMIT}");
     let (at, last) = commands.last().unwrap();
     assert!(last.iter().all(|v| *v == 0.0), "the last command stops every joint: {last:?}");
     assert_eq!(last.len(), 14);
@@ -174,7 +233,7 @@ fn sigterm_mid_motion_leaves_a_zero_command_as_the_controllers_last() {
 fn joint_states_falling_silent_end_the_run_within_200_ms_with_a_zero_command() {
     let Some(python) = rclpy::python() else { return };
     let mut rig = Rig::start(&python, "silent", &["--states-for", "0.5"]);
-    let (mut run, drain) = rig.run();
+    let (mut run, drain) = rig.run(&[]);
     rig.robot_says("moving", Some(&mut run));
     let (status, at) = ended(&mut run, Duration::from_secs(30));
     let stderr = drain.join().unwrap();
@@ -192,7 +251,7 @@ fn joint_states_falling_silent_end_the_run_within_200_ms_with_a_zero_command() {
 fn a_controller_with_other_joints_is_refused_before_any_command() {
     let Some(python) = rclpy::python() else { return };
     let rig = Rig::start(&python, "wrong", &["--joints", "shoulder_pan_joint,elbow_joint"]);
-    let (mut run, drain) = rig.run();
+    let (mut run, drain) = rig.run(&[]);
     let (status, _) = ended(&mut run, Duration::from_secs(30));
     let stderr = drain.join().unwrap();
     assert_eq!(status.code(), Some(1), "{stderr}");
@@ -206,24 +265,97 @@ fn a_controller_with_other_joints_is_refused_before_any_command() {
     assert_eq!(commands(&got), vec![], "no command at all");
 }
 
-/// Ignored: the robot moves on the wall clock here, and on a loaded
-/// machine (2 cores shared with other builds) the exploration's samples
-/// suffer: of three runs there, one differed in the joints, one in a
-/// cell's part. Run it on a quiet machine:
-/// `cargo test -p skin-host --features ros2 --test ros2_control -- --ignored`.
+/// `skin run` that must end with exit code 1 before commanding anything:
+/// its stderr and the robot node's commands.
+fn refused(rig: Rig, run: (Child, std::thread::JoinHandle<String>)) -> (String, Vec<(f64, Vec<f64>)>) {
+    let (mut run, drain) = run;
+    let (status, _) = ended(&mut run, Duration::from_secs(40));
+    let stderr = drain.join().unwrap();
+    assert_eq!(status.code(), Some(1), "{stderr}");
+    (stderr, commands(&rig.finish()))
+}
+
+#[test]
+fn a_controller_whose_joints_no_source_gives_is_refused_before_any_command() {
+    let Some(python) = rclpy::python() else { return };
+    let rig = Rig::start(&python, "noparams", &["--no-parameters", "1"]);
+    let run = rig.run(&[]);
+    let (stderr, commands) = refused(rig, run);
+    assert!(stderr.contains("did not tell its joints") && stderr.contains("--robot-joints"), "{stderr}");
+    assert_eq!(commands, vec![], "no command at all");
+}
+
+#[test]
+fn a_robot_in_another_ros_domain_is_not_seen() {
+    let Some(python) = rclpy::python() else { return };
+    let rig = Rig::start(&python, "domain", &[]);
+    // The robot is in the rig's domain; `--ros-domain` names the next one.
+    let other = (rig.domain.0 + 1) % 233;
+    let run = rig.run_in(other, &[]);
+    let (stderr, commands) = refused(rig, run);
+    assert!(stderr.contains("did not tell its joints"), "{stderr}");
+    assert_eq!(commands, vec![], "no command at all");
+}
+
+/// One calibrated cell of a run's skin.toml: ID, link, pose.
+type Cell = (u16, String, nalgebra::Isometry3<f64>);
+/// A run's calibrated cells.
+type Cells = Vec<Cell>;
+
+fn calibrated(robot: &skin_model::robot::Robot, dir: &Path) -> Cells {
+    let text = std::fs::read_to_string(dir.join("skin.toml")).unwrap();
+    let skin = skin_model::skin::Skin::from_toml_str(robot, &text).unwrap();
+    skin.cells().iter().map(|c| (c.id.0, c.link.clone(), c.pose)).collect()
+}
+
+/// The cells of `a` and `b` paired: on the same link, nearest first, each
+/// once. A skin numbers itself as its cells boot, so two runs give the same
+/// cells other IDs; where they were calibrated is what tells them apart.
+fn paired<'c>(a: &'c Cells, b: &'c Cells) -> Vec<(&'c Cell, &'c Cell)> {
+    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+    for (i, x) in a.iter().enumerate() {
+        for (j, y) in b.iter().enumerate().filter(|(_, y)| y.1 == x.1) {
+            pairs.push(((x.2.translation.vector - y.2.translation.vector).norm(), i, j));
+        }
+    }
+    pairs.sort_by(|p, q| p.0.total_cmp(&q.0));
+    let (mut used_a, mut used_b) = (vec![false; a.len()], vec![false; b.len()]);
+    let mut out = Vec::new();
+    for (_, i, j) in pairs {
+        if !used_a[i] && !used_b[j] {
+            (used_a[i], used_b[j]) = (true, true);
+            out.push((&a[i], &b[j]));
+        }
+    }
+    out
+}
+
+/// Ignored: two minutes of real time (the robot runs on the wall clock),
+/// and real time needs the cores it runs on: on a machine loaded past its
+/// cores the host stalls (p99 20 ms, once 0.9 s, behind a 4 ms period),
+/// the robot moves on meanwhile, and the calibration's fits see time
+/// jump. Run it on a quiet machine, in release:
+/// `cargo test --release -p skin-host --features ros2 --test ros2_control -- --ignored`.
 #[test]
 #[ignore]
-fn a_ros2_control_robot_is_explored_to_the_same_tree_as_over_the_robot_link() {
+fn a_ros2_control_robot_is_explored_and_calibrated_as_over_the_robot_link() {
     let Some(python) = rclpy::python() else { return };
-    let rig = Rig::start(&python, "tree", &[]);
-    let (run, drain) = rig.run();
+    let (urdf, _) = description("tree", None);
+    let urdf_arg = urdf.to_str().unwrap();
+    let started = Instant::now();
+    let rig = Rig::start(&python, "tree", &["--description", urdf_arg]);
+    let (run, drain) = rig.run(&["--urdf".as_ref(), urdf.as_os_str()]);
     let out = run.wait_with_output().unwrap();
     let stderr = drain.join().unwrap();
     assert!(out.status.success(), "skin run --robot ros2 failed: {stderr}");
+    assert!(stderr.contains("control period 4.00 ms (measured from /joint_states stamps)"), "{stderr}");
     let over_ros: Value = serde_json::from_slice(&out.stdout).unwrap();
     // The command latency the bridge measured, the figure of the results.
     let latency = stderr.lines().find(|l| l.starts_with("ros2_control:")).unwrap_or_else(|| panic!("{stderr}"));
     eprintln!("{latency}");
+    eprintln!("over ros2_control: {:.1} s", started.elapsed().as_secs_f64());
+    let ros_dir = rig.out.with_extension("kept");
+    std::fs::rename(&rig.out, &ros_dir).unwrap();
     let commands = commands(&rig.finish());
     assert!(commands.iter().filter(|(_, v)| v.iter().any(|x| *x != 0.0)).count() > 100, "the robot moved");
     let (_, last) = commands.last().unwrap();
@@ -231,38 +363,66 @@ fn a_ros2_control_robot_is_explored_to_the_same_tree_as_over_the_robot_link() {
 
     // The same simulated robot and skin, driven over the robot link.
     let (host, mut endpoint, link) = endpoint();
-    let dir = std::env::temp_dir().join(format!("skin-ros2-control-{}-link", std::process::id()));
+    let link_dir = std::env::temp_dir().join(format!("skin-ros2-control-{}-link", std::process::id()));
     let out = Command::new(env!("CARGO_BIN_EXE_skin"))
-        .args(["run", "--robot", &link, "--cells", "74", "--json", "--interface", &host, "--out"])
-        .arg(&dir)
+        .args(["run", "--robot", &link, "--cells", "74", "--json", "--interface", &host, "--urdf", urdf_arg, "--out"])
+        .arg(&link_dir)
         .output()
         .unwrap();
     let _ = endpoint.kill();
     let _ = endpoint.wait();
-    let _ = std::fs::remove_dir_all(&dir);
     assert!(out.status.success(), "skin run over the robot link failed: {}", String::from_utf8_lossy(&out.stderr));
     let over_link: Value = serde_json::from_slice(&out.stdout).unwrap();
-    // The tree: the same joints between the same parts, limbs and leaves.
+    for (how, report) in [("over ros2_control", &over_ros), ("over the robot link", &over_link)] {
+        let mut c = report["calibration"].clone();
+        if let Some(c) = c.as_object_mut() {
+            c.remove("picture");
+        }
+        eprintln!("calibration {how}: {c}");
+    }
+    // The tree: the same joints between as many parts, limbs and leaves.
     for key in ["cells", "dofs", "joints", "leaves", "limbs"] {
         let (ros, link) = (&over_ros["exploration"][key], &over_link["exploration"][key]);
         assert!(!ros.is_null(), "{key} explored");
         assert_eq!(ros, link, "{key}: over ros2_control against over the robot link");
     }
-    // The parts' cells, counted: the cells' IDs come from the skin's own
-    // organization in each run, and the robot moves on the wall clock over
-    // ros2_control but in lockstep over the link, so a cell the activity
-    // leaves near a threshold may fall to the neighbouring part.
-    let sizes = |report: &Value| -> Vec<i64> {
-        report["exploration"]["body_parts"]
+    // The calibration: every cell paired with one on the same link, within
+    // the calibration's goals of it (position mean 5 mm, p95 10 mm;
+    // orientation mean 2 degrees).
+    let robot = skin_model::robot::Robot::from_urdf_file(&urdf).unwrap();
+    let (ros, link) = (calibrated(&robot, &ros_dir), calibrated(&robot, &link_dir));
+    let _ = std::fs::remove_dir_all(&ros_dir);
+    let _ = std::fs::remove_dir_all(&link_dir);
+    let _ = std::fs::remove_file(&urdf);
+    let pairs = paired(&ros, &link);
+    assert_eq!((ros.len(), link.len(), pairs.len()), (74, 74, 74), "every cell on the same link in both");
+    let mut apart_m: Vec<f64> =
+        pairs.iter().map(|(a, b)| (a.2.translation.vector - b.2.translation.vector).norm()).collect();
+    let turned_deg = pairs.iter().map(|(a, b)| a.2.rotation.angle_to(&b.2.rotation).to_degrees()).sum::<f64>() / 74.0;
+    apart_m.sort_by(f64::total_cmp);
+    let mean_m = apart_m.iter().sum::<f64>() / apart_m.len() as f64;
+    let p95_m = apart_m[(apart_m.len() - 1) * 95 / 100];
+    eprintln!(
+        "calibrations apart: position mean {:.2} mm, p95 {:.2} mm; orientation mean {turned_deg:.2} deg",
+        mean_m * 1e3,
+        p95_m * 1e3
+    );
+    // The same cells make the same body parts, once paired.
+    let id_in_link: std::collections::HashMap<u16, u16> = pairs.iter().map(|(a, b)| (a.0, b.0)).collect();
+    let parts = |report: &Value, map: &dyn Fn(u16) -> u16| -> Vec<Vec<u16>> {
+        let mut parts: Vec<Vec<u16>> = report["exploration"]["body_parts"]
             .as_array()
             .unwrap()
             .iter()
-            .map(|c| c.as_array().unwrap().len() as i64)
-            .collect()
+            .map(|p| {
+                let mut p: Vec<u16> = p.as_array().unwrap().iter().map(|c| map(c.as_u64().unwrap() as u16)).collect();
+                p.sort_unstable();
+                p
+            })
+            .collect();
+        parts.sort();
+        parts
     };
-    let (ros, link) = (sizes(&over_ros), sizes(&over_link));
-    eprintln!("cells per body part over ros2_control {ros:?}, over the robot link {link:?}");
-    assert_eq!(ros.len(), link.len());
-    let moved: i64 = ros.iter().zip(&link).map(|(a, b)| (a - b).abs()).sum::<i64>() / 2;
-    assert!(moved <= 2, "{moved} cells on another part");
+    assert_eq!(parts(&over_ros, &|id| id_in_link[&id]), parts(&over_link, &|id| id), "the body parts' cells");
+    assert!(mean_m <= 0.005 && p95_m <= 0.010 && turned_deg <= 2.0, "the calibrations differ beyond the goals");
 }

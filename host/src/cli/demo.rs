@@ -78,6 +78,8 @@ pub const RECORDING: &str = "recording.mcap";
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let wall = Instant::now();
     let seed = args.seed;
+    // Refused before anything starts: --ros-domain without --ros2.
+    args.live.ros_domain(false)?;
     check_folder(&args.out)?;
     let (mut endpoint, mut remote, steps) = serve_experiment(seed)?;
     if !args.no_record {

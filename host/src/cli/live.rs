@@ -93,9 +93,10 @@ pub struct LiveArgs {
     /// With `--ros2-middleware zenoh`: a Zenoh endpoint to listen on [default: tcp/127.0.0.1:0]; repeatable.
     #[arg(long, value_name = "ENDPOINT", requires = "ros2")]
     zenoh_listen: Vec<String>,
-    /// The ROS domain ID (over DDS, `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` or `ROS_LOCALHOST_ONLY=1` keep it on this host).
-    #[arg(long, value_name = "ID", default_value_t = 0, requires = "ros2", value_parser = clap::value_parser!(u32).range(0..=232))]
-    ros_domain: u32,
+    /// The ROS domain ID of `--ros2` and of `--robot ros2` [default: `ROS_DOMAIN_ID`, else 0] (over DDS,
+    /// `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` or `ROS_LOCALHOST_ONLY=1` keep it on this host).
+    #[arg(long, value_name = "ID", value_parser = clap::value_parser!(u32).range(0..=232))]
+    ros_domain: Option<u32>,
     /// With `--ros2-middleware zenoh`: speak to Humble (no type hashes: `TypeHashNotSupported`) instead of Jazzy and later (RIHS01).
     #[arg(long, requires = "ros2")]
     ros_humble: bool,
@@ -107,6 +108,12 @@ pub struct LiveArgs {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum LiveError {
+    /// `--ros-domain` where nothing speaks ROS 2.
+    #[error("--ros-domain is the domain of --ros2 or of --robot ros2, and neither was given")]
+    DomainUnused,
+    /// `ROS_DOMAIN_ID` is not a domain ID.
+    #[error("ROS_DOMAIN_ID={0:?} is not a ROS domain ID (0 to 232)")]
+    DomainEnv(String),
     /// `--ros2` on a binary built without ROS 2.
     #[cfg(not(feature = "ros2"))]
     #[error(
@@ -136,6 +143,16 @@ pub enum LiveError {
 }
 
 impl LiveArgs {
+    /// The ROS domain: `--ros-domain`, else `ROS_DOMAIN_ID`, else 0.
+    /// `robot_on_ros`: `--robot ros2` uses it too; a flag nothing uses is refused.
+    pub fn ros_domain(&self, robot_on_ros: bool) -> Result<u32, LiveError> {
+        match self.ros_domain {
+            Some(_) if !self.ros2 && !robot_on_ros => Err(LiveError::DomainUnused),
+            Some(id) => Ok(id),
+            None => domain_from_env(std::env::var("ROS_DOMAIN_ID").ok().as_deref()),
+        }
+    }
+
     /// Whether anything is published live.
     pub fn any(&self) -> bool {
         self.ros2 || self.foxglove.foxglove.is_some()
@@ -172,7 +189,8 @@ impl LiveArgs {
     #[cfg(feature = "ros2")]
     fn start_dds(&self, session: &mut Session) -> Result<(), LiveError> {
         use skin_host::ros::dds::{DdsConfig, DdsError, Node};
-        let domain = u16::try_from(self.ros_domain).map_err(|_| DdsError::Domain(self.ros_domain))?;
+        let id = self.ros_domain(true)?;
+        let domain = u16::try_from(id).map_err(|_| DdsError::Domain(id))?;
         let config = DdsConfig::new(domain);
         let node = Node::open(&config)?;
         eprintln!(
@@ -188,16 +206,17 @@ impl LiveArgs {
     #[cfg(feature = "ros2")]
     fn start_zenoh(&self, session: &mut Session) -> Result<(), LiveError> {
         use skin_host::ros::rmw_zenoh::{Node, TypeHashes, ZenohConfig};
+        let domain = self.ros_domain(true)?;
         let node = Node::open(ZenohConfig {
             connect: self.zenoh_connect.clone(),
             listen: self.zenoh_listen.clone(),
-            domain: self.ros_domain,
+            domain,
             hashes: if self.ros_humble { TypeHashes::NotSupported } else { TypeHashes::Rihs01 },
             ..ZenohConfig::default()
         })?;
         eprintln!(
             "ROS 2 over Zenoh: node /skin in domain {}, zenoh peer {} listening on {}",
-            self.ros_domain,
+            domain,
             node.zid(),
             node.locators().join(" ")
         );
@@ -251,11 +270,31 @@ pub struct RobotServer {
     _robot: Option<skin_host::ros::control::Ros2Robot>,
 }
 
+/// What `--robot ros2` is told besides the controller (read by the
+/// ros2_control bridge only, which a build without ROS 2 lacks).
+#[derive(Debug, Default)]
+#[cfg_attr(not(feature = "ros2"), allow(dead_code))]
+pub struct Ros2Setup<'a> {
+    /// The ROS domain.
+    pub domain: u32,
+    /// The controller's joints in command order, for a controller whose
+    /// parameter service is absent (`--robot-joints`).
+    pub joints: Option<Vec<String>>,
+    /// The robot's description (`--urdf`), for joint kinds and limits
+    /// when `/robot_description` is not published.
+    pub description: Option<&'a str>,
+}
+
 impl RobotTarget {
+    /// Whether the robot is reached over ROS 2.
+    pub fn is_ros2(&self) -> bool {
+        matches!(self, RobotTarget::Ros2(_))
+    }
+
     /// The robot-link address to connect to: the one given, or that of a
-    /// ros2_control bridge started here in the ROS domain of
-    /// `ROS_DOMAIN_ID` (0 when unset), with what keeps it running.
-    pub fn serve(&self) -> Result<(SocketAddr, RobotServer), LiveError> {
+    /// ros2_control bridge started here as `ros` says, with what keeps it
+    /// running.
+    pub fn serve(&self, ros: Ros2Setup<'_>) -> Result<(SocketAddr, RobotServer), LiveError> {
         match self {
             RobotTarget::Link(addr) => Ok((
                 *addr,
@@ -264,32 +303,55 @@ impl RobotTarget {
                     _robot: None,
                 },
             )),
-            RobotTarget::Ros2(spec) => self.serve_ros2(spec),
+            RobotTarget::Ros2(spec) => self.serve_ros2(spec, ros),
         }
     }
 
     #[cfg(feature = "ros2")]
-    fn serve_ros2(&self, spec: &str) -> Result<(SocketAddr, RobotServer), LiveError> {
+    fn serve_ros2(&self, spec: &str, ros: Ros2Setup<'_>) -> Result<(SocketAddr, RobotServer), LiveError> {
         use skin_host::ros::control::{ControlConfig, Ros2Robot};
         use skin_host::ros::dds::DdsError;
-        let domain = match std::env::var("ROS_DOMAIN_ID") {
-            Ok(d) if !d.trim().is_empty() => {
-                d.trim().parse::<u16>().map_err(|_| DdsError::Domain(d.trim().parse().unwrap_or(u32::MAX)))?
-            }
-            _ => 0,
+        let domain = u16::try_from(ros.domain).map_err(|_| DdsError::Domain(ros.domain))?;
+        let config = ControlConfig {
+            joints: ros.joints,
+            description: ros.description.map(str::to_owned),
+            ..ControlConfig::parse(spec, domain)?
         };
-        let config = ControlConfig::parse(spec, domain)?;
         let robot = Ros2Robot::start(&config)?;
         eprintln!(
-            "ROS 2 robot: controller /{} with joints {} (domain {domain}), /joint_states heard",
+            "ROS 2 robot: controller /{} with joints {} (domain {domain}), /joint_states heard; {}",
             config.controller,
-            robot.joints().join(" ")
+            robot.joints().join(" "),
+            robot.summary()
         );
         Ok((robot.addr(), RobotServer { _robot: Some(robot) }))
     }
 
     #[cfg(not(feature = "ros2"))]
-    fn serve_ros2(&self, _spec: &str) -> Result<(SocketAddr, RobotServer), LiveError> {
+    fn serve_ros2(&self, _spec: &str, _ros: Ros2Setup<'_>) -> Result<(SocketAddr, RobotServer), LiveError> {
         Err(LiveError::NotBuilt)
+    }
+}
+
+/// `ROS_DOMAIN_ID` as the RMWs read it: unset or blank is 0.
+fn domain_from_env(value: Option<&str>) -> Result<u32, LiveError> {
+    match value.map(str::trim).filter(|v| !v.is_empty()) {
+        None => Ok(0),
+        Some(v) => v.parse().ok().filter(|d| *d <= 232).ok_or_else(|| LiveError::DomainEnv(v.to_owned())),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ros_domain_id_is_read_as_the_rmws_read_it() {
+        assert_eq!(domain_from_env(None).unwrap(), 0);
+        assert_eq!(domain_from_env(Some(" ")).unwrap(), 0);
+        assert_eq!(domain_from_env(Some(" 42 ")).unwrap(), 42);
+        for bad in ["233", "-1", "x"] {
+            assert!(matches!(domain_from_env(Some(bad)), Err(LiveError::DomainEnv(_))), "{bad}");
+        }
     }
 }

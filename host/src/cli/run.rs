@@ -29,7 +29,7 @@ use skin_model::robot::Robot;
 use skin_protocol::message::AccelRange;
 
 use super::job::{self, Steps};
-use super::live::{LiveArgs, RobotTarget};
+use super::live::{LiveArgs, RobotTarget, Ros2Setup};
 use super::progress::Progress;
 use super::seconds;
 use super::structure_args::StructureArgs;
@@ -44,6 +44,11 @@ pub struct Args {
     /// (velocities to CONTROLLER, default forward_velocity_controller; positions from /joint_states).
     #[arg(long, value_name = "ADDR|ros2[:CONTROLLER]")]
     robot: RobotTarget,
+    /// With `--robot ros2`: the controller's joints in command order, for a controller whose `joints`
+    /// parameter cannot be read (no parameter service); checked against /joint_states and, where the
+    /// parameter answers, against it.
+    #[arg(long, value_name = "JOINT,...", value_delimiter = ',')]
+    robot_joints: Vec<String>,
     /// Configuration file (interface ports, cell settings) [default: the built-in defaults, see `skin config --default`].
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
@@ -118,6 +123,8 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         }
         None => None,
     };
+    let ros_domain = args.live.ros_domain(args.robot.is_ros2())?;
+    let robot_joints = robot_joints(&args.robot, &args.robot_joints)?;
     let mut config = match &args.config {
         Some(path) => Config::load(path)?,
         None => Config::default(),
@@ -133,7 +140,12 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let interface = Interface::bind(&config.interface)?;
     // A ros2_control robot is served on a loopback robot link; dropping
     // `_robot` (also on an error or a panic) sends it the zero command.
-    let (robot, _robot) = args.robot.serve()?;
+    let ros = Ros2Setup {
+        domain: ros_domain,
+        joints: robot_joints,
+        description: description.as_ref().map(|(text, _)| text.as_str()),
+    };
+    let (robot, _robot) = args.robot.serve(ros)?;
     let link = RobotLink::connect(robot, Duration::from_millis(args.robot_timeout_ms))?;
     let source = format!(
         "The robot at {} ({} DoFs, {}) and the skin heard on {}.",
@@ -199,6 +211,23 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         other => other?,
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `--robot-joints`, refused where no ros2_control robot takes it, or
+/// with a blank or repeated name.
+fn robot_joints(robot: &RobotTarget, joints: &[String]) -> Result<Option<Vec<String>>, String> {
+    if joints.is_empty() {
+        return Ok(None);
+    }
+    if !robot.is_ros2() {
+        return Err("--robot-joints names a ros2_control controller's joints: it needs --robot ros2".to_owned());
+    }
+    for (i, joint) in joints.iter().enumerate() {
+        if joint.trim().is_empty() || joints[..i].contains(joint) {
+            return Err(format!("--robot-joints: {joint:?} is blank or named twice"));
+        }
+    }
+    Ok(Some(joints.to_vec()))
 }
 
 /// Calibrates the skin on the robot's description `text` (parsed into

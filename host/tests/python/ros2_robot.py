@@ -1,22 +1,27 @@
 """A ros2_control robot as rclpy sees one, moving the simulated skin.
 
-Two nodes with the semantics of ros2_control's controllers at 500 Hz:
+Two nodes with the semantics of ros2_control's controllers:
 `joint_state_broadcaster` publishes sensor_msgs/JointState on
 /joint_states, and CONTROLLER (a forward_command_controller on the velocity
 interface) declares a `joints` parameter, takes std_msgs/Float64MultiArray
 on /CONTROLLER/commands and holds the last one. The hardware is `skin
-sim-endpoint --pace realtime`'s robot link: every period the held
-velocities go to it and its positions come back.
+sim-endpoint --pace lockstep`'s robot link: the loop runs at the simulated
+robot's own control period (the link tells it: 4 ms, 250 Hz), and every
+cycle the held velocities go to it, one period of the world passes, and
+its positions come back. /joint_states are stamped with the world's clock,
+as a simulated robot's are under use_sim_time, so a loaded machine slows
+the world and its stamps together instead of breaking their agreement.
 
 Usage: ros2_robot.py ROBOT_LINK_ADDR CONTROLLER SECONDS [--joints a,b]
-[--states-for S]. --joints declares other joints than the simulated
-robot's (a wrong controller); --states-for stops /joint_states after S
-seconds of motion, as a broadcaster that died. Prints "ready" on stderr once
-serving and "moving" at the first non-zero command, and one JSON object on
-stdout at the end (SIGTERM or SECONDS): every command received with its
-wall time. With the simulator in lockstep, its time advances one period
-per step of this loop, so a loaded machine slows the world instead of
-breaking it.
+[--states-for S] [--description FILE] [--no-parameters 1]. --joints
+declares other joints than the simulated robot's (a wrong controller);
+--states-for stops /joint_states after S seconds of motion, as a
+broadcaster that died; --description publishes FILE on /robot_description
+(transient local, as robot_state_publisher does); --no-parameters starts
+the controller's node without its parameter services. Prints "ready" on
+stderr once serving and "moving" at the first non-zero command, and one
+JSON object on stdout at the end (SIGTERM or SECONDS): every command
+received with its wall time.
 """
 
 import json
@@ -31,7 +36,8 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from std_msgs.msg import Float64MultiArray, String
 
 host, port = sys.argv[1].rsplit(":", 1)
 LINK = (host, int(port))
@@ -90,7 +96,8 @@ def exchange(payload):
 
 tag, r = exchange(varint(0))  # Hello
 assert tag == 0, tag
-dofs = r.byte()
+dofs = r.varint()
+period_s = r.varint() / 1e6
 names = []
 for i in range(dofs):
     tag, r = exchange(varint(1) + bytes([i]))  # DofName
@@ -100,17 +107,18 @@ for i in range(dofs):
 
 seq = 0
 positions = [0.0] * dofs
+world_us = 0
 
 
 def step(velocities):
     """One period of the hardware: the held velocities out, the positions back."""
-    global seq, positions
+    global seq, positions, world_us
     seq += 1
     payload = varint(2) + varint(seq) + varint(dofs) + struct.pack("<%dd" % dofs, *velocities)
     tag, r = exchange(payload)
     if tag == 2:  # State
         r.varint()
-        r.varint()
+        world_us = r.varint()
         positions = r.f64s()
 
 
@@ -118,8 +126,15 @@ step([0.0] * dofs)
 rclpy.init()
 joints = opts["--joints"].split(",") if "--joints" in opts else names
 controller = rclpy.create_node(CONTROLLER, parameter_overrides=[Parameter("joints", value=joints)],
-                               automatically_declare_parameters_from_overrides=True)
+                               automatically_declare_parameters_from_overrides=True,
+                               start_parameter_services="--no-parameters" not in opts)
 broadcaster = rclpy.create_node("joint_state_broadcaster")
+if "--description" in opts:
+    with open(opts["--description"]) as f:
+        urdf = String(data=f.read())
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    description = broadcaster.create_publisher(String, "/robot_description", latched)
+    description.publish(urdf)
 held = [0.0] * dofs
 commands = []
 moved_at = None
@@ -152,13 +167,14 @@ def tick():
             silent_since = time.time()
         return
     msg = JointState()
-    msg.header.stamp = broadcaster.get_clock().now().to_msg()
+    msg.header.stamp.sec = world_us // 1_000_000
+    msg.header.stamp.nanosec = world_us % 1_000_000 * 1000
     msg.name = names
     msg.position = positions
     states.publish(msg)
 
 
-broadcaster.create_timer(0.002, tick)
+broadcaster.create_timer(period_s, tick)
 executor = SingleThreadedExecutor()
 executor.add_node(controller)
 executor.add_node(broadcaster)

@@ -4,7 +4,7 @@ use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
 
 use ros2_client::dds::{Client, Node as RosNode, ServiceMapping, Subscription};
 use ros2_client::qos::{Durability, History, Reliability, WhenFull};
@@ -12,10 +12,11 @@ use ros2_client::rcl_interfaces::{GetParametersRequest, GetParametersResponse};
 use ros2_client::{MessageTypeName, Name, ParameterValue, QosProfile, ServiceTypeName};
 use rustdds::no_key::DataWriter;
 use rustdds::CDRSerializerAdapter;
-use skin_protocol::robot_link::{self, DofKind, FromRobot, Refusal, ToRobot, MAX_DOFS, MAX_NAME};
+use skin_protocol::robot_link::{self, FromRobot, Refusal, ToRobot, MAX_DOFS, MAX_NAME};
 
-use super::msgs::{Float64MultiArray, JointState};
-use super::{signals, ControlConfig, ControlError, PERIOD_US, SILENCE};
+use super::joints::{self, Joint, Source};
+use super::msgs::{Float64MultiArray, JointState, Text};
+use super::{signals, ControlConfig, ControlError, SILENCE};
 use crate::ros::dds::node::{context, ros_node};
 use crate::ros::dds::DdsError;
 
@@ -24,6 +25,21 @@ const ZERO_ACK: Duration = Duration::from_millis(100);
 /// A host silent this long has stopped commanding (done, or stuck): the
 /// robot is stopped, as a real-time robot on the link stops by itself.
 const HOST_SILENCE: Duration = Duration::from_millis(50);
+/// Longest a command waits for the `/joint_states` of the robot's next
+/// cycle (two periods, at most this): a robot that skips one is answered
+/// with what it last said, and its silence is judged by [`SILENCE`].
+const NEXT_STATE_MOST: Duration = Duration::from_millis(20);
+/// `/joint_states` messages after the first whose stamps measure the
+/// robot's control period.
+const PERIOD_SAMPLES: usize = 8;
+/// Shortest and longest period the robot link carries sensibly.
+const PERIOD_RANGE_US: (u32, u32) = (100, 1_000_000);
+/// How long `/robot_description` is awaited once the robot is heard (it is
+/// transient local, so a publisher's last one comes with its discovery).
+const DESCRIPTION_WAIT: Duration = Duration::from_secs(5);
+/// How long the controller's parameter service is asked when joints are
+/// configured to fall back on (it answers in milliseconds when present).
+const PARAMETER_WAIT_CONFIGURED: Duration = Duration::from_secs(2);
 
 type CommandWriter = DataWriter<Float64MultiArray, CDRSerializerAdapter<Float64MultiArray>>;
 
@@ -32,24 +48,52 @@ struct Ros {
     joints: Vec<String>,
     states: Subscription<JointState>,
     commands: CommandWriter,
+    /// Kinds and limits, in the same order.
+    limits: Vec<Joint>,
+    /// The robot's control period, measured from `/joint_states`.
+    period: Duration,
     /// The last positions, in the controller's joint order.
     positions: Vec<f64>,
-    /// The stamp of the `/joint_states` they came in, s since the epoch.
+    /// The stamp of the `/joint_states` they came in, s.
     stamp_s: f64,
+    /// `/joint_states` messages taken so far.
+    states_taken: u64,
+    /// How many had been taken when the host was last answered.
+    states_answered: u64,
     /// The stamp of the positions the host was last answered with.
-    answered_s: Option<f64>,
+    answered_stamp_s: f64,
+    /// Whether stamps advance every cycle (they measured the period): a
+    /// state is then the next cycle's only when its stamp is newer, not a
+    /// repetition of the last.
+    stamps_advance: bool,
+    /// When the positions the host was last answered with arrived.
+    answered_arrival: Option<Instant>,
     /// The first stamp: the robot's clock on the link counts from it.
     first_stamp_s: Option<f64>,
     /// The robot's clock last told the host, µs (never backwards).
     time_us: u64,
-    /// Per new command: how old the `/joint_states` behind it was, ms
-    /// (from its stamp to the command's sending, on this host's clock).
+    /// Per new command: how long after the `/joint_states` behind it
+    /// arrived here it was sent, ms (the host's reaction and the link's
+    /// round trip, on this host's clock).
     latencies_ms: Vec<f32>,
+    /// When the last `/joint_states` arrived.
     heard: Instant,
     _node: RosNode,
 }
 
 impl Ros {
+    /// Sends one velocity per joint, each within its joint's limits.
+    fn command_within_limits(&self, velocities: &[f64]) {
+        let period_s = self.period.as_secs_f64();
+        let clamped = velocities
+            .iter()
+            .zip(&self.limits)
+            .zip(&self.positions)
+            .map(|((&v, joint), &q)| joint.clamp(q, v, period_s))
+            .collect();
+        self.command(clamped);
+    }
+
     /// Sends one velocity per joint.
     fn command(&self, velocities: Vec<f64>) {
         if let Err(e) = self.commands.write(Float64MultiArray::flat(velocities), None) {
@@ -74,7 +118,7 @@ impl Ros {
         l.sort_by(f32::total_cmp);
         let at = |q: f64| l[((l.len() - 1) as f64 * q).round() as usize];
         eprintln!(
-            "ros2_control: {} commands; from a /joint_states stamp to the command it caused: median {:.2} ms, p99 {:.2} ms, max {:.2} ms",
+            "ros2_control: {} commands; from a /joint_states message's arrival to the command it caused: median {:.2} ms, p99 {:.2} ms, max {:.2} ms",
             l.len(),
             at(0.5),
             at(0.99),
@@ -90,8 +134,9 @@ impl Ros {
                 Ok(Some((state, _))) => {
                     if let Ok(p) = state.positions_of(&self.joints) {
                         self.positions = p;
-                        self.stamp_s = f64::from(state.header.stamp.sec) + f64::from(state.header.stamp.nanosec) * 1e-9;
+                        self.stamp_s = state.header.stamp_s();
                         self.heard = Instant::now();
+                        self.states_taken += 1;
                     }
                 }
                 Ok(None) => return,
@@ -99,20 +144,48 @@ impl Ros {
             }
         }
     }
+
+    /// Takes `/joint_states` until one newer than those the host was last
+    /// answered with arrives (by stamp where stamps advance, else by
+    /// arrival), or [`NEXT_STATE_MOST`] (two periods at most) passes.
+    fn await_next_state(&mut self) {
+        let until = Instant::now() + (2 * self.period).min(NEXT_STATE_MOST);
+        loop {
+            self.take_states();
+            let next = if self.stamps_advance {
+                self.stamp_s > self.answered_stamp_s
+            } else {
+                self.states_taken > self.states_answered
+            };
+            if next || Instant::now() >= until {
+                return;
+            }
+            std::thread::sleep(Duration::from_micros(100));
+        }
+    }
+}
+
+/// What the bridge learned of the robot before serving it.
+#[derive(Debug)]
+struct Told {
+    joints: Vec<String>,
+    period: Duration,
+    period_from: &'static str,
+    limits_from: Source,
 }
 
 /// A ros2_control robot served on the robot link at [`Ros2Robot::addr`],
 /// in real time. Dropping it stops the robot.
 pub struct Ros2Robot {
     addr: SocketAddr,
-    joints: Vec<String>,
+    told: Told,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
 }
 
 impl std::fmt::Debug for Ros2Robot {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Ros2Robot").field("addr", &self.addr).field("joints", &self.joints).finish()
+        f.debug_struct("Ros2Robot").field("addr", &self.addr).field("told", &self.told).finish()
     }
 }
 
@@ -134,10 +207,19 @@ impl Ros2Robot {
             .map_err(|e| DdsError::create("/joint_states", e))?;
         let states =
             node.create_subscription::<JointState>(&topic, None).map_err(|e| DdsError::create("/joint_states", e))?;
-        let joints = match &config.joints {
-            Some(j) => j.clone(),
-            None => joints_parameter(&mut node, config)?,
-        };
+        // Subscribed now, so the robot's last description arrives while
+        // the parameters and the first states are awaited.
+        let latched = QosProfile::publisher_default()
+            .reliability(Reliability::Reliable { when_full: WhenFull::Wait(Duration::from_millis(10)) })
+            .durability(Durability::TransientLocal)
+            .history(History::KeepLast { depth: 1 });
+        let topic = node
+            .create_topic(&name("/robot_description")?, MessageTypeName::new("std_msgs", "String"), &latched)
+            .map_err(|e| DdsError::create("/robot_description", e))?;
+        let description = node
+            .create_subscription::<Text>(&topic, Some(latched))
+            .map_err(|e| DdsError::create("/robot_description", e))?;
+        let joints = controller_joints(&mut node, config)?;
         if joints.is_empty() || joints.len() > MAX_DOFS || joints.iter().any(|j| j.len() > MAX_NAME) {
             return Err(ControlError::TooMany {
                 controller: config.controller.clone(),
@@ -157,11 +239,17 @@ impl Ros2Robot {
             .map_err(|e| DdsError::create(&commands_name, e))?;
         let mut ros = Ros {
             joints: joints.clone(),
+            limits: vec![Joint::UNLIMITED; joints.len()],
+            period: Duration::ZERO,
             states,
             commands,
             positions: Vec::new(),
             stamp_s: 0.0,
-            answered_s: None,
+            states_taken: 0,
+            states_answered: 0,
+            answered_stamp_s: f64::NEG_INFINITY,
+            stamps_advance: false,
+            answered_arrival: None,
             first_stamp_s: None,
             time_us: 0,
             latencies_ms: Vec::new(),
@@ -169,6 +257,12 @@ impl Ros2Robot {
             _node: node,
         };
         first_state(&mut ros, config)?;
+        let measured = measure_period(&mut ros);
+        ros.period = measured.period;
+        ros.stamps_advance = measured.by_stamps;
+        let (limits, source) = kinds_and_limits(&description, &joints, config)?;
+        ros.limits = limits;
+        let told = Told { joints: joints.clone(), period: ros.period, period_from: measured.from, limits_from: source };
         let socket = UdpSocket::bind((Ipv4Addr::LOCALHOST, 0))?;
         socket.set_read_timeout(Some(Duration::from_millis(1)))?;
         let addr = socket.local_addr()?;
@@ -184,7 +278,7 @@ impl Ros2Robot {
                 serve(&mut ros, &socket, &stop);
             })?
         };
-        Ok(Ros2Robot { addr, joints, stop, thread: Some(thread) })
+        Ok(Ros2Robot { addr, told, stop, thread: Some(thread) })
     }
 
     /// Where the robot link answers (`RobotLink::connect` here).
@@ -194,7 +288,18 @@ impl Ros2Robot {
 
     /// The controller's joints, in command order.
     pub fn joints(&self) -> &[String] {
-        &self.joints
+        &self.told.joints
+    }
+
+    /// What the bridge found out about the robot, in a sentence.
+    pub fn summary(&self) -> String {
+        let t = &self.told;
+        format!(
+            "control period {:.2} ms (measured from {}), joint kinds and limits {}",
+            t.period.as_secs_f64() * 1e3,
+            t.period_from,
+            t.limits_from
+        )
     }
 }
 
@@ -207,10 +312,26 @@ impl Drop for Ros2Robot {
     }
 }
 
-/// The controller's `joints` parameter, asked until it answers or the
-/// configuration's timeout passes (the request is resent: a request sent
-/// before the service is discovered is lost).
-fn joints_parameter(node: &mut RosNode, config: &ControlConfig) -> Result<Vec<String>, ControlError> {
+/// The controller's joints in command order: its `joints` parameter, or
+/// the configured ones when its parameter service does not answer; both
+/// present, they must agree.
+fn controller_joints(node: &mut RosNode, config: &ControlConfig) -> Result<Vec<String>, ControlError> {
+    let Some(configured) = &config.joints else { return joints_parameter(node, config, config.timeout) };
+    match joints_parameter(node, config, PARAMETER_WAIT_CONFIGURED.min(config.timeout)) {
+        Err(ControlError::NoParameters { .. }) => Ok(configured.clone()),
+        Ok(parameter) if parameter != *configured => Err(ControlError::JointsDisagree {
+            controller: config.controller.clone(),
+            parameter,
+            configured: configured.clone(),
+        }),
+        other => other,
+    }
+}
+
+/// The controller's `joints` parameter, asked until it answers or `wait`
+/// passes (the request is resent: a request sent before the service is
+/// discovered is lost).
+fn joints_parameter(node: &mut RosNode, config: &ControlConfig, wait: Duration) -> Result<Vec<String>, ControlError> {
     let service = format!("/{}/get_parameters", config.controller);
     let qos = QosProfile::publisher_default().history(History::KeepLast { depth: 10 });
     let name = Name::new(&format!("/{}", config.controller), "get_parameters")
@@ -226,7 +347,7 @@ fn joints_parameter(node: &mut RosNode, config: &ControlConfig) -> Result<Vec<St
         .map_err(|e| DdsError::create(&service, e))?;
     let start = Instant::now();
     let mut asked = None::<Instant>;
-    while start.elapsed() < config.timeout {
+    while start.elapsed() < wait {
         if asked.is_none_or(|t| t.elapsed() > Duration::from_millis(250)) {
             let _ = client.send_request(GetParametersRequest { names: vec!["joints".to_owned()] });
             asked = Some(Instant::now());
@@ -246,7 +367,71 @@ fn joints_parameter(node: &mut RosNode, config: &ControlConfig) -> Result<Vec<St
             Err(e) => tracing::debug!("{service}: an unreadable answer: {e:?}"),
         }
     }
-    Err(ControlError::NoParameters { controller: config.controller.clone(), waited: config.timeout })
+    Err(ControlError::NoParameters { controller: config.controller.clone(), waited: wait })
+}
+
+/// The robot's control period and what measured it.
+struct Measured {
+    period: Duration,
+    from: &'static str,
+    by_stamps: bool,
+}
+
+/// The robot's control period: the median step between the stamps of the
+/// next [`PERIOD_SAMPLES`] `/joint_states`, or between their arrivals
+/// when the stamps do not advance (a broadcaster that leaves them zero).
+fn measure_period(ros: &mut Ros) -> Measured {
+    let mut stamps = vec![ros.stamp_s];
+    let mut arrivals = vec![ros.heard];
+    let start = Instant::now();
+    while stamps.len() <= PERIOD_SAMPLES && start.elapsed() < SILENCE * 10 {
+        let taken = ros.states_taken;
+        ros.take_states();
+        if ros.states_taken > taken {
+            stamps.push(ros.stamp_s);
+            arrivals.push(ros.heard);
+        } else {
+            std::thread::sleep(Duration::from_micros(200));
+        }
+    }
+    let median = |mut steps: Vec<f64>| -> Option<f64> {
+        steps.sort_by(f64::total_cmp);
+        steps.get(steps.len() / 2).copied().filter(|s| s.is_finite() && *s > 0.0)
+    };
+    let by_stamps = median(stamps.windows(2).map(|w| w[1] - w[0]).collect());
+    let by_arrivals = median(arrivals.windows(2).map(|w| (w[1] - w[0]).as_secs_f64()).collect());
+    let (seconds, from) = match (by_stamps, by_arrivals) {
+        (Some(s), _) => (s, "/joint_states stamps"),
+        (None, Some(s)) => (s, "/joint_states arrivals (their stamps do not advance)"),
+        (None, None) => (f64::from(PERIOD_RANGE_US.1) / 1e6, "nothing: /joint_states came too rarely"),
+    };
+    let us = ((seconds * 1e6).round() as u32).clamp(PERIOD_RANGE_US.0, PERIOD_RANGE_US.1);
+    Measured { period: Duration::from_micros(u64::from(us)), from, by_stamps: by_stamps.is_some() }
+}
+
+/// The joints' kinds and limits: from `/robot_description` when the robot
+/// publishes one within [`DESCRIPTION_WAIT`], else from the configured
+/// description, else revolute and unlimited.
+fn kinds_and_limits(
+    topic: &Subscription<Text>,
+    joints: &[String],
+    config: &ControlConfig,
+) -> Result<(Vec<Joint>, Source), ControlError> {
+    let start = Instant::now();
+    let mut latest = None;
+    while latest.is_none() && start.elapsed() < DESCRIPTION_WAIT {
+        match topic.take() {
+            Ok(Some((text, _))) => latest = Some(text.data),
+            Ok(None) => std::thread::sleep(Duration::from_millis(5)),
+            Err(e) => tracing::debug!("ros2_control: a /robot_description message was unreadable: {e:?}"),
+        }
+    }
+    let (text, source) = match (&latest, &config.description) {
+        (Some(text), _) => (text, Source::Topic),
+        (None, Some(text)) => (text, Source::Configuration),
+        (None, None) => return Ok((vec![Joint::UNLIMITED; joints.len()], Source::Assumed)),
+    };
+    Ok((joints::from_urdf(text, joints, source)?, source))
 }
 
 /// Waits for the first `/joint_states` and checks that it reports every
@@ -259,7 +444,9 @@ fn first_state(ros: &mut Ros, config: &ControlConfig) -> Result<(), ControlError
                 return match state.positions_of(&ros.joints) {
                     Ok(p) => {
                         ros.positions = p;
+                        ros.stamp_s = state.header.stamp_s();
                         ros.heard = Instant::now();
+                        ros.states_taken += 1;
                         Ok(())
                     }
                     Err(joint) => Err(ControlError::WrongJoints {
@@ -345,35 +532,47 @@ fn serve(ros: &mut Ros, socket: &UdpSocket, stop: &AtomicBool) {
     }
 }
 
+/// A period in the robot link's microseconds.
+fn period_us(period: Duration) -> u32 {
+    u32::try_from(period.as_micros()).unwrap_or(u32::MAX)
+}
+
 /// The answer to one robot-link request.
 fn answer(ros: &mut Ros, request: ToRobot, last_seq: &mut Option<u32>, commanding: &mut bool) -> FromRobot {
     let dofs = ros.joints.len();
     match request {
-        ToRobot::Hello => FromRobot::Info { dofs: dofs as u16, period_us: PERIOD_US, lockstep: false },
+        // Lockstep to the host: each command is answered with the next
+        // cycle, so the robot paces the host (which then never sleeps on a
+        // schedule of its own that would drift against the robot's).
+        ToRobot::Hello => FromRobot::Info { dofs: dofs as u16, period_us: period_us(ros.period), lockstep: true },
         ToRobot::DofName { index } => match ros.joints.get(usize::from(index)).and_then(|j| j.as_str().try_into().ok())
         {
             Some(name) => FromRobot::DofName { index, name },
             None => FromRobot::Refused { seq: 0, reason: Refusal::NoSuchDof },
         },
-        // Joint kinds are not read from /robot_description yet: revolute, as the paper's robots.
-        ToRobot::DofKind { index } if usize::from(index) < dofs => {
-            FromRobot::DofKind { index, kind: DofKind::Revolute }
-        }
-        ToRobot::DofKind { .. } => FromRobot::Refused { seq: 0, reason: Refusal::NoSuchDof },
+        ToRobot::DofKind { index } => match ros.limits.get(usize::from(index)) {
+            Some(joint) => FromRobot::DofKind { index, kind: joint.kind },
+            None => FromRobot::Refused { seq: 0, reason: Refusal::NoSuchDof },
+        },
         ToRobot::Command { seq, velocities } => {
             if let Some(reason) = Refusal::of_command(&velocities, dofs) {
                 ros.zero();
                 return FromRobot::Refused { seq, reason };
             }
             if *last_seq != Some(seq) {
-                ros.command(velocities.to_vec());
-                if let (Some(stamp), Ok(now)) = (ros.answered_s, SystemTime::now().duration_since(UNIX_EPOCH)) {
-                    ros.latencies_ms.push(((now.as_secs_f64() - stamp) * 1e3) as f32);
+                ros.command_within_limits(&velocities);
+                if let Some(arrived) = ros.answered_arrival {
+                    ros.latencies_ms.push(arrived.elapsed().as_secs_f32() * 1e3);
                 }
                 *last_seq = Some(seq);
                 *commanding = true;
+                // Answered with the cycle after the command, as a robot
+                // on the link answers with the period it commanded.
+                ros.await_next_state();
             }
-            ros.answered_s = Some(ros.stamp_s);
+            ros.states_answered = ros.states_taken;
+            ros.answered_stamp_s = ros.stamp_s;
+            ros.answered_arrival = Some(ros.heard);
             // The robot's time is that of its /joint_states, so a robot
             // (or simulator) that runs slow is seen slow, as on the link.
             let first = *ros.first_stamp_s.get_or_insert(ros.stamp_s);

@@ -8,6 +8,14 @@
 //! server on loopback ([`Ros2Robot`]) that `skin run --robot ros2` connects
 //! to like any other robot, running in real time.
 //!
+//! The host's ticks follow the robot's control cycles one to one: the
+//! robot link announces the period measured from `/joint_states` stamps,
+//! and each command is answered with the next `/joint_states` after it, so
+//! a tick's positions and the skin's samples of that tick come from the
+//! same cycle of the robot, however late or early it runs. Joint kinds and
+//! limits come from `/robot_description` ([`joints`]); limits clamp every
+//! command.
+//!
 //! Safety, because a forward controller holds its last command forever:
 //! the controller's joints are checked against `/joint_states` before
 //! anything moves; a command that is not finite or not one per joint is
@@ -18,6 +26,7 @@
 //! [`SILENCE`], after which the process ends naming the silent topic.
 
 mod bridge;
+pub mod joints;
 pub mod msgs;
 mod signals;
 
@@ -30,18 +39,19 @@ pub use bridge::Ros2Robot;
 pub const DEFAULT_CONTROLLER: &str = "forward_velocity_controller";
 /// Longest silence of `/joint_states` while the robot is commanded.
 pub const SILENCE: Duration = Duration::from_millis(100);
-/// The control period the robot link announces: joint_state_broadcaster's
-/// and the usual controller manager's 500 Hz.
-pub const PERIOD_US: u32 = 2000;
 
 /// What the bridge needs to know.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ControlConfig {
     /// The controller's name (`forward_velocity_controller`).
     pub controller: String,
-    /// The controller's joints in command order; `None` asks its `joints`
-    /// parameter through its parameter service.
+    /// The controller's joints in command order, used when its `joints`
+    /// parameter cannot be read (its parameter service absent); `None`
+    /// refuses to drive a controller whose parameter does not answer.
     pub joints: Option<Vec<String>>,
+    /// The robot's description (URDF text), for joint kinds and limits
+    /// when the robot does not publish `/robot_description`.
+    pub description: Option<String>,
     /// The ROS domain.
     pub domain: u16,
     /// Loopback only (the ROS discovery-range variables).
@@ -62,6 +72,7 @@ impl ControlConfig {
         Ok(ControlConfig {
             controller,
             joints: None,
+            description: None,
             domain,
             localhost_only: crate::ros::dds::localhost_only_from_env(),
             timeout: Duration::from_secs(10),
@@ -88,8 +99,8 @@ pub enum ControlError {
     /// DDS did not start or an endpoint could not be created.
     #[error(transparent)]
     Dds(#[from] crate::ros::dds::DdsError),
-    /// The controller's parameter service did not answer.
-    #[error("/{controller} did not tell its joints within {waited:?} (its parameter service /{controller}/get_parameters did not answer): is the controller loaded, and is the ROS domain right?")]
+    /// The controller's parameter service did not answer, and no joints were configured.
+    #[error("/{controller} did not tell its joints within {waited:?} (its parameter service /{controller}/get_parameters did not answer), and none were given (--robot-joints): is the controller loaded, and is the ROS domain right?")]
     NoParameters {
         /// The controller.
         controller: String,
@@ -104,6 +115,19 @@ pub enum ControlError {
         /// What it answered.
         got: String,
     },
+    /// The controller's `joints` parameter and the configured joints differ.
+    #[error("/{controller}'s `joints` parameter is {parameter:?} but --robot-joints says {configured:?}: refused before any command")]
+    JointsDisagree {
+        /// The controller.
+        controller: String,
+        /// Its parameter.
+        parameter: Vec<String>,
+        /// The configured order.
+        configured: Vec<String>,
+    },
+    /// The robot's description does not give the controller's joints.
+    #[error("{0}: refused before any command")]
+    Description(#[from] joints::DescriptionError),
     /// No `/joint_states` came.
     #[error("no /joint_states within {0:?}: is joint_state_broadcaster active?")]
     NoJointStates(Duration),

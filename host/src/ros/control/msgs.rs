@@ -1,7 +1,7 @@
-//! The two messages a ros2_control velocity controller speaks, as serde
-//! types RustDDS encodes in CDR: `sensor_msgs/JointState` from
-//! joint_state_broadcaster, `std_msgs/Float64MultiArray` to
-//! forward_command_controller.
+//! The messages of a ros2_control robot, as serde types RustDDS encodes
+//! in CDR: `sensor_msgs/JointState` from joint_state_broadcaster,
+//! `std_msgs/Float64MultiArray` to forward_command_controller, and
+//! `std_msgs/String` of robot_state_publisher's `/robot_description`.
 
 use serde::{Deserialize, Serialize};
 
@@ -23,6 +23,13 @@ pub struct Header {
     pub frame_id: String,
 }
 
+impl Header {
+    /// The stamp in seconds.
+    pub fn stamp_s(&self) -> f64 {
+        f64::from(self.stamp.sec) + f64::from(self.stamp.nanosec) * 1e-9
+    }
+}
+
 /// `sensor_msgs/JointState`: positions (and more) by joint name.
 #[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
 pub struct JointState {
@@ -36,6 +43,13 @@ pub struct JointState {
     pub velocity: Vec<f64>,
     /// Efforts (may be empty).
     pub effort: Vec<f64>,
+}
+
+/// `std_msgs/String`: the URDF on `/robot_description`.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct Text {
+    /// The text.
+    pub data: String,
 }
 
 /// `std_msgs/MultiArrayDimension`.
