@@ -27,7 +27,7 @@ pub fn page(r: &Report) -> String {
             "{} DoFs, control period {:.1} ms, {}",
             r.robot.dof_names.len(),
             r.robot.period_s * 1e3,
-            if r.robot.lockstep { "lockstep (the robot paces the host: one period per command)" } else { "real time" }
+            if r.robot.lockstep { "lockstep (simulated time)" } else { "real time" }
         ),
     );
     let o = &r.organization;

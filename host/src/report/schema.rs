@@ -19,9 +19,7 @@ pub struct RobotSection {
     pub dof_names: Vec<String>,
     /// Control period, s.
     pub period_s: f64,
-    /// One period per command (a simulator, or a ros2_control robot whose
-    /// bridge answers each command with its next cycle) rather than on the
-    /// host's schedule.
+    /// One period per command (a simulator) rather than real time.
     pub lockstep: bool,
 }
 

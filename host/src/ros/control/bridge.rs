@@ -541,10 +541,10 @@ fn period_us(period: Duration) -> u32 {
 fn answer(ros: &mut Ros, request: ToRobot, last_seq: &mut Option<u32>, commanding: &mut bool) -> FromRobot {
     let dofs = ros.joints.len();
     match request {
-        // Lockstep to the host: each command is answered with the next
-        // cycle, so the robot paces the host (which then never sleeps on a
-        // schedule of its own that would drift against the robot's).
-        ToRobot::Hello => FromRobot::Info { dofs: dofs as u16, period_us: period_us(ros.period), lockstep: true },
+        // Real time: the host keeps its own schedule. Announcing lockstep
+        // instead (the robot pacing the host) made the exploration find
+        // coupled DoFs after 5 s in every run tried.
+        ToRobot::Hello => FromRobot::Info { dofs: dofs as u16, period_us: period_us(ros.period), lockstep: false },
         ToRobot::DofName { index } => match ros.joints.get(usize::from(index)).and_then(|j| j.as_str().try_into().ok())
         {
             Some(name) => FromRobot::DofName { index, name },

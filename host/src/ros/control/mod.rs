@@ -8,11 +8,10 @@
 //! server on loopback ([`Ros2Robot`]) that `skin run --robot ros2` connects
 //! to like any other robot, running in real time.
 //!
-//! The host's ticks follow the robot's control cycles one to one: the
-//! robot link announces the period measured from `/joint_states` stamps,
-//! and each command is answered with the next `/joint_states` after it, so
-//! a tick's positions and the skin's samples of that tick come from the
-//! same cycle of the robot, however late or early it runs. Joint kinds and
+//! The robot link announces the period measured from `/joint_states`
+//! stamps, and each command is answered with the next `/joint_states`
+//! after it, so a tick's positions and the skin's samples of that tick
+//! come from the same cycle of the robot while the host keeps up. Joint kinds and
 //! limits come from `/robot_description` ([`joints`]); limits clamp every
 //! command.
 //!
