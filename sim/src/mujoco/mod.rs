@@ -2,7 +2,7 @@
 //! this project wrote, behind the same seam as the built-in world.
 //!
 //! [`Model::load`] reads an MJCF or URDF file with MuJoCo and the robot from
-//! MuJoCo's compiled model ([`tree`]); the skin is laid on it as on a URDF
+//! MuJoCo's compiled model (mjModel); the skin is laid on it as on a URDF
 //! robot. [`Model::world`] then adds, through mjSpec, a site per cell with
 //! MuJoCo's `accelerometer`, a `rangefinder` along its normal and three
 //! `touch` zones, a position servo to every DoF that has none and a weld to
