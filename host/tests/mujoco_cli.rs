@@ -83,6 +83,6 @@ fn skin_run_explores_the_mujoco_endpoint_over_udp() {
     let v = json(&out);
     let explored = &v["exploration"];
     assert_eq!(explored["dofs"], serde_json::json!(["yaw", "shoulder", "elbow"]), "{v:#}");
-    assert_eq!(explored["cells"], 16);
+    assert_eq!(explored["cells"].as_array().unwrap().len(), 16, "every cell organized and explored");
     assert_eq!(explored["body_parts"].as_array().unwrap().len(), 4, "{v:#}");
 }
