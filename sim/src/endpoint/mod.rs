@@ -95,6 +95,10 @@ pub struct Served {
     pub datagrams_up: u64,
     /// Datagrams from the host the skin network refused.
     pub datagrams_refused: u64,
+    /// Wall time spent moving the world (the built-in kinematics or MuJoCo).
+    pub world_time: Duration,
+    /// Wall time spent running the cell network up to each period's end.
+    pub network_time: Duration,
 }
 
 /// What only the simulator knows after a run, for checking the host.
@@ -147,9 +151,15 @@ impl Endpoint {
         let robot = hrp2::robot();
         let skin = Skin::patches(&robot, |l| hrp2::skin_cells_on(&l.name), seed)
             .map_err(|e| NetworkError::Topology(e.to_string()))?;
-        let topology = Topology::from_wires(skin.wires())?;
-        let world_cell = (0..skin.cells().len()).collect();
-        let world = World::new(robot, skin, WorldConfig { seed, ..WorldConfig::default() });
+        Endpoint::wired(World::new(robot, skin, WorldConfig { seed, ..WorldConfig::default() }), config)
+    }
+
+    /// `world` with its skin wired as it was laid ([`Skin::patches`]): each
+    /// group of cells wired together on its own interface port. A world of
+    /// any engine, the built-in one or MuJoCo.
+    pub fn wired(world: World, config: EndpointConfig) -> Result<Endpoint, NetworkError> {
+        let topology = Topology::from_wires(world.skin().wires())?;
+        let world_cell = (0..world.skin().cells().len()).collect();
         Endpoint::new(world, &topology, world_cell, config)
     }
 

@@ -1,0 +1,66 @@
+//! How fast the MuJoCo endpoint runs the HRP-2-like upper body in
+//! lockstep, and where its time goes: the built-in robot's own URDF loaded
+//! by MuJoCo (the same links, DoFs and limits), four cells per body laid in
+//! wired patches, explored by `skin run` over UDP. Ignored: it needs the
+//! release build's speed and prints figures
+//! (`cargo test --release -p skin-host --features mujoco --test mujoco_speed -- --ignored --nocapture`).
+
+use std::io::{BufRead, Read};
+use std::net::UdpSocket;
+use std::process::{Command, Stdio};
+
+fn free_addr() -> String {
+    UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string()
+}
+
+/// The seconds after `label` in `line` ("world took 1.33 s").
+fn seconds_after(line: &str, label: &str) -> f64 {
+    let rest = &line[line.find(label).unwrap_or_else(|| panic!("no {label:?} in {line}")) + label.len()..];
+    rest.trim_start().split(' ').next().and_then(|s| s.parse().ok()).unwrap_or_else(|| panic!("{line}"))
+}
+
+#[test]
+#[ignore]
+fn the_mujoco_endpoint_serves_the_hrp2_like_body_and_says_where_its_time_goes() {
+    let dir = std::env::temp_dir().join(format!("skin-mujoco-speed-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let urdf = dir.join("hrp2-like.urdf");
+    std::fs::write(&urdf, skin_model::robot::hrp2::urdf()).unwrap();
+    let (robot, host) = (free_addr(), free_addr());
+    let mut served = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(["sim-endpoint", "--mujoco", urdf.to_str().unwrap(), "--robot", &robot, "--host", &host])
+        // Long enough for the run; the endpoint then says where its time went.
+        .args(["--duration", "30"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the skin binary runs");
+    let mut line = String::new();
+    std::io::BufReader::new(served.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    assert!(line.starts_with("serving the MuJoCo robot"), "{line}");
+    // One interface port per wired patch: the host listens for all of them.
+    let ports = line.split("interface ports ").nth(1).unwrap().split(" send to").next().unwrap().split(", ").count();
+    let config = dir.join("ports.toml");
+    let numbers: String = (0..ports).map(|n| format!("[[interface.ports]]\nnumber = {n}\n")).collect();
+    std::fs::write(&config, format!("[interface]\nlisten = \"{host}\"\n{numbers}")).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(["run", "--robot", &robot, "--config", config.to_str().unwrap(), "--json"])
+        .args(["--out", dir.join("report").to_str().unwrap()])
+        .output()
+        .expect("the skin binary runs");
+    let mut err = String::new();
+    served.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    let _ = served.wait();
+    let time = err.lines().find(|l| l.starts_with("time: ")).unwrap_or_else(|| panic!("{err}"));
+    let robot_s = seconds_after(time, "time:");
+    let (world_s, network_s) = (seconds_after(time, "the world took"), seconds_after(time, "the cell network"));
+    assert!(robot_s > 0.0, "{time}");
+    println!("{time}");
+    println!(
+        "the endpoint alone (world and cell network): {:.1}x real time; skin run {}: {}",
+        robot_s / (world_s + network_s),
+        if out.status.success() { "explored" } else { "stopped" },
+        String::from_utf8_lossy(&out.stderr).lines().last().unwrap_or_default()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1,0 +1,416 @@
+//! MuJoCo moving the robot and feeling for the skin: the compiled model
+//! with the cells' sites and sensors, the DoFs' position servos, and one
+//! control tick as a few MuJoCo steps.
+
+use std::time::{Duration, Instant};
+
+use mujoco_rs::prelude::*;
+use mujoco_rs::wrappers::mj_editing::{MjsBody, MjtLimited, PositionConfig};
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use rand::Rng;
+use skin_model::skin::Skin;
+
+use super::{tree, Model, MujocoError};
+use crate::scene::{CellSense, SkinModel};
+use crate::world::{Touch, WorldConfig};
+
+/// Natural frequency of the position servos added to joints without one,
+/// Hz (critically damped): stiff enough that gravity bends a joint by
+/// well under 0.01 rad, slow enough for MuJoCo's 2 ms steps.
+const SERVO_HZ: f64 = 25.0;
+/// Rotor inertia a geared servo adds to a joint without one, relative to
+/// the joint's own inertia at the start pose: it is what keeps a link from
+/// being thrown back by its neighbour's acceleration.
+const ARMATURE_RATIO: f64 = 10.0;
+/// Integral time of the servos' outer loop, s: the target is corrected by
+/// the integral of its error, so a joint held against gravity reaches the
+/// commanded position as a velocity-controlled robot does (a bare position
+/// servo sags by load over stiffness), far slower than the servo itself.
+const INTEGRAL_S: f64 = 0.05;
+/// Largest correction of the outer loop, rad or m (no windup at a stop).
+const INTEGRAL_MAX: f64 = 0.1;
+/// Time constant of the welds holding floating bases, s.
+const WELD_TIME_CONSTANT_S: f64 = 0.004;
+/// Radius of a force cell's touch zone around it, m: the three zones of a
+/// cell (7 mm from its centre, 120 degrees apart) do not overlap.
+const TOUCH_ZONE_M: f64 = 0.006;
+/// Radius of the site a cell's velocity and rangefinder are read at, m.
+const CELL_SITE_M: f64 = 0.002;
+
+/// How a DoF is driven: its servo's target integrates the velocity command.
+struct Servo {
+    qpos: usize,
+    /// `qpos` at the robot's zero (the model's reference pose).
+    zero: f64,
+    /// The joint's range in `qpos`.
+    range: (f64, f64),
+    actuator: usize,
+    /// The actuator's control range (`-inf..inf` when not limited).
+    ctrl: (f64, f64),
+    /// The commanded position: the velocity command's integral.
+    target: f64,
+    /// The outer loop's correction of the servo's set point.
+    correction: f64,
+}
+
+/// Where a cell's readings are in MuJoCo's sensor data.
+struct CellSensors {
+    site: usize,
+    /// The site's linear velocity in the world (`framelinvel`).
+    velocity: usize,
+    range: usize,
+    touch: [usize; 3],
+}
+
+/// MuJoCo running the robot and its skin.
+pub struct Engine {
+    data: MjData<Box<MjModel>>,
+    substeps: u32,
+    tick_s: f64,
+    servos: Vec<Servo>,
+    cells: Vec<CellSensors>,
+    /// Each cell's world velocity at the end of the last tick.
+    velocities: Vec<Vector3<f64>>,
+    gravity: Vector3<f64>,
+    skin_model: SkinModel,
+    notes: Vec<String>,
+    welded: Vec<String>,
+    busy: Duration,
+}
+
+impl Engine {
+    pub(super) fn new(model: Model, skin: &Skin, cfg: &WorldConfig) -> Result<Engine, MujocoError> {
+        let Model { mut spec, compiled, tree, mut notes } = model;
+        let robot = &tree.robot;
+        let welded = weld_floating_bases(&mut spec, &compiled);
+        if !welded.is_empty() {
+            notes.push(format!(
+                "floating base {} held by a weld at its start pose, as on a test stand",
+                welded.iter().map(|b| format!("\"{b}\"")).collect::<Vec<_>>().join(", ")
+            ));
+        }
+        let servo_of = servos(&mut spec, &compiled, &tree, &mut notes)?;
+
+        let skin_model = SkinModel::default();
+        let force_positions = skin_model.force.positions();
+        for (i, cell) in skin.cells().iter().enumerate() {
+            let link = robot.link(&cell.link).ok_or_else(|| MujocoError::UnknownBody(cell.link.clone()))?;
+            let in_body = link.in_body.inverse() * cell.pose;
+            let body = spec.body_mut(&link.name).ok_or_else(|| MujocoError::UnknownBody(cell.link.clone()))?;
+            add_site(body, &format!("skin{i}"), &in_body, CELL_SITE_M);
+            for (k, [x, y]) in force_positions.iter().enumerate() {
+                add_site(body, &format!("skin{i}:f{k}"), &(in_body * Translation3::new(*x, *y, 0.0)), TOUCH_ZONE_M);
+            }
+            for (kind, suffix, site) in [
+                (MjtSensor::mjSENS_FRAMELINVEL, "vel", format!("skin{i}")),
+                (MjtSensor::mjSENS_RANGEFINDER, "range", format!("skin{i}")),
+                (MjtSensor::mjSENS_TOUCH, "touch0", format!("skin{i}:f0")),
+                (MjtSensor::mjSENS_TOUCH, "touch1", format!("skin{i}:f1")),
+                (MjtSensor::mjSENS_TOUCH, "touch2", format!("skin{i}:f2")),
+            ] {
+                let sensor = spec.add_sensor();
+                sensor.set_type(kind);
+                sensor.set_objtype(MjtObjBase::mjOBJ_SITE);
+                sensor.set_objname(&site);
+                let _ = sensor.set_name(&format!("skin{i}:{suffix}"));
+                if kind == MjtSensor::mjSENS_RANGEFINDER {
+                    // What the ray reports: its distance (the XML's `data="dist"`).
+                    sensor.intprm_mut()[0] = 1;
+                }
+            }
+        }
+
+        // A control tick is a whole number of MuJoCo steps.
+        let timestep = spec.option().timestep;
+        let substeps = (cfg.tick_s / timestep - 1e-9).ceil().max(1.0);
+        if ((cfg.tick_s / substeps) - timestep).abs() > 1e-12 {
+            notes.push(format!(
+                "the model's timestep {:.4} s became {:.4} s: {substeps} steps per {:.0} ms control tick",
+                timestep,
+                cfg.tick_s / substeps,
+                cfg.tick_s * 1e3
+            ));
+        }
+        let [roll, pitch, yaw] = cfg.base.tilt_rpy;
+        let g = Vector3::from(spec.option().gravity);
+        let gravity = UnitQuaternion::from_euler_angles(roll, pitch, yaw).inverse() * g;
+        {
+            let option = spec.option_mut();
+            option.timestep = cfg.tick_s / substeps;
+            option.gravity = gravity.into();
+        }
+
+        let model = spec.compile().map_err(|e| MujocoError::Compile(e.to_string()))?;
+        let sensor = |name: String| {
+            model
+                .name_to_id(MjtObjBase::mjOBJ_SENSOR, &name)
+                .map(|id| model.sensor_adr()[id] as usize)
+                .ok_or_else(|| MujocoError::Compile(format!("the compiled model lacks sensor {name}")))
+        };
+        let mut cells = Vec::with_capacity(skin.cells().len());
+        for i in 0..skin.cells().len() {
+            let site = model
+                .name_to_id(MjtObjBase::mjOBJ_SITE, &format!("skin{i}"))
+                .ok_or_else(|| MujocoError::Compile(format!("the compiled model lacks site skin{i}")))?;
+            cells.push(CellSensors {
+                site,
+                velocity: sensor(format!("skin{i}:vel"))?,
+                range: sensor(format!("skin{i}:range"))?,
+                touch: [
+                    sensor(format!("skin{i}:touch0"))?,
+                    sensor(format!("skin{i}:touch1"))?,
+                    sensor(format!("skin{i}:touch2"))?,
+                ],
+            });
+        }
+        let mut servos = Vec::with_capacity(servo_of.len());
+        for (d, (&joint, actuator)) in tree.dof_joint.iter().zip(servo_of).enumerate() {
+            let qpos = model.jnt_qposadr()[joint] as usize;
+            let zero = model.qpos0()[qpos];
+            let dof = &robot.dofs()[d];
+            let ctrl = if model.actuator_ctrllimited()[actuator] {
+                let r = model.actuator_ctrlrange()[actuator];
+                (r[0], r[1])
+            } else {
+                (f64::NEG_INFINITY, f64::INFINITY)
+            };
+            let target = zero + robot.home()[d];
+            servos.push(Servo {
+                qpos,
+                zero,
+                range: (zero + dof.lower, zero + dof.upper),
+                actuator,
+                ctrl,
+                target,
+                correction: 0.0,
+            });
+        }
+        let mut data = MjData::new(Box::new(model));
+        for s in &servos {
+            data.qpos_mut()[s.qpos] = s.target;
+            data.ctrl_mut()[s.actuator] = s.target.clamp(s.ctrl.0, s.ctrl.1);
+        }
+        data.forward();
+        let velocities = vec![Vector3::zeros(); cells.len()];
+        Ok(Engine {
+            data,
+            velocities,
+            substeps: substeps as u32,
+            tick_s: cfg.tick_s,
+            servos,
+            cells,
+            gravity,
+            skin_model,
+            notes,
+            welded,
+            busy: Duration::ZERO,
+        })
+    }
+
+    /// What was assumed of the model, one sentence each (printed, and in the JSON).
+    pub fn notes(&self) -> &[String] {
+        &self.notes
+    }
+
+    /// The bodies with a floating base, held by a weld at their start pose.
+    pub fn welded(&self) -> &[String] {
+        &self.welded
+    }
+
+    /// Wall time spent in MuJoCo so far (stepping, sensors).
+    pub fn busy(&self) -> Duration {
+        self.busy
+    }
+
+    /// DoF positions relative to the model's reference pose.
+    pub(crate) fn positions(&self) -> Vec<f64> {
+        self.servos.iter().map(|s| self.data.qpos()[s.qpos] - s.zero).collect()
+    }
+
+    /// Every cell's pose in the world, skin order.
+    pub(crate) fn cell_poses(&self, poses: &mut [Isometry3<f64>]) {
+        let (xpos, xmat) = (self.data.site_xpos(), self.data.site_xmat());
+        for (pose, cell) in poses.iter_mut().zip(&self.cells) {
+            let m = xmat[cell.site];
+            let rotation =
+                Rotation3::from_matrix_unchecked(Matrix3::new(m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8]));
+            let p = xpos[cell.site];
+            *pose = Isometry3::from_parts(
+                Translation3::new(p[0], p[1], p[2]),
+                UnitQuaternion::from_rotation_matrix(&rotation),
+            );
+        }
+    }
+
+    /// One control tick under the velocity `command` (DoF order): each
+    /// servo's target moves by it (held inside the joint's range, and
+    /// corrected by the integral of its error), MuJoCo steps, and the
+    /// positions, cell poses and each cell's specific force (cell frame) are
+    /// read at the tick's end.
+    ///
+    /// The specific force is the tick's mean acceleration of the cell's
+    /// site (its world velocity's change over the tick, as the BMA250's
+    /// bandwidth and the built-in world see it) against gravity, not
+    /// MuJoCo's `accelerometer`: that reports the acceleration before the
+    /// implicit integrators' damping correction, 1.2 to 1.6 times the
+    /// motion MuJoCo then makes under stiff damped servos (measured on the
+    /// tests' arm), so it disagrees with the robot's own joint feedback as
+    /// no real accelerometer does. At rest both read gravity.
+    pub(crate) fn advance(
+        &mut self,
+        command: &[f64],
+        q: &mut [f64],
+        poses: &mut [Isometry3<f64>],
+        specific: &mut [Vector3<f64>],
+    ) {
+        let started = Instant::now();
+        for (s, w) in self.servos.iter_mut().zip(command) {
+            s.target = (s.target + w * self.tick_s).clamp(s.range.0, s.range.1);
+            let error = s.target - self.data.qpos()[s.qpos];
+            s.correction = (s.correction + error * self.tick_s / INTEGRAL_S).clamp(-INTEGRAL_MAX, INTEGRAL_MAX);
+            self.data.ctrl_mut()[s.actuator] = (s.target + s.correction).clamp(s.ctrl.0, s.ctrl.1);
+        }
+        for _ in 0..self.substeps {
+            self.data.step();
+        }
+        // Poses and sensors of the state the steps reached, with the positions.
+        self.data.forward();
+        self.cell_poses(poses);
+        let readings = self.data.sensordata();
+        for (((f, cell), pose), last) in
+            specific.iter_mut().zip(&self.cells).zip(poses.iter()).zip(&mut self.velocities)
+        {
+            let v = Vector3::new(readings[cell.velocity], readings[cell.velocity + 1], readings[cell.velocity + 2]);
+            let accel = (v - *last) / self.tick_s;
+            *last = v;
+            *f = pose.rotation.inverse() * (accel - self.gravity);
+        }
+        for (q, s) in q.iter_mut().zip(&self.servos) {
+            *q = self.data.qpos()[s.qpos] - s.zero;
+        }
+        self.busy += started.elapsed();
+    }
+
+    /// Every cell's force and proximity counts: its touch zones' normal
+    /// forces and its rangefinder's distance (from the skin's surface),
+    /// through the skin's force-cell and VCNL4010 models.
+    pub(crate) fn touches(&self, out: &mut [Touch], rng: &mut impl Rng) {
+        let readings = self.data.sensordata();
+        let m = &self.skin_model;
+        for (t, cell) in out.iter_mut().zip(&self.cells) {
+            let distance = readings[cell.range];
+            let proximity = if distance < 0.0 {
+                0.0
+            } else {
+                m.proximity.intensity((distance - m.surface_offset_m).max(0.0), 1.0, 1.0)
+            };
+            let sense = CellSense { force_n: cell.touch.map(|a| readings[a]), proximity };
+            let (proximity, force) = m.counts(&sense, rng);
+            *t = Touch { proximity, force };
+        }
+    }
+}
+
+/// A sphere site of `radius` named `name` at `pose` on `body`.
+fn add_site(body: &mut MjsBody, name: &str, pose: &Isometry3<f64>, radius: f64) {
+    let q = pose.rotation.quaternion();
+    let site = body.add_site();
+    let _ = site.set_name(name);
+    site.set_type(MjtGeomBase::mjGEOM_SPHERE);
+    *site.size_mut() = [radius, 0.0, 0.0];
+    *site.pos_mut() = pose.translation.vector.into();
+    *site.quat_mut() = [q.w, q.i, q.j, q.k];
+}
+
+/// Holds every body with a free joint where it starts, by a weld to the
+/// world; returns their names.
+fn weld_floating_bases(spec: &mut MjSpec, compiled: &MjModel) -> Vec<String> {
+    let free: Vec<String> = (0..compiled.jnt_type().len())
+        .filter(|&j| compiled.jnt_type()[j] == MjtJoint::mjJNT_FREE)
+        .map(|j| tree::name(compiled, MjtObjBase::mjOBJ_BODY, compiled.jnt_bodyid()[j] as usize))
+        .collect();
+    for body in &free {
+        let weld = spec.add_equality();
+        weld.set_type(MjtEq::mjEQ_WELD);
+        weld.set_objtype(MjtObjBase::mjOBJ_BODY);
+        weld.set_name1(body);
+        // Anchor at the body's origin, the relative pose taken at the
+        // start (a zero quaternion), full torque (mjSpec's default data is a
+        // joint coupling's).
+        *weld.data_mut() = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        // As stiff as MuJoCo keeps stable (a time constant of two 2 ms
+        // steps, hard impedance): a test stand, not a spring the legs rock.
+        *weld.solref_mut() = [WELD_TIME_CONSTANT_S, 1.0];
+        *weld.solimp_mut() = [0.99, 0.999, 0.001, 0.5, 2.0];
+    }
+    free
+}
+
+/// The actuator each DoF's servo target goes to: the model's position
+/// servo on the joint, or one added (at [`SERVO_HZ`], critically damped,
+/// its force limited as the joint's motor is, if it has one).
+fn servos(
+    spec: &mut MjSpec,
+    compiled: &MjModel,
+    tree: &tree::Tree,
+    notes: &mut Vec<String>,
+) -> Result<Vec<usize>, MujocoError> {
+    let on_joint = |j: usize| {
+        (0..compiled.actuator_trntype().len()).filter(move |&a| {
+            compiled.actuator_trntype()[a] == MjtTrn::mjTRN_JOINT && compiled.actuator_trnid()[a][0] as usize == j
+        })
+    };
+    let is_servo = |a: usize| {
+        let (gain, bias) = (compiled.actuator_gainprm()[a][0], compiled.actuator_biasprm()[a][1]);
+        compiled.actuator_gaintype()[a] == MjtGain::mjGAIN_FIXED
+            && compiled.actuator_biastype()[a] == MjtBias::mjBIAS_AFFINE
+            && gain > 0.0
+            && (bias + gain).abs() <= 1e-9 * gain
+    };
+    let mut next = compiled.actuator_trntype().len();
+    let mut added = Vec::new();
+    let mut actuators = Vec::with_capacity(tree.dof_joint.len());
+    for &j in &tree.dof_joint {
+        if let Some(a) = on_joint(j).find(|&a| is_servo(a)) {
+            actuators.push(a);
+            continue;
+        }
+        let joint = tree::name(compiled, MjtObjBase::mjOBJ_JOINT, j);
+        let inertia = compiled.dof_m0()[compiled.jnt_dofadr()[j] as usize].max(1e-6);
+        let mut armature = 0.0;
+        if let Some(j) = spec.joint_mut(&joint) {
+            if j.armature() == 0.0 {
+                j.set_armature(ARMATURE_RATIO * inertia);
+            }
+            armature = j.armature();
+        }
+        let kp = (inertia + armature) * (std::f64::consts::TAU * SERVO_HZ).powi(2);
+        // A motor's torque limit is the joint's: ctrlrange times gear.
+        let limit = on_joint(j).find(|&a| compiled.actuator_ctrllimited()[a]).map(|a| {
+            let (r, gear) = (compiled.actuator_ctrlrange()[a], compiled.actuator_gear()[a][0].abs());
+            r[0].abs().max(r[1].abs()) * gear
+        });
+        let actuator = spec.add_actuator();
+        let _ = actuator.set_name(&format!("skin:servo:{joint}"));
+        actuator.set_trntype(MjtTrn::mjTRN_JOINT);
+        actuator.set_target(&joint);
+        actuator
+            .set_to_position(PositionConfig::default().with_kp(kp).with_dampratio(1.0))
+            .map_err(|e| MujocoError::Compile(format!("a servo for joint \"{joint}\": {e}")))?;
+        if let Some(limit) = limit {
+            actuator.set_forcelimited(MjtLimited::mjLIMITED_TRUE);
+            *actuator.forcerange_mut() = [-limit, limit];
+        }
+        added.push(joint);
+        actuators.push(next);
+        next += 1;
+    }
+    if !added.is_empty() {
+        notes.push(format!(
+            "{} joints without a position servo got one ({SERVO_HZ} Hz, critically damped, force limited as the joint's motor where it has one): {}",
+            added.len(),
+            added.join(", ")
+        ));
+    }
+    Ok(actuators)
+}
