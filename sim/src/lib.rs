@@ -16,6 +16,8 @@
 
 pub mod accel;
 pub mod endpoint;
+#[cfg(feature = "mujoco")]
+pub mod mujoco;
 pub mod network;
 pub mod round;
 pub mod scene;

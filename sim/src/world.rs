@@ -143,56 +143,105 @@ pub struct World {
     skin: Skin,
     cfg: WorldConfig,
     q: Vec<f64>,
-    qd: Vec<f64>,
-    qdd: Vec<f64>,
     command: Vec<f64>,
-    rock: Vector3<f64>,
-    rock_rate: Vector3<f64>,
-    rock_accel: Vector3<f64>,
-    sway_phase: [f64; 2],
+    engine: Engine,
     ticks: u64,
     sensors: Vec<Bma250>,
     seq: u8,
     rng: ChaCha8Rng,
-    states: Vec<BodyState>,
     poses: Vec<Isometry3<f64>>,
+    /// Per cell, the specific force its accelerometer feels (cell frame), m/s^2.
+    specific: Vec<Vector3<f64>>,
     touches: Vec<Touch>,
     tactile: Option<Box<dyn Tactile>>,
+}
+
+/// What moves the robot: the built-in kinematics, or MuJoCo's physics.
+enum Engine {
+    BuiltIn(BuiltIn),
+    #[cfg(feature = "mujoco")]
+    Mujoco(Box<crate::mujoco::Engine>),
+}
+
+/// The built-in world's motion: first-order velocity servos, the base's
+/// sway and rocking, and forward kinematics.
+struct BuiltIn {
+    qd: Vec<f64>,
+    qdd: Vec<f64>,
+    rock: Vector3<f64>,
+    rock_rate: Vector3<f64>,
+    rock_accel: Vector3<f64>,
+    sway_phase: [f64; 2],
+    states: Vec<BodyState>,
 }
 
 impl World {
     /// A world with the robot at rest in its home pose.
     pub fn new(robot: Robot, skin: Skin, cfg: WorldConfig) -> World {
+        World::with_engine(robot, skin, cfg, |rng, n| {
+            let sway_phase = [
+                rand::Rng::random_range(rng, 0.0..std::f64::consts::TAU),
+                rand::Rng::random_range(rng, 0.0..std::f64::consts::TAU),
+            ];
+            Engine::BuiltIn(BuiltIn {
+                qd: vec![0.0; n],
+                qdd: vec![0.0; n],
+                rock: Vector3::zeros(),
+                rock_rate: Vector3::zeros(),
+                rock_accel: Vector3::zeros(),
+                sway_phase,
+                states: Vec::new(),
+            })
+        })
+    }
+
+    /// A world moved by `engine`, made after the cells' accelerometers are
+    /// drawn from the seed's generator (which it may draw from too).
+    fn with_engine(
+        robot: Robot,
+        skin: Skin,
+        cfg: WorldConfig,
+        engine: impl FnOnce(&mut ChaCha8Rng, usize) -> Engine,
+    ) -> World {
         let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
         let sensors = skin.cells().iter().map(|_| Bma250::new(&cfg.accel, cfg.tick_s, &mut rng)).collect();
-        let sway_phase = [
-            rand::Rng::random_range(&mut rng, 0.0..std::f64::consts::TAU),
-            rand::Rng::random_range(&mut rng, 0.0..std::f64::consts::TAU),
-        ];
         let n = robot.dofs().len();
+        let engine = engine(&mut rng, n);
+        let cells = skin.cells().len();
         let mut world = World {
             q: robot.home().to_vec(),
-            qd: vec![0.0; n],
-            qdd: vec![0.0; n],
             command: vec![0.0; n],
-            rock: Vector3::zeros(),
-            rock_rate: Vector3::zeros(),
-            rock_accel: Vector3::zeros(),
-            sway_phase,
+            engine,
             ticks: 0,
             sensors,
             seq: 0,
             rng,
-            states: Vec::new(),
-            poses: vec![Isometry3::identity(); skin.cells().len()],
-            touches: vec![Touch::default(); skin.cells().len()],
+            poses: vec![Isometry3::identity(); cells],
+            specific: vec![Vector3::zeros(); cells],
+            touches: vec![Touch::default(); cells],
             tactile: None,
             robot,
             skin,
             cfg,
         };
-        world.update_kinematics();
+        match &mut world.engine {
+            Engine::BuiltIn(b) => {
+                b.update_kinematics(&world.robot, &world.skin, &world.cfg, &world.q, 0.0, &mut world.poses);
+            }
+            #[cfg(feature = "mujoco")]
+            Engine::Mujoco(m) => {
+                world.q = m.positions();
+                m.cell_poses(&mut world.poses);
+            }
+        }
         world
+    }
+
+    /// A world moved by MuJoCo: `engine` runs the model `robot` was read
+    /// from, carrying `skin`'s cells as sites with their sensors.
+    #[cfg(feature = "mujoco")]
+    pub(crate) fn mujoco(robot: Robot, skin: Skin, cfg: WorldConfig, engine: crate::mujoco::Engine) -> World {
+        World::with_engine(robot, skin, cfg, |_, _| Engine::Mujoco(Box::new(engine)))
     }
 
     /// The paper's experiment: the built-in robot with its 74-cell skin,
@@ -250,7 +299,8 @@ impl World {
         Ok(())
     }
 
-    /// Plugs in the scene that supplies force and proximity.
+    /// Plugs in the scene that supplies force and proximity (in MuJoCo, in
+    /// place of its touch and rangefinder sensors).
     pub fn set_tactile(&mut self, tactile: Box<dyn Tactile>) {
         self.tactile = Some(tactile);
     }
@@ -262,59 +312,101 @@ impl World {
 
     /// Advances one tick and appends one sample per cell to `out`.
     pub fn step(&mut self, out: &mut Vec<(Address, Sample)>) {
-        let h = self.cfg.tick_s / f64::from(SUBSTEPS);
-        let follow = 1.0 - (-h / self.cfg.servo_time_constant_s).exp();
-        let start = self.qd.clone();
-        for _ in 0..SUBSTEPS {
-            for (d, dof) in self.robot.dofs().iter().enumerate() {
-                let (q, w) = (self.q[d], self.qd[d]);
-                // The servo will not drive further into a limit.
-                let target = match self.command[d] {
-                    c if (q >= dof.upper && c > 0.0) || (q <= dof.lower && c < 0.0) => 0.0,
-                    c => c,
-                };
-                let mut next = w + (target - w) * follow;
-                let mut pos = q + 0.5 * (w + next) * h;
-                if pos > dof.upper || pos < dof.lower {
-                    pos = pos.clamp(dof.lower, dof.upper);
-                    next = 0.0;
-                }
-                self.qdd[d] = (next - w) / h;
-                self.qd[d] = next;
-                self.q[d] = pos;
-            }
-            self.rock_base(h);
-        }
-        // The sensors' bandwidth spans the tick: they see its mean acceleration.
-        for ((a, w), w0) in self.qdd.iter_mut().zip(&self.qd).zip(&start) {
-            *a = (w - w0) / self.cfg.tick_s;
-        }
         self.ticks += 1;
-        self.update_kinematics();
+        let time_s = self.time_s();
+        match &mut self.engine {
+            Engine::BuiltIn(b) => {
+                b.advance(&self.robot, &self.cfg, &self.command, &mut self.q);
+                b.update_kinematics(&self.robot, &self.skin, &self.cfg, &self.q, time_s, &mut self.poses);
+                b.specific_forces(&self.skin, &self.poses, &mut self.specific);
+            }
+            #[cfg(feature = "mujoco")]
+            Engine::Mujoco(m) => {
+                m.advance(&self.command, &mut self.q, &mut self.poses, &mut self.specific);
+                m.touches(&mut self.touches, &mut self.rng);
+            }
+        }
         if let Some(t) = self.tactile.as_mut() {
-            t.sense(self.ticks as f64 * self.cfg.tick_s, &self.poses, &mut self.touches);
+            t.sense(time_s, &self.poses, &mut self.touches);
         }
         self.seq = self.seq.wrapping_add(1);
-        let gravity = Vector3::new(0.0, 0.0, -G0);
         for (i, cell) in self.skin.cells().iter().enumerate() {
-            let state = &self.states[cell.body];
-            let specific = state.point_accel(&Point3::from(cell.pose.translation.vector)) - gravity;
-            let in_cell = self.poses[i].rotation.inverse() * specific;
-            let accel = self.sensors[i].sample(&in_cell, &mut self.rng);
+            let accel = self.sensors[i].sample(&self.specific[i], &mut self.rng);
             let t = self.touches[i];
             out.push((cell.id, Sample::saturating(t.proximity, t.force, accel, TEMPERATURE_COUNTS, self.seq)));
         }
     }
 
+    /// The root body's pose in the world now.
+    fn root_pose(&self) -> Isometry3<f64> {
+        match &self.engine {
+            Engine::BuiltIn(b) => b.states[0].pose,
+            #[cfg(feature = "mujoco")]
+            Engine::Mujoco(_) => Isometry3::identity(),
+        }
+    }
+
+    /// What the MuJoCo engine reports of itself (assumptions made about the
+    /// model, where a step's time goes); `None` in the built-in world.
+    #[cfg(feature = "mujoco")]
+    pub fn mujoco_engine(&self) -> Option<&crate::mujoco::Engine> {
+        match &self.engine {
+            Engine::Mujoco(m) => Some(m),
+            Engine::BuiltIn(_) => None,
+        }
+    }
+}
+
+impl BuiltIn {
+    /// One tick of the velocity servos under `command`, moving `q`.
+    fn advance(&mut self, robot: &Robot, cfg: &WorldConfig, command: &[f64], q: &mut [f64]) {
+        let h = cfg.tick_s / f64::from(SUBSTEPS);
+        let follow = 1.0 - (-h / cfg.servo_time_constant_s).exp();
+        let start = self.qd.clone();
+        for _ in 0..SUBSTEPS {
+            for (d, dof) in robot.dofs().iter().enumerate() {
+                let (pos, w) = (q[d], self.qd[d]);
+                // The servo will not drive further into a limit.
+                let target = match command[d] {
+                    c if (pos >= dof.upper && c > 0.0) || (pos <= dof.lower && c < 0.0) => 0.0,
+                    c => c,
+                };
+                let mut next = w + (target - w) * follow;
+                let mut moved = pos + 0.5 * (w + next) * h;
+                if moved > dof.upper || moved < dof.lower {
+                    moved = moved.clamp(dof.lower, dof.upper);
+                    next = 0.0;
+                }
+                self.qdd[d] = (next - w) / h;
+                self.qd[d] = next;
+                q[d] = moved;
+            }
+            self.rock_base(robot, cfg, h);
+        }
+        // The sensors' bandwidth spans the tick: they see its mean acceleration.
+        for ((a, w), w0) in self.qdd.iter_mut().zip(&self.qd).zip(&start) {
+            *a = (w - w0) / cfg.tick_s;
+        }
+    }
+
+    /// Each cell's specific force in its own frame.
+    fn specific_forces(&self, skin: &Skin, poses: &[Isometry3<f64>], out: &mut [Vector3<f64>]) {
+        let gravity = Vector3::new(0.0, 0.0, -G0);
+        for ((cell, pose), f) in skin.cells().iter().zip(poses).zip(out) {
+            let state = &self.states[cell.body];
+            let specific = state.point_accel(&Point3::from(cell.pose.translation.vector)) - gravity;
+            *f = pose.rotation.inverse() * specific;
+        }
+    }
     /// The rocking mode, driven by the horizontal part of the revolute
     /// joints' angular accelerations (their torque's reaction on the base).
     /// A prismatic joint's reaction is a force along its axis, not a torque:
     /// the rocking model has no masses to turn it into one, so it is left out.
-    fn rock_base(&mut self, h: f64) {
-        let r = self.cfg.base.rocking;
+    fn rock_base(&mut self, robot: &Robot, cfg: &WorldConfig, h: f64) {
+        let r = cfg.base.rocking;
         let mut drive = Vector3::zeros();
-        for (d, dof) in self.robot.dofs().iter().enumerate().filter(|(_, dof)| dof.kind == DofKind::Revolute) {
-            let j = &self.robot.joints()[dof.joint];
+        for (d, dof) in robot.dofs().iter().enumerate().filter(|(_, dof)| dof.kind == DofKind::Revolute) {
+            let j = &robot.joints()[dof.joint];
             drive += self.states[j.child_body].pose.rotation * j.axis.into_inner() * self.qdd[d];
         }
         drive.z = 0.0;
@@ -326,8 +418,8 @@ impl World {
 
     /// Base rotation about the pivot (rocking plus sway) and its first two
     /// derivatives, world frame, at time `t`.
-    fn base_rotation(&self, t: f64) -> [Vector3<f64>; 3] {
-        let b = &self.cfg.base;
+    fn base_rotation(&self, cfg: &WorldConfig, t: f64) -> [Vector3<f64>; 3] {
+        let b = &cfg.base;
         let mut angle = self.rock;
         let mut rate = self.rock_rate;
         let mut accel = self.rock_accel;
@@ -341,10 +433,19 @@ impl World {
         [angle, rate, accel]
     }
 
-    fn update_kinematics(&mut self) {
-        let [angle, omega, alpha] = self.base_rotation(self.time_s());
-        let [roll, pitch, yaw] = self.cfg.base.tilt_rpy;
-        let pivot = Vector3::new(0.0, 0.0, -self.cfg.base.rocking.pivot_depth_m);
+    /// Body states and cell poses for positions `q` at time `t` (the base's sway).
+    fn update_kinematics(
+        &mut self,
+        robot: &Robot,
+        skin: &Skin,
+        cfg: &WorldConfig,
+        q: &[f64],
+        t: f64,
+        poses: &mut [Isometry3<f64>],
+    ) {
+        let [angle, omega, alpha] = self.base_rotation(cfg, t);
+        let [roll, pitch, yaw] = cfg.base.tilt_rpy;
+        let pivot = Vector3::new(0.0, 0.0, -cfg.base.rocking.pivot_depth_m);
         let rock = UnitQuaternion::from_scaled_axis(angle);
         let arm = rock * -pivot;
         let base = BodyState {
@@ -356,13 +457,15 @@ impl World {
             alpha,
             accel: alpha.cross(&arm) + omega.cross(&omega.cross(&arm)),
         };
-        let motion = DofMotion { q: &self.q, qd: &self.qd, qdd: &self.qdd };
-        kinematics::forward(&self.robot, &base, motion, &mut self.states);
-        for (p, c) in self.poses.iter_mut().zip(self.skin.cells()) {
+        let motion = DofMotion { q, qd: &self.qd, qdd: &self.qdd };
+        kinematics::forward(robot, &base, motion, &mut self.states);
+        for (p, c) in poses.iter_mut().zip(skin.cells()) {
             *p = self.states[c.body].pose * c.pose;
         }
     }
+}
 
+impl World {
     /// Ground truth: `moved[u][d]` is true when DoF `d` moves cell `u`
     /// (skin order) relative to the root.
     pub fn true_activity(&self) -> Vec<Vec<bool>> {
@@ -379,7 +482,7 @@ impl World {
         let n = self.robot.dofs().len();
         let zero = vec![0.0; n];
         let mut states = Vec::new();
-        let base = BodyState::at_rest(self.states[0].pose);
+        let base = BodyState::at_rest(self.root_pose());
         kinematics::forward(&self.robot, &base, DofMotion { q: pose, qd: &zero, qdd: &zero }, &mut states);
         self.skin
             .cells()

@@ -74,6 +74,10 @@ fn ci_steps() -> Vec<Step> {
             "clippy -p skin-host --all-targets --features ros2 -- -D warnings",
         ),
         cargo(
+            "clippy (the MuJoCo world)",
+            "clippy -p skin-sim -p skin-host --all-targets --features skin-sim/mujoco,skin-host/mujoco -- -D warnings",
+        ),
+        cargo(
             "clippy (skin-host without the simulator glue)",
             "clippy -p skin-host --no-default-features -- -D warnings",
         ),
@@ -94,6 +98,10 @@ fn ci_steps() -> Vec<Step> {
         cargo(
             "tests (ROS 2 over DDS and Zenoh, a ros2_control robot, the Foxglove view: unit, rclpy on Fast DDS, a Python zenoh peer, a Python Foxglove client)",
             "test -p skin-host --features ros2 --lib --test ros2_dds --test ros2_control --test ros2_live --test foxglove_live",
+        ),
+        cargo(
+            "tests (the MuJoCo world: libmujoco of the pinned wheel, models the tests write)",
+            "test -p skin-sim --features mujoco --lib --test mujoco_smoke",
         ),
         cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
         cargo(
@@ -298,6 +306,7 @@ fn install() -> Result<(), String> {
         run("apt-get", &args)?;
     }
     python_readers()?;
+    mujoco_library()?;
     ros_python()
 }
 
@@ -358,6 +367,49 @@ fn python_readers() -> Result<(), String> {
         let mut args = vec!["-m", "pip", "install", "-q"];
         args.extend(PYTHON_READERS);
         run(python, &args)?;
+    }
+    Ok(())
+}
+
+/// The MuJoCo the `mujoco` feature links: the pinned wheel carries
+/// `libmujoco.so.3.17.0` (libc and libm only), the version mujoco-rs 7.0.0
+/// binds.
+const MUJOCO_WHEEL: &str = "mujoco==3.17.0";
+const MUJOCO_LIBRARY: &str = "libmujoco.so.3.17.0";
+/// Where `.cargo/config.toml` points mujoco-rs (`MUJOCO_DYNAMIC_LINK_DIR`)
+/// and the build scripts point the binaries' rpath.
+const MUJOCO_LINK_DIR: &str = "target/mujoco/lib";
+
+/// Installs [`MUJOCO_WHEEL`] into the readers' venv and links its library
+/// into [`MUJOCO_LINK_DIR`] under both names the build needs: `libmujoco.so`
+/// to link, the soname to load.
+fn mujoco_library() -> Result<(), String> {
+    let python = target_dir().join("pyenv").join("bin").join("python");
+    if !python.exists() {
+        eprintln!("xtask: no Python venv: the MuJoCo world (`--features mujoco`) cannot be built");
+        return Ok(());
+    }
+    let python = python.to_str().ok_or("the target directory's path is not UTF-8")?;
+    let locate = "import mujoco, os; print(os.path.dirname(mujoco.__file__))";
+    let package = match output(python, &["-c", locate]) {
+        Some(dir) => dir,
+        None => {
+            run(python, &["-m", "pip", "install", "-q", MUJOCO_WHEEL])?;
+            output(python, &["-c", locate]).ok_or("the mujoco wheel installed but does not import")?
+        }
+    };
+    let library = fs::canonicalize(Path::new(package.trim()).join(MUJOCO_LIBRARY))
+        .map_err(|e| format!("the mujoco wheel has no {MUJOCO_LIBRARY}: {e}"))?;
+    let dir = Path::new(MUJOCO_LINK_DIR);
+    fs::create_dir_all(dir).map_err(|e| format!("cannot create {MUJOCO_LINK_DIR}: {e}"))?;
+    for name in ["libmujoco.so", MUJOCO_LIBRARY] {
+        let link = dir.join(name);
+        if fs::read_link(&link).is_ok_and(|to| to == library) {
+            continue;
+        }
+        let _ = fs::remove_file(&link);
+        std::os::unix::fs::symlink(&library, &link)
+            .map_err(|e| format!("cannot link {} to {}: {e}", link.display(), library.display()))?;
     }
     Ok(())
 }

@@ -102,7 +102,7 @@ pub enum Shape {
 
 impl Shape {
     /// Whether the shape has a surface to put skin on (no edge or radius is zero).
-    pub(crate) fn has_area(&self) -> bool {
+    pub fn has_area(&self) -> bool {
         match *self {
             Shape::Box(size) => size.min() > 0.0,
             Shape::Cylinder { radius, length } => radius > 0.0 && length > 0.0,
@@ -127,6 +127,18 @@ pub enum Surface {
         /// Capsule radius, m.
         radius: f64,
     },
+}
+
+impl Surface {
+    /// Bones from the link origin to `points` (link frame) of a link of
+    /// `mass_kg` that has no primitive shape to lay skin on (only meshes, or
+    /// only a mass): capsules whose radius grows with the mass.
+    pub fn bones(mut points: Vec<Point3<f64>>, mass_kg: f64) -> Surface {
+        points.retain(|p| p.coords.norm() > 1e-3);
+        // A uniform body of water density, roughly: 3 kg gives about 7 cm.
+        let radius = if mass_kg > 0.0 { (0.045 * mass_kg.cbrt()).clamp(0.03, 0.1) } else { 0.04 };
+        Surface::Bones { points, radius }
+    }
 }
 
 /// One URDF link, kept for skin placement and ground truth.
@@ -172,6 +184,28 @@ impl Robot {
     /// checked before the file is read whole).
     pub fn from_urdf_file(path: &std::path::Path) -> Result<Robot, UrdfError> {
         urdf::parse(&urdf::read_file(path)?)
+    }
+
+    /// A robot from a tree another description's reader built (a MuJoCo
+    /// model's): bodies parents before children with body 0 the root, joints
+    /// and links naming bodies by index, DoFs naming joints; the start pose
+    /// is zero clamped into the limits. Refused as a URDF would be when it
+    /// has no DoF or more than the robot link carries.
+    pub fn from_tree(
+        name: String,
+        bodies: Vec<Body>,
+        joints: Vec<Joint>,
+        dofs: Vec<Dof>,
+        links: Vec<Link>,
+    ) -> Result<Robot, UrdfError> {
+        if dofs.is_empty() {
+            return Err(UrdfError::NoDofs);
+        }
+        if dofs.len() > limits::MAX_DOFS {
+            return Err(UrdfError::TooLarge { what: "DoFs", limit: limits::MAX_DOFS });
+        }
+        let home = dofs.iter().map(|d| 0.0f64.clamp(d.lower, d.upper)).collect();
+        Ok(Robot { name, bodies, joints, dofs, links, home })
     }
 
     /// The robot's name.

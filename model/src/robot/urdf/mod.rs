@@ -322,8 +322,5 @@ fn surface(link: &LinkDesc, child_origins: &[Point3<f64>]) -> Surface {
         points.push(Point3::from(link.com.xyz));
     }
     points.extend(geometries.iter().map(|(pose, _)| Point3::from(pose.xyz)));
-    points.retain(|p| p.coords.norm() > 1e-3);
-    // A uniform body of water density, roughly: 3 kg gives about 7 cm.
-    let radius = if mass > 0.0 { (0.045 * mass.cbrt()).clamp(0.03, 0.1) } else { 0.04 };
-    Surface::Bones { points, radius }
+    Surface::bones(points, mass)
 }

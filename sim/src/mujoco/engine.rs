@@ -1,0 +1,366 @@
+//! MuJoCo moving the robot and feeling for the skin: the compiled model
+//! with the cells' sites and sensors, the DoFs' position servos, and one
+//! control tick as a few MuJoCo steps.
+
+use std::time::{Duration, Instant};
+
+use mujoco_rs::prelude::*;
+use mujoco_rs::wrappers::mj_editing::{MjsBody, MjtLimited, PositionConfig};
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use rand::Rng;
+use skin_model::skin::Skin;
+
+use super::{tree, Model, MujocoError};
+use crate::scene::{CellSense, SkinModel};
+use crate::world::{Touch, WorldConfig};
+
+/// Natural frequency of the position servos added to joints without one,
+/// Hz (critically damped): stiff enough that gravity bends a joint by
+/// well under 0.01 rad, slow enough for MuJoCo's 2 ms steps.
+const SERVO_HZ: f64 = 10.0;
+/// Radius of a force cell's touch zone around it, m: the three zones of a
+/// cell (7 mm from its centre, 120 degrees apart) do not overlap.
+const TOUCH_ZONE_M: f64 = 0.006;
+/// Radius of the site a cell's accelerometer and rangefinder sit at, m.
+const CELL_SITE_M: f64 = 0.002;
+
+/// How a DoF is driven: its servo's target integrates the velocity command.
+struct Servo {
+    qpos: usize,
+    /// `qpos` at the robot's zero (the model's reference pose).
+    zero: f64,
+    /// The joint's range in `qpos`.
+    range: (f64, f64),
+    actuator: usize,
+    /// The actuator's control range (`-inf..inf` when not limited).
+    ctrl: (f64, f64),
+    target: f64,
+}
+
+/// Where a cell's readings are in MuJoCo's sensor data.
+struct CellSensors {
+    site: usize,
+    accel: usize,
+    range: usize,
+    touch: [usize; 3],
+    /// On a body welded to the world, whose sensors MuJoCo skips.
+    fixed: bool,
+}
+
+/// MuJoCo running the robot and its skin.
+pub struct Engine {
+    data: MjData<Box<MjModel>>,
+    substeps: u32,
+    tick_s: f64,
+    servos: Vec<Servo>,
+    cells: Vec<CellSensors>,
+    gravity: Vector3<f64>,
+    skin_model: SkinModel,
+    notes: Vec<String>,
+    welded: Vec<String>,
+    busy: Duration,
+}
+
+impl Engine {
+    pub(super) fn new(model: Model, skin: &Skin, cfg: &WorldConfig) -> Result<Engine, MujocoError> {
+        let Model { mut spec, compiled, tree, mut notes } = model;
+        let robot = &tree.robot;
+        let welded = weld_floating_bases(&mut spec, &compiled);
+        if !welded.is_empty() {
+            notes.push(format!(
+                "floating base {} held by a weld at its start pose, as on a test stand",
+                welded.iter().map(|b| format!("\"{b}\"")).collect::<Vec<_>>().join(", ")
+            ));
+        }
+        let servo_of = servos(&mut spec, &compiled, &tree, &mut notes)?;
+
+        let skin_model = SkinModel::default();
+        let force_positions = skin_model.force.positions();
+        for (i, cell) in skin.cells().iter().enumerate() {
+            let link = robot.link(&cell.link).ok_or_else(|| MujocoError::UnknownBody(cell.link.clone()))?;
+            let in_body = link.in_body.inverse() * cell.pose;
+            let body = spec.body_mut(&link.name).ok_or_else(|| MujocoError::UnknownBody(cell.link.clone()))?;
+            add_site(body, &format!("skin{i}"), &in_body, CELL_SITE_M);
+            for (k, [x, y]) in force_positions.iter().enumerate() {
+                add_site(body, &format!("skin{i}:f{k}"), &(in_body * Translation3::new(*x, *y, 0.0)), TOUCH_ZONE_M);
+            }
+            for (kind, suffix, site) in [
+                (MjtSensor::mjSENS_ACCELEROMETER, "acc", format!("skin{i}")),
+                (MjtSensor::mjSENS_RANGEFINDER, "range", format!("skin{i}")),
+                (MjtSensor::mjSENS_TOUCH, "touch0", format!("skin{i}:f0")),
+                (MjtSensor::mjSENS_TOUCH, "touch1", format!("skin{i}:f1")),
+                (MjtSensor::mjSENS_TOUCH, "touch2", format!("skin{i}:f2")),
+            ] {
+                let sensor = spec.add_sensor();
+                sensor.set_type(kind);
+                sensor.set_objtype(MjtObjBase::mjOBJ_SITE);
+                sensor.set_objname(&site);
+                let _ = sensor.set_name(&format!("skin{i}:{suffix}"));
+                if kind == MjtSensor::mjSENS_RANGEFINDER {
+                    // What the ray reports: its distance (the XML's `data="dist"`).
+                    sensor.intprm_mut()[0] = 1;
+                }
+            }
+        }
+
+        // A control tick is a whole number of MuJoCo steps.
+        let timestep = spec.option().timestep;
+        let substeps = (cfg.tick_s / timestep - 1e-9).ceil().max(1.0);
+        if ((cfg.tick_s / substeps) - timestep).abs() > 1e-12 {
+            notes.push(format!(
+                "the model's timestep {:.4} s became {:.4} s: {substeps} steps per {:.0} ms control tick",
+                timestep,
+                cfg.tick_s / substeps,
+                cfg.tick_s * 1e3
+            ));
+        }
+        let [roll, pitch, yaw] = cfg.base.tilt_rpy;
+        let g = Vector3::from(spec.option().gravity);
+        let gravity = UnitQuaternion::from_euler_angles(roll, pitch, yaw).inverse() * g;
+        {
+            let option = spec.option_mut();
+            option.timestep = cfg.tick_s / substeps;
+            option.gravity = gravity.into();
+        }
+
+        let model = spec.compile().map_err(|e| MujocoError::Compile(e.to_string()))?;
+        let sensor = |name: String| {
+            model
+                .name_to_id(MjtObjBase::mjOBJ_SENSOR, &name)
+                .map(|id| model.sensor_adr()[id] as usize)
+                .ok_or_else(|| MujocoError::Compile(format!("the compiled model lacks sensor {name}")))
+        };
+        let mut cells = Vec::with_capacity(skin.cells().len());
+        for i in 0..skin.cells().len() {
+            let site = model
+                .name_to_id(MjtObjBase::mjOBJ_SITE, &format!("skin{i}"))
+                .ok_or_else(|| MujocoError::Compile(format!("the compiled model lacks site skin{i}")))?;
+            let body = model.site_bodyid()[site] as usize;
+            cells.push(CellSensors {
+                site,
+                accel: sensor(format!("skin{i}:acc"))?,
+                range: sensor(format!("skin{i}:range"))?,
+                touch: [
+                    sensor(format!("skin{i}:touch0"))?,
+                    sensor(format!("skin{i}:touch1"))?,
+                    sensor(format!("skin{i}:touch2"))?,
+                ],
+                fixed: model.body_weldid()[body] == 0,
+            });
+        }
+        let mut servos = Vec::with_capacity(servo_of.len());
+        for (d, (&joint, actuator)) in tree.dof_joint.iter().zip(servo_of).enumerate() {
+            let qpos = model.jnt_qposadr()[joint] as usize;
+            let zero = model.qpos0()[qpos];
+            let dof = &robot.dofs()[d];
+            let ctrl = if model.actuator_ctrllimited()[actuator] {
+                let r = model.actuator_ctrlrange()[actuator];
+                (r[0], r[1])
+            } else {
+                (f64::NEG_INFINITY, f64::INFINITY)
+            };
+            let target = zero + robot.home()[d];
+            servos.push(Servo { qpos, zero, range: (zero + dof.lower, zero + dof.upper), actuator, ctrl, target });
+        }
+        let mut data = MjData::new(Box::new(model));
+        for s in &servos {
+            data.qpos_mut()[s.qpos] = s.target;
+            data.ctrl_mut()[s.actuator] = s.target.clamp(s.ctrl.0, s.ctrl.1);
+        }
+        data.forward();
+        Ok(Engine {
+            data,
+            substeps: substeps as u32,
+            tick_s: cfg.tick_s,
+            servos,
+            cells,
+            gravity,
+            skin_model,
+            notes,
+            welded,
+            busy: Duration::ZERO,
+        })
+    }
+
+    /// What was assumed of the model, one sentence each (printed, and in the JSON).
+    pub fn notes(&self) -> &[String] {
+        &self.notes
+    }
+
+    /// The bodies with a floating base, held by a weld at their start pose.
+    pub fn welded(&self) -> &[String] {
+        &self.welded
+    }
+
+    /// Wall time spent in MuJoCo so far (stepping, sensors).
+    pub fn busy(&self) -> Duration {
+        self.busy
+    }
+
+    /// DoF positions relative to the model's reference pose.
+    pub(crate) fn positions(&self) -> Vec<f64> {
+        self.servos.iter().map(|s| self.data.qpos()[s.qpos] - s.zero).collect()
+    }
+
+    /// Every cell's pose in the world, skin order.
+    pub(crate) fn cell_poses(&self, poses: &mut [Isometry3<f64>]) {
+        let (xpos, xmat) = (self.data.site_xpos(), self.data.site_xmat());
+        for (pose, cell) in poses.iter_mut().zip(&self.cells) {
+            let m = xmat[cell.site];
+            let rotation =
+                Rotation3::from_matrix_unchecked(Matrix3::new(m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8]));
+            let p = xpos[cell.site];
+            *pose = Isometry3::from_parts(
+                Translation3::new(p[0], p[1], p[2]),
+                UnitQuaternion::from_rotation_matrix(&rotation),
+            );
+        }
+    }
+
+    /// One control tick under the velocity `command` (DoF order): each
+    /// servo's target moves by it (held inside the joint's range), MuJoCo
+    /// steps, and the positions, cell poses and each cell's specific force
+    /// (its accelerometer's mean over the tick, cell frame) are read.
+    pub(crate) fn advance(
+        &mut self,
+        command: &[f64],
+        q: &mut [f64],
+        poses: &mut [Isometry3<f64>],
+        specific: &mut [Vector3<f64>],
+    ) {
+        let started = Instant::now();
+        for (s, w) in self.servos.iter_mut().zip(command) {
+            s.target = (s.target + w * self.tick_s).clamp(s.range.0, s.range.1);
+            self.data.ctrl_mut()[s.actuator] = s.target.clamp(s.ctrl.0, s.ctrl.1);
+        }
+        specific.iter_mut().for_each(|f| *f = Vector3::zeros());
+        for _ in 0..self.substeps {
+            self.data.step();
+            let readings = self.data.sensordata();
+            for (f, cell) in specific.iter_mut().zip(&self.cells) {
+                *f += Vector3::new(readings[cell.accel], readings[cell.accel + 1], readings[cell.accel + 2]);
+            }
+        }
+        self.cell_poses(poses);
+        let steps = f64::from(self.substeps);
+        for ((f, cell), pose) in specific.iter_mut().zip(&self.cells).zip(poses.iter()) {
+            *f = if cell.fixed { pose.rotation.inverse() * -self.gravity } else { *f / steps };
+        }
+        for (q, s) in q.iter_mut().zip(&self.servos) {
+            *q = self.data.qpos()[s.qpos] - s.zero;
+        }
+        self.busy += started.elapsed();
+    }
+
+    /// Every cell's force and proximity counts: its touch zones' normal
+    /// forces and its rangefinder's distance (from the skin's surface),
+    /// through the skin's force-cell and VCNL4010 models.
+    pub(crate) fn touches(&self, out: &mut [Touch], rng: &mut impl Rng) {
+        let readings = self.data.sensordata();
+        let m = &self.skin_model;
+        for (t, cell) in out.iter_mut().zip(&self.cells) {
+            let distance = readings[cell.range];
+            let proximity = if distance < 0.0 {
+                0.0
+            } else {
+                m.proximity.intensity((distance - m.surface_offset_m).max(0.0), 1.0, 1.0)
+            };
+            let sense = CellSense { force_n: cell.touch.map(|a| readings[a]), proximity };
+            let (proximity, force) = m.counts(&sense, rng);
+            *t = Touch { proximity, force };
+        }
+    }
+}
+
+/// A sphere site of `radius` named `name` at `pose` on `body`.
+fn add_site(body: &mut MjsBody, name: &str, pose: &Isometry3<f64>, radius: f64) {
+    let q = pose.rotation.quaternion();
+    let site = body.add_site();
+    let _ = site.set_name(name);
+    site.set_type(MjtGeomBase::mjGEOM_SPHERE);
+    *site.size_mut() = [radius, 0.0, 0.0];
+    *site.pos_mut() = pose.translation.vector.into();
+    *site.quat_mut() = [q.w, q.i, q.j, q.k];
+}
+
+/// Holds every body with a free joint where it starts, by a weld to the
+/// world; returns their names.
+fn weld_floating_bases(spec: &mut MjSpec, compiled: &MjModel) -> Vec<String> {
+    let free: Vec<String> = (0..compiled.jnt_type().len())
+        .filter(|&j| compiled.jnt_type()[j] == MjtJoint::mjJNT_FREE)
+        .map(|j| tree::name(compiled, MjtObjBase::mjOBJ_BODY, compiled.jnt_bodyid()[j] as usize))
+        .collect();
+    for body in &free {
+        let weld = spec.add_equality();
+        weld.set_type(MjtEq::mjEQ_WELD);
+        weld.set_objtype(MjtObjBase::mjOBJ_BODY);
+        weld.set_name1(body);
+        // Anchor at the body's origin, the relative pose taken at the
+        // start (a zero quaternion), full torque (mjSpec's default data is a
+        // joint coupling's).
+        *weld.data_mut() = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+    }
+    free
+}
+
+/// The actuator each DoF's servo target goes to: the model's position
+/// servo on the joint, or one added (at [`SERVO_HZ`], critically damped,
+/// its force limited as the joint's motor is, if it has one).
+fn servos(
+    spec: &mut MjSpec,
+    compiled: &MjModel,
+    tree: &tree::Tree,
+    notes: &mut Vec<String>,
+) -> Result<Vec<usize>, MujocoError> {
+    let on_joint = |j: usize| {
+        (0..compiled.actuator_trntype().len()).filter(move |&a| {
+            compiled.actuator_trntype()[a] == MjtTrn::mjTRN_JOINT && compiled.actuator_trnid()[a][0] as usize == j
+        })
+    };
+    let is_servo = |a: usize| {
+        let (gain, bias) = (compiled.actuator_gainprm()[a][0], compiled.actuator_biasprm()[a][1]);
+        compiled.actuator_gaintype()[a] == MjtGain::mjGAIN_FIXED
+            && compiled.actuator_biastype()[a] == MjtBias::mjBIAS_AFFINE
+            && gain > 0.0
+            && (bias + gain).abs() <= 1e-9 * gain
+    };
+    let mut next = compiled.actuator_trntype().len();
+    let mut added = Vec::new();
+    let mut actuators = Vec::with_capacity(tree.dof_joint.len());
+    for &j in &tree.dof_joint {
+        if let Some(a) = on_joint(j).find(|&a| is_servo(a)) {
+            actuators.push(a);
+            continue;
+        }
+        let joint = tree::name(compiled, MjtObjBase::mjOBJ_JOINT, j);
+        let inertia = compiled.dof_m0()[compiled.jnt_dofadr()[j] as usize].max(1e-6);
+        let kp = inertia * (std::f64::consts::TAU * SERVO_HZ).powi(2);
+        // A motor's torque limit is the joint's: ctrlrange times gear.
+        let limit = on_joint(j).find(|&a| compiled.actuator_ctrllimited()[a]).map(|a| {
+            let (r, gear) = (compiled.actuator_ctrlrange()[a], compiled.actuator_gear()[a][0].abs());
+            r[0].abs().max(r[1].abs()) * gear
+        });
+        let actuator = spec.add_actuator();
+        let _ = actuator.set_name(&format!("skin:servo:{joint}"));
+        actuator.set_trntype(MjtTrn::mjTRN_JOINT);
+        actuator.set_target(&joint);
+        actuator
+            .set_to_position(PositionConfig::default().with_kp(kp).with_dampratio(1.0))
+            .map_err(|e| MujocoError::Compile(format!("a servo for joint \"{joint}\": {e}")))?;
+        if let Some(limit) = limit {
+            actuator.set_forcelimited(MjtLimited::mjLIMITED_TRUE);
+            *actuator.forcerange_mut() = [-limit, limit];
+        }
+        added.push(joint);
+        actuators.push(next);
+        next += 1;
+    }
+    if !added.is_empty() {
+        notes.push(format!(
+            "{} joints without a position servo got one ({SERVO_HZ} Hz, critically damped, force limited as the joint's motor where it has one): {}",
+            added.len(),
+            added.join(", ")
+        ));
+    }
+    Ok(actuators)
+}

@@ -1,0 +1,111 @@
+//! Reading a model file with MuJoCo: names for every body and joint (so the
+//! skin and the servos can refer to them), links of a URDF kept apart,
+//! meshes MuJoCo cannot find left out, and the robot read from the
+//! compiled model.
+
+use std::path::{Path, PathBuf};
+
+use mujoco_rs::prelude::*;
+use mujoco_rs::wrappers::mj_editing::MjsBody;
+
+use super::{tree, Model, MujocoError};
+
+/// Radius of the stand-in for a geom whose mesh is missing: a speck that
+/// neither collides nor weighs.
+const SPECK_M: f64 = 1e-4;
+
+pub(super) fn load(path: &Path) -> Result<Model, MujocoError> {
+    let failed = |message: String| MujocoError::Load { path: path.display().to_string(), message };
+    if !path.is_file() {
+        return Err(failed("no such file".into()));
+    }
+    let mut spec = MjSpec::from_xml(path).map_err(|e| failed(e.to_string()))?;
+    let mut notes = Vec::new();
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("urdf")) {
+        // MuJoCo fuses a URDF's fixed-joint links by default; the skin
+        // names them.
+        spec.compiler_mut().set_fusestatic(false);
+    }
+    name_unnamed(&mut spec);
+    let missing = drop_missing_meshes(&mut spec, path)?;
+    if missing > 0 {
+        notes.push(format!(
+            "{missing} meshes were not found (package:// paths are not resolved): their geoms are left out, the skin lies on bones there and nothing collides with them"
+        ));
+    }
+    let model = spec.compile().map_err(|e| failed(e.to_string()))?;
+    let mut data = model.make_data();
+    data.forward();
+    let name = path.file_stem().map_or_else(|| "robot".into(), |s| s.to_string_lossy().into_owned());
+    let tree = tree::read(&model, &data, &name)?;
+    drop(data);
+    Ok(Model { spec, compiled: model, tree, notes })
+}
+
+/// Names every unnamed body and joint `body<k>` / `joint<k>` (their order
+/// in the model), so that sites and servos can be attached by name.
+fn name_unnamed(spec: &mut MjSpec) {
+    name_bodies(spec.world_body_mut(), &mut 0);
+    for (k, joint) in spec.joint_iter_mut().enumerate() {
+        if joint.name().is_empty() {
+            let _ = joint.set_name(&format!("joint{k}"));
+        }
+    }
+}
+
+/// Names the unnamed bodies below `body`, depth first, counting in `k`.
+fn name_bodies(body: &mut MjsBody, k: &mut usize) {
+    for child in body.body_iter_mut() {
+        *k += 1;
+        if child.name().is_empty() {
+            let _ = child.set_name(&format!("body{k}"));
+        }
+        name_bodies(child, k);
+    }
+}
+
+/// Leaves out the meshes whose file MuJoCo would not find (a missing mesh
+/// fails the whole compile): their geoms become specks that neither collide
+/// nor weigh. Returns how many meshes were left out.
+fn drop_missing_meshes(spec: &mut MjSpec, path: &Path) -> Result<usize, MujocoError> {
+    let base = path.parent().unwrap_or(Path::new("."));
+    let meshdir = PathBuf::from(spec.compiler().meshdir());
+    let missing: Vec<String> = spec
+        .mesh_iter()
+        .filter(|m| !m.file().is_empty() && !resolves(base, &meshdir, m.file()))
+        .map(|m| m.name().to_owned())
+        .collect();
+    if missing.is_empty() {
+        return Ok(0);
+    }
+    for geom in spec.geom_iter_mut() {
+        if missing.iter().any(|m| m == geom.meshname()) {
+            geom.set_meshname("");
+            geom.set_type(MjtGeomBase::mjGEOM_SPHERE);
+            *geom.size_mut() = [SPECK_M, 0.0, 0.0];
+            geom.set_contype(0);
+            geom.set_conaffinity(0);
+            geom.set_mass(0.0);
+            geom.set_density(0.0);
+        }
+    }
+    for name in &missing {
+        if let Some(mesh) = spec.mesh_mut(name) {
+            // SAFETY: the mesh belongs to this spec and no geom refers to it
+            // any more; nothing holds a reference to it past this call.
+            #[allow(unsafe_code)]
+            unsafe { mesh.delete() }.map_err(|e| MujocoError::Unsupported(format!("mesh \"{name}\": {e}")))?;
+        }
+    }
+    Ok(missing.len())
+}
+
+/// Whether a mesh file MuJoCo is given resolves as MuJoCo resolves it:
+/// absolute, or relative to the model's folder and its mesh folder.
+fn resolves(base: &Path, meshdir: &Path, file: &str) -> bool {
+    if file.contains("://") {
+        return false;
+    }
+    let file = Path::new(file);
+    file.is_absolute() && file.is_file() || base.join(meshdir).join(file).is_file()
+}

@@ -1,0 +1,227 @@
+//! The robot a compiled MuJoCo model describes, as the skin's model of a
+//! robot: read from MuJoCo's own compiled arrays (mjModel), never from the
+//! XML, so whatever MuJoCo loads (MJCF with its defaults and includes, or a
+//! URDF) is read once, by MuJoCo.
+//!
+//! Bodies joined without a joint form one rigid [`Body`], as URDF links
+//! joined by fixed joints do; a MuJoCo body with several hinge or slide
+//! joints becomes a chain of bodies, one per joint, each frame at its
+//! joint's anchor. A joint coupled to another by an active equality
+//! (`q1 = c0 + c1 q2`) is a mimic of it; every other hinge or slide joint is
+//! a DoF. Positions are relative to the model's reference pose (`qpos0`).
+//! Every MuJoCo body is a [`Link`] named as in the model, its collision
+//! geometry the surface the skin is laid on.
+
+use mujoco_rs::prelude::*;
+use nalgebra::{Isometry3, Point3, Quaternion, Translation3, Unit, UnitQuaternion, Vector3};
+use skin_model::robot::{Body, Dof, DofKind, Drive, Joint, Link, Robot, Shape, Surface};
+
+use super::MujocoError;
+
+/// Velocity limit of a DoF: MuJoCo joints have none.
+const NO_VELOCITY_LIMIT: f64 = f64::INFINITY;
+
+/// The robot of a compiled model and where its parts are in MuJoCo.
+pub(super) struct Tree {
+    pub(super) robot: Robot,
+    /// Per DoF, its MuJoCo joint. Link `i` is MuJoCo body `i`.
+    pub(super) dof_joint: Vec<usize>,
+}
+
+/// A MuJoCo pose as an isometry.
+pub(super) fn isometry(pos: &[f64; 3], quat: &[f64; 4]) -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::new(pos[0], pos[1], pos[2]),
+        UnitQuaternion::from_quaternion(Quaternion::new(quat[0], quat[1], quat[2], quat[3])),
+    )
+}
+
+/// The name MuJoCo gives object `id` of type `kind` (the loader names every
+/// body and joint before compiling, so there is one).
+pub(super) fn name(model: &MjModel, kind: MjtObjBase, id: usize) -> String {
+    model.id_to_name(kind, id).map_or_else(|| format!("#{id}"), str::to_owned)
+}
+
+/// What an equality makes of a joint: the master joint, gear and offset.
+fn couplings(model: &MjModel) -> Result<Vec<Option<(usize, f64, f64)>>, MujocoError> {
+    let mut coupled = vec![None; model.jnt_type().len()];
+    for e in 0..model.eq_type().len() {
+        if model.eq_type()[e] != MjtEq::mjEQ_JOINT || !model.eq_active0()[e] {
+            continue;
+        }
+        let (slave, master) = (model.eq_obj1id()[e], model.eq_obj2id()[e]);
+        let data = &model.eq_data()[e];
+        let slave_name = name(model, MjtObjBase::mjOBJ_JOINT, slave as usize);
+        if master < 0 || data[2..5].iter().any(|c| *c != 0.0) {
+            return Err(MujocoError::Unsupported(format!(
+                "the equality on joint \"{slave_name}\" locks it or couples it by a polynomial: only q1 = c0 + c1 q2 moves as a mimic"
+            )));
+        }
+        coupled[slave as usize] = Some((master as usize, data[1], data[0]));
+    }
+    Ok(coupled)
+}
+
+/// The tree of `model`, whose data `data` holds the kinematics at `qpos0`.
+pub(super) fn read(model: &MjModel, data: &MjData<&MjModel>, name_of_robot: &str) -> Result<Tree, MujocoError> {
+    let nbody = model.body_parentid().len();
+    let coupled = couplings(model)?;
+    let xpos = data.xpos();
+    let xquat = data.xquat();
+    let world_pose = |b: usize| isometry(&xpos[b], &xquat[b]);
+
+    let mut bodies = vec![Body { name: name(model, MjtObjBase::mjOBJ_BODY, 0), parent_joint: None }];
+    // Frame of each robot body in the world at qpos0.
+    let mut frames = vec![Isometry3::identity()];
+    // Robot body carrying each MuJoCo body.
+    let mut carrier = vec![0usize; nbody];
+    let mut joints = Vec::new();
+    // Robot joint of each MuJoCo joint that moves.
+    let mut robot_joint: Vec<Option<usize>> = vec![None; model.jnt_type().len()];
+    let mut dof_joint = Vec::new();
+    for b in 1..nbody {
+        let parent = model.body_parentid()[b] as usize;
+        carrier[b] = carrier[parent];
+        let (first, count) = (model.body_jntadr()[b], model.body_jntnum()[b]);
+        let body_name = name(model, MjtObjBase::mjOBJ_BODY, b);
+        for j in (0..count.max(0) as usize).map(|k| first as usize + k) {
+            let kind = match model.jnt_type()[j] {
+                MjtJoint::mjJNT_HINGE => DofKind::Revolute,
+                MjtJoint::mjJNT_SLIDE => DofKind::Prismatic,
+                // Held by a weld at its start pose (the engine adds it): part of its parent.
+                MjtJoint::mjJNT_FREE => continue,
+                _ => {
+                    return Err(MujocoError::Unsupported(format!(
+                        "joint \"{}\" of body \"{body_name}\" is a ball joint: only hinge and slide joints are DoFs",
+                        name(model, MjtObjBase::mjOBJ_JOINT, j)
+                    )))
+                }
+            };
+            let anchor = Vector3::from(model.jnt_pos()[j]);
+            let frame = world_pose(b) * Translation3::from(anchor);
+            let joint_name = name(model, MjtObjBase::mjOBJ_JOINT, j);
+            let last = (first as usize + count as usize) - 1 == j;
+            bodies.push(Body {
+                name: if last { body_name.clone() } else { format!("{body_name}:{joint_name}") },
+                parent_joint: Some(joints.len()),
+            });
+            let axis = Unit::try_new(Vector3::from(model.jnt_axis()[j]), 1e-12)
+                .ok_or_else(|| MujocoError::Unsupported(format!("joint \"{joint_name}\" has a zero axis")))?;
+            robot_joint[j] = Some(joints.len());
+            joints.push(Joint {
+                name: joint_name,
+                parent_body: carrier[b],
+                child_body: bodies.len() - 1,
+                origin: frames[carrier[b]].inverse() * frame,
+                axis,
+                kind,
+                drive: Drive::Dof(0), // set below, once DoF numbers are known
+            });
+            frames.push(frame);
+            carrier[b] = bodies.len() - 1;
+            if coupled[j].is_none() {
+                dof_joint.push(j);
+            }
+        }
+    }
+
+    let qpos0 = model.qpos0();
+    let mut dofs = Vec::new();
+    for &j in &dof_joint {
+        let joint = robot_joint[j].expect("hinge and slide joints are robot joints");
+        let zero = qpos0[model.jnt_qposadr()[j] as usize];
+        let (lower, upper) = if model.jnt_limited()[j] {
+            (model.jnt_range()[j][0] - zero, model.jnt_range()[j][1] - zero)
+        } else {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        };
+        if lower >= upper {
+            return Err(MujocoError::Unsupported(format!(
+                "joint \"{}\" has the range [{lower}, {upper}]: nothing to move",
+                joints[joint].name
+            )));
+        }
+        dofs.push(Dof {
+            name: joints[joint].name.clone(),
+            joint,
+            kind: joints[joint].kind,
+            lower,
+            upper,
+            max_velocity: NO_VELOCITY_LIMIT,
+        });
+    }
+    for (j, robot) in robot_joint.iter().enumerate() {
+        let Some(r) = *robot else { continue };
+        joints[r].drive = match coupled[j] {
+            None => Drive::Dof(dof_joint.iter().position(|&d| d == j).expect("uncoupled joints are DoFs")),
+            Some((master, multiplier, offset)) => {
+                let dof = dof_joint.iter().position(|&d| d == master).ok_or_else(|| {
+                    MujocoError::Unsupported(format!(
+                        "joint \"{}\" follows \"{}\", which is not a DoF (a chain of couplings)",
+                        joints[r].name,
+                        name(model, MjtObjBase::mjOBJ_JOINT, master)
+                    ))
+                })?;
+                Drive::Mimic { dof, multiplier, offset }
+            }
+        };
+    }
+
+    let links = (0..nbody)
+        .map(|b| Link {
+            name: name(model, MjtObjBase::mjOBJ_BODY, b),
+            body: carrier[b],
+            in_body: frames[carrier[b]].inverse() * world_pose(b),
+            surface: if b == 0 { Surface::None } else { surface(model, b) },
+        })
+        .collect();
+    let robot = Robot::from_tree(name_of_robot.to_owned(), bodies, joints, dofs, links)?;
+    Ok(Tree { robot, dof_joint })
+}
+
+/// Where skin goes on MuJoCo body `b`: its collision geoms (those that
+/// collide with something), else bones to its children and centre of mass,
+/// as for a URDF link with only meshes.
+fn surface(model: &MjModel, b: usize) -> Surface {
+    let shapes: Vec<(Isometry3<f64>, Shape)> = (0..model.geom_type().len())
+        .filter(|&g| model.geom_bodyid()[g] as usize == b)
+        .filter(|&g| model.geom_contype()[g] != 0 || model.geom_conaffinity()[g] != 0)
+        .filter_map(|g| {
+            let pose = isometry(&model.geom_pos()[g], &model.geom_quat()[g]);
+            let s = model.geom_size()[g];
+            let shape = match model.geom_type()[g] {
+                MjtGeomBase::mjGEOM_BOX => Shape::Box(Vector3::from(s) * 2.0),
+                MjtGeomBase::mjGEOM_SPHERE => Shape::Sphere(s[0]),
+                MjtGeomBase::mjGEOM_ELLIPSOID => Shape::Box(Vector3::from(s) * 2.0),
+                // A capsule's straight part; cells on its ends lie inside the caps.
+                MjtGeomBase::mjGEOM_CYLINDER | MjtGeomBase::mjGEOM_CAPSULE => {
+                    Shape::Cylinder { radius: s[0], length: 2.0 * s[1] }
+                }
+                // A mesh's bounding box in its frame (MuJoCo's aabb).
+                MjtGeomBase::mjGEOM_MESH => {
+                    let aabb = model.geom_aabb()[g];
+                    let centre = Translation3::new(aabb[0], aabb[1], aabb[2]);
+                    return Some((pose * centre, Shape::Box(Vector3::new(aabb[3], aabb[4], aabb[5]) * 2.0)))
+                        .filter(|(_, shape)| shape.has_area());
+                }
+                _ => return None,
+            };
+            Some((pose, shape)).filter(|(_, shape)| shape.has_area())
+        })
+        .collect();
+    if !shapes.is_empty() {
+        return Surface::Shapes(shapes);
+    }
+    let mass = model.body_mass()[b];
+    let mut points: Vec<Point3<f64>> = (0..model.body_parentid().len())
+        .filter(|&c| c != b && model.body_parentid()[c] as usize == b)
+        .map(|c| Point3::from(Vector3::from(model.body_pos()[c])))
+        .collect();
+    if mass > 0.0 {
+        points.push(Point3::from(Vector3::from(model.body_ipos()[b])));
+    }
+    if points.is_empty() && mass <= 0.0 {
+        return Surface::None;
+    }
+    Surface::bones(points, mass)
+}

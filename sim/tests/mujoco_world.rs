@@ -1,0 +1,174 @@
+//! The MuJoCo world on small models the tests write: the robot read from
+//! MuJoCo's compiled model agrees with MuJoCo's own kinematics, the servos
+//! follow velocity commands and hold against gravity, the skin reads
+//! gravity at rest and feels a contact, and a floating base is welded.
+
+use std::path::PathBuf;
+
+use nalgebra::{Isometry3, Vector3};
+use skin_model::robot::kinematics::{self, BodyState, DofMotion};
+use skin_model::robot::{Drive, Robot};
+use skin_model::skin::Skin;
+use skin_sim::mujoco::Model;
+use skin_sim::world::{BaseConfig, World, WorldConfig};
+
+/// A three-DoF arm: a yaw on a fixed base, a shoulder whose joint anchor
+/// is off its body's origin, an elbow carrying a capsule and a box, a slide
+/// joint, and a finger coupled to the slide by an equality (a mimic).
+pub const ARM: &str = r#"
+<mujoco model="arm">
+  <compiler angle="radian"/>
+  <option timestep="0.002" integrator="implicitfast"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body name="base" pos="0 0 0.1">
+      <geom type="cylinder" size="0.08 0.05"/>
+      <body name="turret" pos="0 0 0.1">
+        <joint name="yaw" type="hinge" axis="0 0 1" range="-2 2"/>
+        <geom type="box" size="0.06 0.06 0.05" mass="2"/>
+        <body name="upper" pos="0 0 0.15" euler="0 0 0.5">
+          <joint name="shoulder" type="hinge" axis="0 1 0" pos="0 0 -0.05" range="-1.5 1.5"/>
+          <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.04" mass="1.5"/>
+          <body name="fore" pos="0.3 0 0">
+            <joint name="elbow" type="hinge" axis="0 1 0" range="-2 2"/>
+            <geom type="box" size="0.12 0.03 0.03" pos="0.12 0 0" mass="0.8"/>
+            <body name="slider" pos="0.24 0 0">
+              <joint name="reach" type="slide" axis="1 0 0" range="-0.02 0.05"/>
+              <geom type="sphere" size="0.03" mass="0.2"/>
+              <body name="finger" pos="0.03 0 0">
+                <joint name="finger" type="slide" axis="0 1 0" range="-0.05 0.05"/>
+                <geom type="box" size="0.01 0.01 0.02" mass="0.05"/>
+              </body>
+            </body>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <equality>
+    <joint joint1="finger" joint2="reach" polycoef="0 0.5 0 0 0"/>
+  </equality>
+</mujoco>
+"#;
+
+/// Writes `text` to a fresh temporary file named `name`.
+pub fn write_model(name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("skin-mujoco-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("the temporary folder is writable");
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("the temporary folder is writable");
+    path
+}
+
+fn rigid(seed: u64) -> WorldConfig {
+    WorldConfig { base: BaseConfig::rigid(), seed, ..WorldConfig::default() }
+}
+
+fn arm_world(cells_per_link: usize) -> World {
+    let model = Model::load(&write_model("arm.xml", ARM)).expect("MuJoCo loads the arm");
+    let skin = Skin::per_link(model.robot(), cells_per_link, 3).expect("the arm has surfaces");
+    model.world(skin, rigid(3)).expect("the arm takes the skin")
+}
+
+/// The cells' poses by the robot's own kinematics at the world's positions.
+fn modelled_poses(robot: &Robot, skin: &Skin, q: &[f64]) -> Vec<Isometry3<f64>> {
+    let zero = vec![0.0; q.len()];
+    let mut states = Vec::new();
+    let motion = DofMotion { q, qd: &zero, qdd: &zero };
+    kinematics::forward(robot, &BodyState::at_rest(Isometry3::identity()), motion, &mut states);
+    skin.cells().iter().map(|c| states[c.body].pose * c.pose).collect()
+}
+
+#[test]
+fn the_tree_read_from_mujoco_has_the_models_joints_bodies_and_coupling() {
+    let model = Model::load(&write_model("arm.xml", ARM)).expect("MuJoCo loads the arm");
+    let robot = model.robot();
+    let dofs: Vec<&str> = robot.dofs().iter().map(|d| d.name.as_str()).collect();
+    assert_eq!(dofs, ["yaw", "shoulder", "elbow", "reach"], "the finger follows the slide");
+    let finger = robot.joints().iter().find(|j| j.name == "finger").expect("the finger joint is there");
+    assert_eq!(finger.drive, Drive::Mimic { dof: 3, multiplier: 0.5, offset: 0.0 });
+    let shoulder = &robot.dofs()[1];
+    assert_eq!((shoulder.lower, shoulder.upper), (-1.5, 1.5));
+    // The base is welded to the world: its link is on the root body.
+    assert_eq!(robot.link("base").expect("the base is a link").body, 0);
+    assert_eq!(robot.link("turret").expect("the turret is a link").body, 1);
+}
+
+#[test]
+fn cells_sit_where_the_robots_kinematics_puts_them_as_mujoco_moves() {
+    let mut world = arm_world(3);
+    let command = [0.4, -0.3, 0.5, 0.02];
+    let mut out = Vec::new();
+    for tick in 0..250 {
+        world.command(&command).expect("a command of the right length");
+        out.clear();
+        world.step(&mut out);
+        if tick % 50 == 49 {
+            let expected = modelled_poses(world.robot(), world.skin(), world.positions());
+            for (i, (got, want)) in world.cell_poses().iter().zip(&expected).enumerate() {
+                let dp = (got.translation.vector - want.translation.vector).norm();
+                let da = got.rotation.angle_to(&want.rotation);
+                assert!(dp < 2e-3 && da < 5e-3, "tick {tick}, cell {i}: {dp} m, {da} rad apart");
+            }
+        }
+    }
+    // 1 s at the commanded rates, starting from zero.
+    let q = world.positions();
+    for (d, (got, want)) in q.iter().zip([0.4, -0.3, 0.5, 0.02]).enumerate() {
+        assert!((got - want).abs() < 0.05 * want.abs().max(0.1), "DoF {d} at {got}, commanded to {want}");
+    }
+}
+
+#[test]
+fn at_rest_every_accelerometer_reads_one_g_against_gravity() {
+    let mut world = arm_world(2);
+    let mut out = Vec::new();
+    for _ in 0..100 {
+        world.command(&[0.0; 4]).expect("a command of the right length");
+        out.clear();
+        world.step(&mut out);
+    }
+    let up = Vector3::z();
+    for ((_, sample), pose) in out.iter().zip(world.cell_poses()) {
+        // Counts of the BMA250 at +-2 g: 256 per g, with its offsets and gains.
+        let counts = Vector3::from(sample.accel().map(f64::from)) / 256.0;
+        let expected = pose.rotation.inverse() * up;
+        assert!((counts - expected).norm() < 0.12, "read {counts:?} g, expected {expected:?}");
+    }
+}
+
+#[test]
+fn a_floating_base_is_held_by_a_weld_and_said_so() {
+    let floating = r#"
+<mujoco model="floater">
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="pelvis" pos="0 0 1">
+      <freejoint/>
+      <geom type="box" size="0.1 0.1 0.1" mass="5"/>
+      <body name="leg" pos="0 0 -0.1">
+        <joint name="hip" type="hinge" axis="0 1 0" range="-1 1"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.04" mass="2"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"#;
+    let model = Model::load(&write_model("floater.xml", floating)).expect("MuJoCo loads the floater");
+    let skin = Skin::per_link(model.robot(), 2, 1).expect("the floater has surfaces");
+    let mut world = model.world(skin, rigid(1)).expect("the floater takes the skin");
+    let engine = world.mujoco_engine().expect("a MuJoCo world");
+    assert_eq!(engine.welded(), ["pelvis"]);
+    assert!(engine.notes().iter().any(|n| n.contains("\"pelvis\" held by a weld")), "{:?}", engine.notes());
+    let start: Vec<_> = world.cell_poses().to_vec();
+    let mut out = Vec::new();
+    for _ in 0..250 {
+        world.command(&[0.0]).expect("one DoF");
+        out.clear();
+        world.step(&mut out);
+    }
+    for (before, after) in start.iter().zip(world.cell_poses()) {
+        let sag = (before.translation.vector - after.translation.vector).norm();
+        assert!(sag < 0.01, "the welded base let a cell fall {sag} m in 1 s");
+    }
+}
