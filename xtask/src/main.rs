@@ -101,7 +101,7 @@ fn ci_steps() -> Vec<Step> {
         ),
         cargo(
             "tests (the MuJoCo world: libmujoco of the pinned wheel, models the tests write)",
-            "test -p skin-sim --features mujoco --lib --test mujoco_smoke",
+            "test -p skin-sim --features mujoco --lib --test mujoco_smoke --test mujoco_world --test mujoco_models",
         ),
         cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
         cargo(
