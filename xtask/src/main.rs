@@ -103,6 +103,10 @@ fn ci_steps() -> Vec<Step> {
             "tests (the MuJoCo world: libmujoco of the pinned wheel, models the tests write)",
             "test -p skin-sim --features mujoco --lib --test mujoco_smoke --test mujoco_world --test mujoco_models",
         ),
+        cargo(
+            "tests (calibration onto a MuJoCo model: robot_with_skin.xml read by MuJoCo's Python package)",
+            "test -p skin-host --features mujoco --test mujoco_calibrate",
+        ),
         cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
         cargo(
             "build firmware and bootloader (qemu board)",
