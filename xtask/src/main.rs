@@ -11,6 +11,8 @@
 //! - `cargo xtask qemu-net --cells N`: a hexagonal patch of N QEMU cells.
 //! - `cargo xtask image --key KEY --version V`: a board's firmware as a
 //!   signed update image (`skin sign`).
+//! - `cargo xtask menagerie`: MuJoCo Menagerie's robots from PyPI into
+//!   `target/menagerie/models`, for the ignored test over `SKIN_MJCF_DIR`.
 //! - `cargo xtask provision --key KEY`: a new STM32F405 cell's bootloader
 //!   and first image as one file for a debug probe; `cargo xtask fw-flash
 //!   --key KEY` (`cargo fw-flash`) writes it with probe-rs.
@@ -21,6 +23,7 @@ mod elf;
 mod flash_map;
 mod hex;
 mod links;
+mod menagerie;
 
 use std::env;
 use std::fs;
@@ -144,6 +147,7 @@ fn main() -> ExitCode {
         Some("image") => image(&args[1..]).map(drop),
         Some("provision") => provision(&args[1..]).map(drop),
         Some("fw-flash") => fw_flash(&args[1..]),
+        Some("menagerie") => menagerie::menagerie(&target_dir()),
         _ => {
             eprintln!(
                 "usage: cargo xtask <command>\n\n  \
@@ -157,7 +161,8 @@ fn main() -> ExitCode {
                  provision --key KEY [--version V] [--out FILE]\n                       \
                  a new STM32F405 cell: bootloader and signed image in slot A as one Intel HEX file\n  \
                  fw-flash --key KEY [--version V]\n                       \
-                 provision, then write it to a cell with probe-rs"
+                 provision, then write it to a cell with probe-rs\n  \
+                 menagerie            install MuJoCo Menagerie's robots from PyPI into target/menagerie (for SKIN_MJCF_DIR)"
             );
             return ExitCode::from(2);
         }
