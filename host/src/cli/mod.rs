@@ -22,6 +22,7 @@ mod model;
 mod monitor;
 #[cfg(feature = "sim")]
 mod objects;
+mod output;
 mod progress;
 mod replay;
 mod run;

@@ -2,7 +2,6 @@
 //! a user to open in MuJoCo's viewer, edit, or pass back (`--mujoco`,
 //! `--urdf`).
 
-use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -40,18 +39,9 @@ enum Format {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
-    /// The output file exists and --force was not given.
-    #[error("{0} exists; pass --force to overwrite it")]
-    Exists(PathBuf),
-    /// The output could not be written.
-    #[error("cannot write {path}: {source}")]
-    Write {
-        /// Where.
-        path: String,
-        /// What the OS said.
-        #[source]
-        source: std::io::Error,
-    },
+    /// The output cannot be written.
+    #[error(transparent)]
+    Output(#[from] super::output::Error),
     /// The input description is unusable.
     #[error(transparent)]
     Urdf(#[from] UrdfError),
@@ -69,17 +59,6 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 .map_err(|source| UrdfError::Read { path: path.display().to_string(), source })?
         }
     };
-    match &args.output {
-        Some(path) => {
-            if path.exists() && !args.force {
-                return Err(Error::Exists(path.clone()).into());
-            }
-            std::fs::write(path, text).map_err(|source| Error::Write { path: path.display().to_string(), source })?;
-            eprintln!("wrote {}", path.display());
-        }
-        None => std::io::stdout()
-            .write_all(text.as_bytes())
-            .map_err(|source| Error::Write { path: "standard output".into(), source })?,
-    }
+    super::output::write_text(&text, args.output.as_deref(), args.force, "the robot model").map_err(Error::from)?;
     Ok(ExitCode::SUCCESS)
 }
