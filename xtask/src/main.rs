@@ -11,6 +11,8 @@
 //! - `cargo xtask qemu-net --cells N`: a hexagonal patch of N QEMU cells.
 //! - `cargo xtask image --key KEY --version V`: a board's firmware as a
 //!   signed update image (`skin sign`).
+//! - `cargo xtask menagerie`: MuJoCo Menagerie's robots from PyPI into
+//!   `target/menagerie/models`, for the ignored test over `SKIN_MJCF_DIR`.
 //! - `cargo xtask provision --key KEY`: a new STM32F405 cell's bootloader
 //!   and first image as one file for a debug probe; `cargo xtask fw-flash
 //!   --key KEY` (`cargo fw-flash`) writes it with probe-rs.
@@ -21,6 +23,7 @@ mod elf;
 mod flash_map;
 mod hex;
 mod links;
+mod menagerie;
 
 use std::env;
 use std::fs;
@@ -100,12 +103,12 @@ fn ci_steps() -> Vec<Step> {
             "test -p skin-host --features ros2 --lib --test ros2_dds --test ros2_control --test ros2_live --test foxglove_live",
         ),
         cargo(
-            "tests (the MuJoCo world: libmujoco of the pinned wheel, small models of our own)",
-            "test -p skin-sim --features mujoco --test mujoco_smoke --test mujoco_world",
+            "tests (the MuJoCo world: libmujoco of the pinned wheel, models the tests write)",
+            "test -p skin-sim --features mujoco --lib --test mujoco_smoke --test mujoco_world --test mujoco_models",
         ),
         cargo(
-            "tests (the MuJoCo world through the skin program: explore, a welded base, sim-endpoint over UDP)",
-            "test -p skin-host --features mujoco --test mujoco_cli",
+            "tests (the MuJoCo world through the skin program: explore, a welded base, sim-endpoint over UDP, robot_with_skin.xml read by MuJoCo's Python package)",
+            "test -p skin-host --features mujoco --test mujoco_cli --test mujoco_calibrate",
         ),
         cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
         cargo(
@@ -144,6 +147,7 @@ fn main() -> ExitCode {
         Some("image") => image(&args[1..]).map(drop),
         Some("provision") => provision(&args[1..]).map(drop),
         Some("fw-flash") => fw_flash(&args[1..]),
+        Some("menagerie") => menagerie::menagerie(&target_dir()),
         _ => {
             eprintln!(
                 "usage: cargo xtask <command>\n\n  \
@@ -157,7 +161,8 @@ fn main() -> ExitCode {
                  provision --key KEY [--version V] [--out FILE]\n                       \
                  a new STM32F405 cell: bootloader and signed image in slot A as one Intel HEX file\n  \
                  fw-flash --key KEY [--version V]\n                       \
-                 provision, then write it to a cell with probe-rs"
+                 provision, then write it to a cell with probe-rs\n  \
+                 menagerie            install MuJoCo Menagerie's robots from PyPI into target/menagerie (for SKIN_MJCF_DIR)"
             );
             return ExitCode::from(2);
         }

@@ -65,18 +65,36 @@ pub fn skin_toml(model: &Model, calibration: &Calibration) -> String {
         + &skin::skin_toml(&cells)
 }
 
+/// A calibrated cell's frame as the model files carry it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkinFrame {
+    /// `skin_cell_<ID>`.
+    pub name: String,
+    /// The link (a MuJoCo model's body) it sits on.
+    pub link: String,
+    /// The accelerometer's frame in the link's frame (zero along unobservable directions).
+    pub pose: Isometry3<f64>,
+}
+
+/// Every calibrated cell's frame, in the calibration's order.
+pub fn skin_frames(model: &Model, calibration: &Calibration) -> Vec<SkinFrame> {
+    calibration
+        .cells
+        .iter()
+        .map(|c| SkinFrame { name: format!("skin_cell_{}", c.id.0), link: c.link.clone(), pose: in_link(model, c) })
+        .collect()
+}
+
 /// `urdf` with a fixed `skin_cell_<ID>` link per cell before its `</robot>`.
 pub fn urdf_with_skin(urdf: &str, model: &Model, calibration: &Calibration) -> Result<String, ExportError> {
     let end = urdf.rfind("</robot>").ok_or(ExportError::NoRobotEnd)?;
     let mut frames = String::from("\n  <!-- Skin cells calibrated by `skin calibrate`: accelerometer frames. -->\n");
-    for c in &calibration.cells {
-        let name = format!("skin_cell_{}", c.id.0);
+    for (c, SkinFrame { name, pose, .. }) in calibration.cells.iter().zip(skin_frames(model, calibration)) {
         for taken in [&name, &format!("{name}_joint")] {
             if urdf.contains(&format!("name=\"{taken}\"")) || urdf.contains(&format!("name='{taken}'")) {
                 return Err(ExportError::NameTaken(taken.clone()));
             }
         }
-        let pose = in_link(model, c);
         let t = pose.translation.vector;
         let [r, p, y] = rpy(&pose);
         let unknown: Vec<&str> =

@@ -13,6 +13,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use nalgebra::{Isometry3, Point3};
 use serde_json::{json, Value};
 use skin_host::calibrate::check::{check, CalibrationTruth};
+#[cfg(feature = "mujoco")]
+use skin_host::calibrate::export::skin_frames;
 use skin_host::calibrate::export::{picture, skin_toml, urdf_with_skin};
 use skin_host::calibrate::neighbours::{resolve, NeighbourConfig, Resolved};
 use skin_host::calibrate::{calibrate, CalibrateConfig, Calibration};
@@ -41,7 +43,7 @@ pub struct Args {
     periods: u32,
     #[command(flatten)]
     structure: StructureArgs,
-    /// Folder for skin.toml, robot_with_skin.urdf (a URDF robot's), calibration.json and calibration.svg.
+    /// Folder for skin.toml, robot_with_skin.urdf (or, with --mujoco, robot_with_skin.xml), calibration.json and calibration.svg.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// One JSON object on stdout instead of the human summary.
@@ -72,8 +74,11 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         ..CalibrateConfig::default()
     };
     cfg.check()?;
-    // A MuJoCo model is no URDF to add the skin's links to.
-    let urdf = if args.sim.mujoco.is_some() { None } else { Some(args.sim.urdf_text()?) };
+    // The user's description, to write again wearing the calibrated skin.
+    let description = match &args.sim.mujoco {
+        Some(path) => Description::Mujoco(path.clone()),
+        None => Description::Urdf(args.sim.urdf_text()?),
+    };
     // The host's own copy of the description, as on a real robot.
     let model = args.sim.robot()?;
     let world = args.sim.world()?;
@@ -112,7 +117,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let mut report = report(&name, &calibration, &neighbours, &truth, &found, wall_time_s);
     report["mujoco"] = super::world::mujoco_json(rig.world());
     if let Some(dir) = &args.out {
-        write_files(dir, urdf.as_deref(), &model, &calibration, rig.world(), &report)?;
+        write_files(dir, &description, &model, &calibration, rig.world(), &report)?;
     }
     let text = if args.json {
         format!("{report:#}")
@@ -225,9 +230,17 @@ fn summary(
     s
 }
 
+/// The robot's description as the user gave it.
+enum Description {
+    /// URDF text (the built-in robot's, or `--urdf`'s).
+    Urdf(String),
+    /// A model file MuJoCo reads (`--mujoco`).
+    Mujoco(PathBuf),
+}
+
 fn write_files(
     dir: &Path,
-    urdf: Option<&str>,
+    description: &Description,
     model: &Model,
     c: &Calibration,
     world: &World,
@@ -238,8 +251,9 @@ fn write_files(
         std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
     };
     write("skin.toml", &skin_toml(model, c))?;
-    if let Some(urdf) = urdf {
-        write("robot_with_skin.urdf", &urdf_with_skin(urdf, model, c)?)?;
+    match description {
+        Description::Urdf(urdf) => write("robot_with_skin.urdf", &urdf_with_skin(urdf, model, c)?)?,
+        Description::Mujoco(path) => write("robot_with_skin.xml", &mujoco_with_skin(path, model, c)?)?,
     }
     write("calibration.json", &format!("{report:#}"))?;
     // The picture, in the start posture, with the truth beside the estimate.
@@ -262,4 +276,26 @@ fn write_files(
     let views = SkinViews { title, bones: &picture.bones, cells: &picture.cells, truth: &picture.truth };
     skin_views(&dir.join("calibration.svg"), &views)?;
     Ok(())
+}
+
+/// The MuJoCo model at `path` wearing the calibrated cells (MuJoCo parses
+/// and writes it); what differs besides the cells is said on stderr.
+#[cfg(feature = "mujoco")]
+fn mujoco_with_skin(path: &Path, model: &Model, c: &Calibration) -> Result<String, Box<dyn std::error::Error>> {
+    let cells: Vec<_> = skin_frames(model, c)
+        .into_iter()
+        .map(|f| skin_sim::mujoco::CellSite { name: f.name, body: f.link, pose: f.pose })
+        .collect();
+    let written = skin_sim::mujoco::model_with_skin(path, &cells)?;
+    for note in &written.notes {
+        eprintln!("robot_with_skin.xml: {note}");
+    }
+    Ok(written.xml)
+}
+
+/// Without MuJoCo in the build, `--mujoco` says how to get it (it is
+/// refused before the run already).
+#[cfg(not(feature = "mujoco"))]
+fn mujoco_with_skin(_: &Path, _: &Model, _: &Calibration) -> Result<String, Box<dyn std::error::Error>> {
+    Err(super::world::Error::NoMujoco.into())
 }

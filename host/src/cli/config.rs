@@ -1,6 +1,5 @@
 //! `skin config`: writes the default configuration, or checks a file.
 
-use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -32,17 +31,9 @@ pub struct Args {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
-    /// The output file exists and --force was not given.
-    #[error("{0} exists; pass --force to overwrite it")]
-    Exists(PathBuf),
-    /// The output could not be written.
-    #[error("cannot write {path}: {source}")]
-    Write {
-        /// Where.
-        path: String,
-        /// What the OS said.
-        source: std::io::Error,
-    },
+    /// The output cannot be written.
+    #[error(transparent)]
+    Output(#[from] super::output::Error),
     /// The file to check is unusable.
     #[error(transparent)]
     Config(#[from] skin_host::config::Error),
@@ -70,17 +61,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         return Ok(ExitCode::SUCCESS);
     }
     let text = Config::default().to_toml();
-    match &args.output {
-        Some(path) => {
-            if path.exists() && !args.force {
-                return Err(Error::Exists(path.clone()).into());
-            }
-            std::fs::write(path, text).map_err(|source| Error::Write { path: path.display().to_string(), source })?;
-            eprintln!("wrote the default configuration to {}", path.display());
-        }
-        None => std::io::stdout()
-            .write_all(text.as_bytes())
-            .map_err(|source| Error::Write { path: "standard output".into(), source })?,
-    }
+    super::output::write_text(&text, args.output.as_deref(), args.force, "the default configuration")
+        .map_err(Error::from)?;
     Ok(ExitCode::SUCCESS)
 }

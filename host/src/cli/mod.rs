@@ -18,9 +18,11 @@ mod keygen;
 mod live;
 mod loadgen;
 mod message;
+mod model;
 mod monitor;
 #[cfg(feature = "sim")]
 mod objects;
+mod output;
 mod progress;
 mod replay;
 mod run;
@@ -65,6 +67,8 @@ enum Command {
     Monitor(monitor::Args),
     /// Write the default configuration file, or check one.
     Config(config::Args),
+    /// Write a robot's description for MuJoCo (MJCF) or as URDF: the built-in robot, or a URDF converted.
+    Model(model::Args),
     /// The main job against a real skin and robot (or an external simulator): organize, explore, report.
     Run(Box<run::Args>),
     /// Feed a recording (`skin run --record`, `skin demo`) to the host instead of the network.
@@ -129,6 +133,7 @@ pub fn main() -> ExitCode {
         Command::Grasp(args) => grasp::run(args),
         Command::Monitor(args) => monitor::run(args),
         Command::Config(args) => config::run(args),
+        Command::Model(args) => model::run(args),
         Command::Loadgen(args) => loadgen::run(args),
         Command::Run(args) => run::run(*args),
         Command::Replay(args) => replay::run(args),

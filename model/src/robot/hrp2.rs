@@ -38,13 +38,21 @@ pub fn skin_cells_on(link: &str) -> usize {
 }
 
 /// One arm joint: axis, origin in the parent link, limits (right arm),
-/// velocity limit, and the child link's shape, mass and home angle.
+/// velocity and torque limits, and the child link's shape, mass and home angle.
+///
+/// No per-joint torque table of HRP-2 was at hand, so the torque limits are
+/// an HRP-2-class assumption: about three times the gravity torque each
+/// joint bears with the arm outstretched and 2 kg in the hand (shoulder
+/// 24 N m, elbow and upper-arm yaw 11 N m, wrist 3 N m), rounded up; the
+/// finger's 3 N m squeezes about 75 N at its tip. The arm so lifts a grasped
+/// object with margin, and a hard pinch saturates its actuators.
 struct ArmJoint {
     axis: &'static str,
     xyz: [f64; 3],
     lower: f64,
     upper: f64,
     velocity: f64,
+    effort_nm: f64,
     geometry: &'static str,
     geometry_xyz: [f64; 3],
     geometry_rpy: &'static str,
@@ -60,6 +68,7 @@ const ARM: [ArmJoint; 7] = [
         lower: -3.1,
         upper: 1.05,
         velocity: 3.0,
+        effort_nm: 80.0,
         geometry: r#"<cylinder radius="0.055" length="0.10"/>"#,
         geometry_xyz: [0.0, 0.0, 0.0],
         geometry_rpy: "1.5708 0 0",
@@ -73,6 +82,7 @@ const ARM: [ArmJoint; 7] = [
         lower: -1.65,
         upper: 0.17,
         velocity: 3.0,
+        effort_nm: 80.0,
         geometry: r#"<cylinder radius="0.05" length="0.06"/>"#,
         geometry_xyz: [0.0, 0.0, -0.06],
         geometry_rpy: "0 0 0",
@@ -86,6 +96,7 @@ const ARM: [ArmJoint; 7] = [
         lower: -1.6,
         upper: 1.6,
         velocity: 3.0,
+        effort_nm: 40.0,
         geometry: r#"<cylinder radius="0.05" length="0.15"/>"#,
         geometry_xyz: [0.0, 0.0, -0.075],
         geometry_rpy: "0 0 0",
@@ -99,6 +110,7 @@ const ARM: [ArmJoint; 7] = [
         lower: -2.39,
         upper: 0.0,
         velocity: 3.0,
+        effort_nm: 40.0,
         geometry: r#"<cylinder radius="0.045" length="0.14"/>"#,
         geometry_xyz: [0.0, 0.0, -0.09],
         geometry_rpy: "0 0 0",
@@ -112,6 +124,7 @@ const ARM: [ArmJoint; 7] = [
         lower: -1.6,
         upper: 1.6,
         velocity: 3.0,
+        effort_nm: 10.0,
         geometry: r#"<cylinder radius="0.04" length="0.06"/>"#,
         geometry_xyz: [0.0, 0.0, -0.035],
         geometry_rpy: "0 0 0",
@@ -125,6 +138,7 @@ const ARM: [ArmJoint; 7] = [
         lower: -1.05,
         upper: 1.05,
         velocity: 3.0,
+        effort_nm: 10.0,
         geometry: r#"<box size="0.08 0.05 0.12"/>"#,
         geometry_xyz: [0.0, 0.0, -0.08],
         geometry_rpy: "0 0 0",
@@ -138,6 +152,7 @@ const ARM: [ArmJoint; 7] = [
         lower: -0.28,
         upper: 1.05,
         velocity: 3.0,
+        effort_nm: 3.0,
         geometry: r#"<box size="0.02 0.03 0.08"/>"#,
         geometry_xyz: [0.0, 0.0, -0.04],
         geometry_rpy: "0 0 0",
@@ -175,7 +190,7 @@ pub fn urdf() -> String {
   <joint name="{side}_JOINT{i}" type="revolute">
     <parent link="{parent}"/><child link="{link}"/>
     <origin xyz="{x} {y} {z}"/><axis xyz="{axis}"/>
-    <limit lower="{lower}" upper="{upper}" effort="50" velocity="{v}"/>
+    <limit lower="{lower}" upper="{upper}" effort="{effort}" velocity="{v}"/>
   </joint>
 "#,
                 m = j.mass,
@@ -184,6 +199,7 @@ pub fn urdf() -> String {
                 y = y * mirror,
                 axis = j.axis,
                 v = j.velocity,
+                effort = j.effort_nm,
             )
             .expect("writing to a String cannot fail");
             parent = link;

@@ -10,6 +10,7 @@
 
 pub mod hrp2;
 pub mod kinematics;
+pub mod mjcf;
 mod urdf;
 
 use nalgebra::{Isometry3, Point3, Unit, Vector3};
@@ -79,6 +80,8 @@ pub struct Dof {
     pub upper: f64,
     /// Largest velocity the servo accepts, rad/s or m/s (`inf` when not given).
     pub max_velocity: f64,
+    /// Largest torque or force the actuator gives, N m or N (`inf` when not given).
+    pub max_effort: f64,
 }
 
 /// A primitive shape a URDF link declares, for skin placement.
@@ -149,6 +152,10 @@ pub struct Link {
     pub in_body: Isometry3<f64>,
     /// Where skin can be placed.
     pub surface: Surface,
+    /// The link's mass (URDF `<inertial>`), kg; 0 when not given.
+    pub mass_kg: f64,
+    /// The centre of mass, link frame.
+    pub com: Point3<f64>,
 }
 
 /// A kinematic tree of rigid bodies driven by revolute and prismatic DoFs.
@@ -166,6 +173,11 @@ impl Robot {
     /// A robot from a URDF document.
     pub fn from_urdf_str(xml: &str) -> Result<Robot, UrdfError> {
         urdf::parse(xml)
+    }
+
+    /// The robot as an MJCF model MuJoCo loads (see [`mjcf`] for what is added).
+    pub fn to_mjcf(&self) -> String {
+        mjcf::write(self)
     }
 
     /// A robot from a URDF file (at most [`limits::MAX_BYTES`] long, which is

@@ -5,12 +5,12 @@
 use std::time::{Duration, Instant};
 
 use mujoco_rs::prelude::*;
-use mujoco_rs::wrappers::mj_editing::{MjsBody, MjtLimited, PositionConfig};
+use mujoco_rs::wrappers::mj_editing::{MjtLimited, PositionConfig};
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use rand::Rng;
 use skin_model::skin::Skin;
 
-use super::{tree, Model, MujocoError};
+use super::{cells, tree, Model, MujocoError};
 use crate::scene::{CellSense, SkinModel};
 use crate::world::{Touch, WorldConfig};
 
@@ -31,11 +31,6 @@ const INTEGRAL_S: f64 = 0.05;
 const INTEGRAL_MAX: f64 = 0.1;
 /// Time constant of the welds holding floating bases, s.
 const WELD_TIME_CONSTANT_S: f64 = 0.004;
-/// Radius of a force cell's touch zone around it, m: the three zones of a
-/// cell (7 mm from its centre, 120 degrees apart) do not overlap.
-const TOUCH_ZONE_M: f64 = 0.006;
-/// Radius of the site a cell's velocity and rangefinder are read at, m.
-const CELL_SITE_M: f64 = 0.002;
 
 /// How a DoF is driven: its servo's target integrates the velocity command.
 struct Servo {
@@ -96,28 +91,7 @@ impl Engine {
         for (i, cell) in skin.cells().iter().enumerate() {
             let link = robot.link(&cell.link).ok_or_else(|| MujocoError::UnknownBody(cell.link.clone()))?;
             let in_body = link.in_body.inverse() * cell.pose;
-            let body = spec.body_mut(&link.name).ok_or_else(|| MujocoError::UnknownBody(cell.link.clone()))?;
-            add_site(body, &format!("skin{i}"), &in_body, CELL_SITE_M);
-            for (k, [x, y]) in force_positions.iter().enumerate() {
-                add_site(body, &format!("skin{i}:f{k}"), &(in_body * Translation3::new(*x, *y, 0.0)), TOUCH_ZONE_M);
-            }
-            for (kind, suffix, site) in [
-                (MjtSensor::mjSENS_FRAMELINVEL, "vel", format!("skin{i}")),
-                (MjtSensor::mjSENS_RANGEFINDER, "range", format!("skin{i}")),
-                (MjtSensor::mjSENS_TOUCH, "touch0", format!("skin{i}:f0")),
-                (MjtSensor::mjSENS_TOUCH, "touch1", format!("skin{i}:f1")),
-                (MjtSensor::mjSENS_TOUCH, "touch2", format!("skin{i}:f2")),
-            ] {
-                let sensor = spec.add_sensor();
-                sensor.set_type(kind);
-                sensor.set_objtype(MjtObjBase::mjOBJ_SITE);
-                sensor.set_objname(&site);
-                let _ = sensor.set_name(&format!("skin{i}:{suffix}"));
-                if kind == MjtSensor::mjSENS_RANGEFINDER {
-                    // What the ray reports: its distance (the XML's `data="dist"`).
-                    sensor.intprm_mut()[0] = 1;
-                }
-            }
+            cells::add(&mut spec, &link.name, &format!("skin{i}"), &in_body, &force_positions)?;
         }
 
         // A control tick is a whole number of MuJoCo steps.
@@ -309,17 +283,6 @@ impl Engine {
             *t = Touch { proximity, force };
         }
     }
-}
-
-/// A sphere site of `radius` named `name` at `pose` on `body`.
-fn add_site(body: &mut MjsBody, name: &str, pose: &Isometry3<f64>, radius: f64) {
-    let q = pose.rotation.quaternion();
-    let site = body.add_site();
-    let _ = site.set_name(name);
-    site.set_type(MjtGeomBase::mjGEOM_SPHERE);
-    *site.size_mut() = [radius, 0.0, 0.0];
-    *site.pos_mut() = pose.translation.vector.into();
-    *site.quat_mut() = [q.w, q.i, q.j, q.k];
 }
 
 /// Holds every body with a free joint where it starts, by a weld to the

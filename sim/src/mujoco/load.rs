@@ -16,17 +16,8 @@ const SPECK_M: f64 = 1e-4;
 
 pub(super) fn load(path: &Path) -> Result<Model, MujocoError> {
     let failed = |message: String| MujocoError::Load { path: path.display().to_string(), message };
-    if !path.is_file() {
-        return Err(failed("no such file".into()));
-    }
-    let mut spec = MjSpec::from_xml(path).map_err(|e| failed(e.to_string()))?;
+    let mut spec = parse(path)?;
     let mut notes = Vec::new();
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("urdf")) {
-        // MuJoCo fuses a URDF's fixed-joint links by default; the skin
-        // names them.
-        spec.compiler_mut().set_fusestatic(false);
-    }
-    name_unnamed(&mut spec);
     let missing = drop_missing_meshes(&mut spec, path)?;
     if missing > 0 {
         notes.push(format!(
@@ -72,6 +63,23 @@ fn exclude_overlaps(spec: &mut MjSpec, model: &MjModel, data: &MjData<&MjModel>)
     pairs.len()
 }
 
+/// The model file as MuJoCo parses it, a URDF's links kept apart and every
+/// body and joint named, as the skin refers to them.
+pub(super) fn parse(path: &Path) -> Result<MjSpec, MujocoError> {
+    let failed = |message: String| MujocoError::Load { path: path.display().to_string(), message };
+    if !path.is_file() {
+        return Err(failed("no such file".into()));
+    }
+    let mut spec = MjSpec::from_xml(path).map_err(|e| failed(e.to_string()))?;
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("urdf")) {
+        // MuJoCo fuses a URDF's fixed-joint links by default; the skin
+        // names them.
+        spec.compiler_mut().set_fusestatic(false);
+    }
+    name_unnamed(&mut spec);
+    Ok(spec)
+}
+
 /// Names every unnamed body and joint `body<k>` / `joint<k>` (their order
 /// in the model), so that sites and servos can be attached by name.
 fn name_unnamed(spec: &mut MjSpec) {
@@ -97,7 +105,7 @@ fn name_bodies(body: &mut MjsBody, k: &mut usize) {
 /// Leaves out the meshes whose file MuJoCo would not find (a missing mesh
 /// fails the whole compile): their geoms become specks that neither collide
 /// nor weigh. Returns how many meshes were left out.
-fn drop_missing_meshes(spec: &mut MjSpec, path: &Path) -> Result<usize, MujocoError> {
+pub(super) fn drop_missing_meshes(spec: &mut MjSpec, path: &Path) -> Result<usize, MujocoError> {
     let base = path.parent().unwrap_or(Path::new("."));
     let meshdir = PathBuf::from(spec.compiler().meshdir());
     let missing: Vec<String> = spec

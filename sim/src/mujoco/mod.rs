@@ -11,9 +11,11 @@
 //! host run on it unchanged, and its readings go through the same sensor
 //! models (BMA250, VCNL4010, force cells) as the built-in world's.
 
+mod cells;
 mod engine;
 mod load;
 mod tree;
+mod with_skin;
 
 use std::path::Path;
 
@@ -21,6 +23,7 @@ use skin_model::robot::{Robot, UrdfError};
 use skin_model::skin::Skin;
 
 pub use engine::Engine;
+pub use with_skin::{model_with_skin, CellSite, ModelWithSkin};
 
 use crate::world::{World, WorldConfig};
 

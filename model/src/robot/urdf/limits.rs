@@ -23,6 +23,8 @@ pub const MAX_DOFS: usize = skin_protocol::robot_link::MAX_DOFS;
 pub const MAX_LENGTH_M: f64 = 1e3;
 /// Largest link mass, kg.
 pub const MAX_MASS_KG: f64 = 1e6;
+/// Largest effort limit, N m or N.
+pub const MAX_EFFORT: f64 = 1e6;
 /// Largest angle (origin rpy, revolute limit), rad.
 pub const MAX_ANGLE_RAD: f64 = 1e3;
 /// Largest mimic multiplier or offset (rad or m per unit of the master).
@@ -41,6 +43,8 @@ pub(super) enum Quantity {
     Mass,
     /// A velocity limit, rad/s or m/s: v >= 0 (0 means none).
     Speed,
+    /// An effort limit, N m or N: 0 <= v <= 1e6 (0 means none).
+    Effort,
     /// A mimic multiplier or offset: |v| <= 1000.
     Mimic,
     /// An axis component: any finite number (the axis is normalized).
@@ -59,6 +63,7 @@ impl Quantity {
             Quantity::Angle => (value.abs() <= MAX_ANGLE_RAD, "from -1000 to 1000 rad"),
             Quantity::Mass => ((0.0..=MAX_MASS_KG).contains(&value), "from 0 to 1e6 kg"),
             Quantity::Speed => (value >= 0.0, "0 (no limit) or more"),
+            Quantity::Effort => ((0.0..=MAX_EFFORT).contains(&value), "0 (no limit) to 1e6 N m or N"),
             Quantity::Mimic => (value.abs() <= MAX_MIMIC, "from -1000 to 1000"),
             Quantity::Direction => (true, ""),
         };

@@ -92,6 +92,8 @@ pub(super) fn parse(text: &str) -> Result<Robot, UrdfError> {
         body: 0,
         in_body: Isometry3::identity(),
         surface: Surface::None,
+        mass_kg: 0.0,
+        com: Point3::origin(),
     });
     let mut stack = vec![roots[0]];
     while let Some(l) = stack.pop() {
@@ -120,8 +122,14 @@ pub(super) fn parse(text: &str) -> Result<Robot, UrdfError> {
                     (bodies.len() - 1, Isometry3::identity())
                 }
             };
-            links[child] =
-                Some(Link { name: j.child.clone(), body: child_body, in_body: child_in_body, surface: Surface::None });
+            links[child] = Some(Link {
+                name: j.child.clone(),
+                body: child_body,
+                in_body: child_in_body,
+                surface: Surface::None,
+                mass_kg: 0.0,
+                com: Point3::origin(),
+            });
             stack.push(child);
         }
     }
@@ -146,7 +154,8 @@ pub(super) fn parse(text: &str) -> Result<Robot, UrdfError> {
             }
             dof_of_joint[ji] = Some(dofs.len());
             let joint = movable[ji].expect("DoF joints are movable");
-            dofs.push(Dof { name: j.name.clone(), joint, kind, lower, upper, max_velocity });
+            let max_effort = unlimited_if_zero(j.limit.effort);
+            dofs.push(Dof { name: j.name.clone(), joint, kind, lower, upper, max_velocity, max_effort });
         }
     }
     if dofs.is_empty() {
@@ -170,7 +179,12 @@ pub(super) fn parse(text: &str) -> Result<Robot, UrdfError> {
         .map(|(i, (link, desc))| {
             let child_origins: Vec<Point3<f64>> =
                 children[i].iter().map(|&ji| Point3::from(doc.joints[ji].origin.xyz)).collect();
-            Link { surface: surface(desc, &child_origins), ..link.expect("every link was reached") }
+            Link {
+                surface: surface(desc, &child_origins),
+                mass_kg: desc.mass,
+                com: Point3::from(desc.com.xyz),
+                ..link.expect("every link was reached")
+            }
         })
         .collect();
     let home = dofs.iter().map(|d| 0.0f64.clamp(d.lower, d.upper)).collect();
@@ -202,7 +216,7 @@ fn classify(doc: &Description, joint_index: &HashMap<&str, usize>) -> Result<Vec
                         kind: DofKind::Revolute,
                         lower: f64::NEG_INFINITY,
                         upper: f64::INFINITY,
-                        max_velocity: velocity_limit(j.limit.velocity),
+                        max_velocity: unlimited_if_zero(j.limit.velocity),
                     }))
                 }
                 JointType::Revolute => DofKind::Revolute,
@@ -216,7 +230,7 @@ fn classify(doc: &Description, joint_index: &HashMap<&str, usize>) -> Result<Vec
                 };
                 return Err(UrdfError::BadLimits { kind, joint: j.name.clone(), lower, upper, hint });
             }
-            Ok(Some(Kind::Dof { kind, lower, upper, max_velocity: velocity_limit(j.limit.velocity) }))
+            Ok(Some(Kind::Dof { kind, lower, upper, max_velocity: unlimited_if_zero(j.limit.velocity) }))
         })
         .collect::<Result<_, _>>()?;
 
@@ -279,8 +293,8 @@ fn classify(doc: &Description, joint_index: &HashMap<&str, usize>) -> Result<Vec
         .collect())
 }
 
-/// URDF writes 0 for "not given".
-fn velocity_limit(v: f64) -> f64 {
+/// URDF writes 0 for "not given" (velocity and effort limits).
+fn unlimited_if_zero(v: f64) -> f64 {
     if v > 0.0 {
         v
     } else {

@@ -2,13 +2,13 @@
 //!
 //! Tolerant by design: only `<robot name>` and its `<link>` (inertial
 //! origin and mass; visual and collision origin and geometry) and `<joint>`
-//! (type, parent, child, origin, axis, limit, mimic) children are read.
+//! (type, parent, child, origin, axis, limit with effort, mimic) children are read.
 //! Every other element and attribute (materials and textures, gazebo,
 //! transmissions, sensors, safety controllers, calibration, dynamics,
 //! ros2_control, xacro leftovers, mesh file names) is skipped unread, so
 //! what the method does not need cannot make a file fail. Defaults are the
 //! URDF specification's: identity origin, axis `1 0 0`, zero mass, limits
-//! 0, velocity 0 (none). Every number read is checked ([`Quantity`]).
+//! 0, velocity and effort 0 (none). Every number read is checked ([`Quantity`]).
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use roxmltree::{Document, Node, ParsingOptions};
@@ -58,12 +58,13 @@ pub(super) enum JointType {
     Prismatic,
 }
 
-/// A `<limit>`: position range (rad or m) and velocity (0 for none).
+/// A `<limit>`: position range (rad or m), velocity and effort (0 for none).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct Limit {
     pub lower: f64,
     pub upper: f64,
     pub velocity: f64,
+    pub effort: f64,
 }
 
 /// A `<mimic>`: `q = multiplier * q_master + offset`.
@@ -225,6 +226,7 @@ fn joint(node: Node) -> Result<JointDesc, UrdfError> {
             limit.upper = number("upper", q)?;
         }
         limit.velocity = number("velocity", Quantity::Speed)?;
+        limit.effort = number("effort", Quantity::Effort)?;
     }
     let mimic = match child(node, "mimic") {
         Some(m) => {

@@ -1,0 +1,67 @@
+//! A skin cell as MuJoCo carries it: a site at the cell's accelerometer
+//! with MuJoCo's `accelerometer`, a `framelinvel` (the simulated world
+//! differentiates it over a tick: under implicit damping the accelerometer
+//! reads more than the motion MuJoCo integrates) and a `rangefinder` along
+//! its normal, and a site per force cell with a `touch` sensor. One place, so that the world
+//! the skin is simulated in and the model a calibration writes out
+//! (`robot_with_skin.xml`) carry the same cells.
+
+use mujoco_rs::prelude::*;
+use mujoco_rs::wrappers::mj_editing::MjsBody;
+use nalgebra::{Isometry3, Translation3};
+
+use super::MujocoError;
+
+/// Radius of a force cell's touch zone around it, m: the three zones of a
+/// cell (7 mm from its centre, 120 degrees apart) do not overlap.
+const TOUCH_ZONE_M: f64 = 0.006;
+/// Radius of the site a cell's accelerometer and rangefinder sit at, m.
+const CELL_SITE_M: f64 = 0.002;
+
+/// Adds cell `name` on body `body` at `pose` (body frame, z the outward
+/// normal), its force cells at `forces` (cell frame, x y): sites `name` and
+/// `name:f<k>`, sensors `name:acc`, `name:vel`, `name:range` and
+/// `name:touch<k>`.
+pub(super) fn add(
+    spec: &mut MjSpec,
+    body: &str,
+    name: &str,
+    pose: &Isometry3<f64>,
+    forces: &[[f64; 2]; 3],
+) -> Result<(), MujocoError> {
+    let on = spec.body_mut(body).ok_or_else(|| MujocoError::UnknownBody(body.to_owned()))?;
+    add_site(on, name, pose, CELL_SITE_M);
+    for (k, [x, y]) in forces.iter().enumerate() {
+        add_site(on, &format!("{name}:f{k}"), &(pose * Translation3::new(*x, *y, 0.0)), TOUCH_ZONE_M);
+    }
+    for (kind, suffix, site) in [
+        (MjtSensor::mjSENS_ACCELEROMETER, "acc", name.to_owned()),
+        (MjtSensor::mjSENS_FRAMELINVEL, "vel", name.to_owned()),
+        (MjtSensor::mjSENS_RANGEFINDER, "range", name.to_owned()),
+        (MjtSensor::mjSENS_TOUCH, "touch0", format!("{name}:f0")),
+        (MjtSensor::mjSENS_TOUCH, "touch1", format!("{name}:f1")),
+        (MjtSensor::mjSENS_TOUCH, "touch2", format!("{name}:f2")),
+    ] {
+        let sensor = spec.add_sensor();
+        sensor.set_type(kind);
+        sensor.set_objtype(MjtObjBase::mjOBJ_SITE);
+        sensor.set_objname(&site);
+        let _ = sensor.set_name(&format!("{name}:{suffix}"));
+        if kind == MjtSensor::mjSENS_RANGEFINDER {
+            // What the ray reports: its distance (the XML's `data="dist"`).
+            sensor.intprm_mut()[0] = 1;
+        }
+    }
+    Ok(())
+}
+
+/// A sphere site of `radius` named `name` at `pose` on `body`.
+fn add_site(body: &mut MjsBody, name: &str, pose: &Isometry3<f64>, radius: f64) {
+    let q = pose.rotation.quaternion();
+    let site = body.add_site();
+    let _ = site.set_name(name);
+    site.set_type(MjtGeomBase::mjGEOM_SPHERE);
+    *site.size_mut() = [radius, 0.0, 0.0];
+    *site.pos_mut() = pose.translation.vector.into();
+    *site.quat_mut() = [q.w, q.i, q.j, q.k];
+}
