@@ -41,7 +41,7 @@ pub struct Args {
     periods: u32,
     #[command(flatten)]
     structure: StructureArgs,
-    /// Folder for skin.toml, robot_with_skin.urdf, calibration.json and calibration.svg.
+    /// Folder for skin.toml, robot_with_skin.urdf (a URDF robot's), calibration.json and calibration.svg.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// One JSON object on stdout instead of the human summary.
@@ -72,7 +72,8 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         ..CalibrateConfig::default()
     };
     cfg.check()?;
-    let urdf = args.sim.urdf_text()?;
+    // A MuJoCo model is no URDF to add the skin's links to.
+    let urdf = if args.sim.mujoco.is_some() { None } else { Some(args.sim.urdf_text()?) };
     // The host's own copy of the description, as on a real robot.
     let model = args.sim.robot()?;
     let world = args.sim.world()?;
@@ -108,9 +109,10 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     bar.finish_and_clear();
 
     let truth = check(&calibration, rig.world());
-    let report = report(&name, &calibration, &neighbours, &truth, &found, wall_time_s);
+    let mut report = report(&name, &calibration, &neighbours, &truth, &found, wall_time_s);
+    report["mujoco"] = super::world::mujoco_json(rig.world());
     if let Some(dir) = &args.out {
-        write_files(dir, &urdf, &model, &calibration, rig.world(), &report)?;
+        write_files(dir, urdf.as_deref(), &model, &calibration, rig.world(), &report)?;
     }
     let text = if args.json {
         format!("{report:#}")
@@ -221,7 +223,7 @@ fn summary(
 
 fn write_files(
     dir: &Path,
-    urdf: &str,
+    urdf: Option<&str>,
     model: &Model,
     c: &Calibration,
     world: &World,
@@ -232,7 +234,9 @@ fn write_files(
         std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
     };
     write("skin.toml", &skin_toml(model, c))?;
-    write("robot_with_skin.urdf", &urdf_with_skin(urdf, model, c)?)?;
+    if let Some(urdf) = urdf {
+        write("robot_with_skin.urdf", &urdf_with_skin(urdf, model, c)?)?;
+    }
     write("calibration.json", &format!("{report:#}"))?;
     // The picture, in the start posture, with the truth beside the estimate.
     let mut picture = picture(model, c, &c.description_start);

@@ -82,7 +82,9 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Ok(found) => {
             let truth = check(&found, rig.world());
             let text = if args.json {
-                report(&name, &found, &truth, wall_time_s).to_string()
+                let mut report = report(&name, &found, &truth, wall_time_s);
+                report["mujoco"] = super::world::mujoco_json(rig.world());
+                report.to_string()
             } else {
                 summary(&name, &found, &truth, wall_time_s)
             };

@@ -12,9 +12,10 @@ use std::time::{Duration, Instant};
 use clap::ValueEnum;
 use skin_sim::endpoint::{Batching, Endpoint, EndpointConfig, Pacing, Running};
 use skin_sim::network::sensor_fault::SensorFault;
-use skin_sim::network::{NetworkConfig, UpdateSetup};
+use skin_sim::network::{NetworkConfig, NetworkError, UpdateSetup};
 
 use super::seconds;
+use super::world::SimArgs;
 
 /// Arguments of `skin sim-endpoint`.
 #[derive(clap::Args)]
@@ -36,6 +37,13 @@ pub struct Args {
     /// --urdf F --cell-pitch 0.025`); the host then needs as many ports as the line printed names.
     #[arg(long)]
     patches: bool,
+    /// Serve this model (MJCF or URDF) run in MuJoCo instead of the built-in robot, its skin laid
+    /// in wired patches on its collision geometry (a build with the `mujoco` feature).
+    #[arg(long, value_name = "FILE", conflicts_with = "patches")]
+    mujoco: Option<std::path::PathBuf>,
+    /// Cells on every body of the --mujoco model with geometry or mass.
+    #[arg(long, value_name = "N", default_value_t = 4, requires = "mujoco", value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1000))]
+    cells_per_link: usize,
     /// Stop after this many wall-clock seconds [default: run until killed].
     #[arg(long, value_name = "S")]
     duration: Option<f64>,
@@ -90,8 +98,16 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     // Served on a thread of its own, watched from here: when it fails or
     // panics, the process ends with its error instead of serving nothing.
     let (seed, patches, faults) = (args.seed, args.patches, args.sensor_fault);
+    let mujoco = args.mujoco.map(|path| SimArgs::mujoco_patches(path, args.cells_per_link, seed));
+    let what = if mujoco.is_some() { "the MuJoCo robot" } else { "the simulated robot" };
     let endpoint = Running::spawn(move || {
-        let mut endpoint = if patches { Endpoint::patches(seed, config) } else { Endpoint::hrp2(seed, config) }?;
+        let mut endpoint = match mujoco {
+            // Built on the serving thread, which owns the world; an unusable
+            // model is a bad --mujoco value.
+            Some(sim) => Endpoint::wired(sim.world().map_err(|e| NetworkError::Flag(e.to_string()))?, config),
+            None if patches => Endpoint::patches(seed, config),
+            None => Endpoint::hrp2(seed, config),
+        }?;
         faults.into_iter().try_for_each(|f| endpoint.break_sensor(f))?;
         Ok(endpoint)
     })?;
@@ -99,7 +115,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     // Announced on stdout, so a script can wait for it.
     writeln!(
         std::io::stdout().lock(),
-        "serving the simulated robot on {} ({:?}); interface ports {} send to {}",
+        "serving {what} on {} ({:?}); interface ports {} send to {}",
         endpoint.robot,
         pacing,
         ports.join(", "),

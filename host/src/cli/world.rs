@@ -1,5 +1,7 @@
 //! The simulated robot and skin an in-process job runs on: the built-in
-//! HRP-2-like upper body or any URDF, with its skin, sensors and base.
+//! HRP-2-like upper body or any URDF, with its skin, sensors and base, in
+//! the built-in world or (`--mujoco`, a build with the `mujoco` feature)
+//! in MuJoCo.
 
 use std::path::PathBuf;
 
@@ -15,6 +17,10 @@ pub struct SimArgs {
     /// Robot description; without it, the built-in HRP-2-like upper body (14 DoF, 74 cells).
     #[arg(long, value_name = "FILE")]
     pub urdf: Option<PathBuf>,
+    /// A model (MJCF or URDF) run in MuJoCo instead of the built-in world: the skin laid on
+    /// its collision geometry, MuJoCo's sensors as the cells' (a build with the `mujoco` feature).
+    #[arg(long, value_name = "FILE", conflicts_with = "urdf")]
+    pub mujoco: Option<PathBuf>,
     /// Cells on every link with geometry or mass [default: 4; the built-in robot: its own 74-cell skin].
     #[arg(long, value_name = "N", conflicts_with = "skin", value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1000))]
     cells_per_link: Option<usize>,
@@ -59,6 +65,16 @@ pub enum Error {
     /// A flag value out of range.
     #[error("--noise-scale must be a finite number >= 0, not {0}")]
     NoiseScale(f64),
+    /// `--mujoco` asked of a build without MuJoCo.
+    #[cfg(not(feature = "mujoco"))]
+    #[error(
+        "this skin was built without MuJoCo: run `cargo xtask install` (it installs the pinned MuJoCo library), then rebuild with `cargo build --release -p skin-host --features mujoco`"
+    )]
+    NoMujoco,
+    /// MuJoCo cannot load the model or carry the skin.
+    #[cfg(feature = "mujoco")]
+    #[error(transparent)]
+    Mujoco(#[from] skin_sim::mujoco::MujocoError),
     /// The URDF file cannot be read again for export.
     #[error("cannot read {path}: {source}")]
     Read {
@@ -70,6 +86,21 @@ pub enum Error {
 }
 
 impl SimArgs {
+    /// The MuJoCo model at `path` wearing `cells_per_link` cells per body
+    /// laid in wired patches, seeded: what `skin sim-endpoint --mujoco` serves.
+    pub fn mujoco_patches(path: PathBuf, cells_per_link: usize, seed: u64) -> SimArgs {
+        SimArgs {
+            urdf: None,
+            mujoco: Some(path),
+            cells_per_link: Some(cells_per_link),
+            skin: None,
+            patches: true,
+            seed,
+            noise_scale: 1.0,
+            base: Base::Standing,
+        }
+    }
+
     /// The robot description as text: the file, or the built-in one.
     pub fn urdf_text(&self) -> Result<String, Error> {
         match &self.urdf {
@@ -79,8 +110,12 @@ impl SimArgs {
         }
     }
 
-    /// The robot as the description gives it (the built-in one in its start pose).
+    /// The robot as the description gives it (the built-in one in its
+    /// start pose; a MuJoCo model's as MuJoCo compiled it).
     pub fn robot(&self) -> Result<Robot, Error> {
+        if let Some(path) = &self.mujoco {
+            return mujoco_robot(path);
+        }
         Ok(match &self.urdf {
             Some(path) => Robot::from_urdf_file(path)?,
             None => hrp2::robot(),
@@ -92,11 +127,20 @@ impl SimArgs {
         if !(self.noise_scale.is_finite() && self.noise_scale >= 0.0) {
             return Err(Error::NoiseScale(self.noise_scale));
         }
+        #[cfg(feature = "mujoco")]
+        let model = self.mujoco.as_deref().map(mujoco_model).transpose()?;
+        #[cfg(feature = "mujoco")]
+        let robot = match &model {
+            Some(m) => m.robot().clone(),
+            None => self.robot()?,
+        };
+        #[cfg(not(feature = "mujoco"))]
         let robot = self.robot()?;
-        let count = |link: &Link| match (self.cells_per_link, &self.urdf) {
-            (Some(n), _) => n,
-            (None, None) => hrp2::skin_cells_on(&link.name),
-            (None, Some(_)) => 4,
+        let builtin = self.urdf.is_none() && self.mujoco.is_none();
+        let count = |link: &Link| match self.cells_per_link {
+            Some(n) => n,
+            None if builtin => hrp2::skin_cells_on(&link.name),
+            None => 4,
         };
         let skin = match &self.skin {
             Some(path) => Skin::from_file(&robot, path),
@@ -108,17 +152,51 @@ impl SimArgs {
             Base::Lying => BaseConfig::lying(),
             Base::Rigid => BaseConfig::rigid(),
         };
-        Ok(World::new(
-            robot,
-            skin,
-            WorldConfig {
-                base,
-                accel: Bma250Config::default().with_noise_scale(self.noise_scale),
-                seed: self.seed,
-                ..WorldConfig::default()
-            },
-        ))
+        let cfg = WorldConfig {
+            base,
+            accel: Bma250Config::default().with_noise_scale(self.noise_scale),
+            seed: self.seed,
+            ..WorldConfig::default()
+        };
+        #[cfg(feature = "mujoco")]
+        if let Some(model) = model {
+            let world = model.world(skin, cfg)?;
+            for note in world.mujoco_engine().map_or(&[][..], |e| e.notes()) {
+                eprintln!("note: {note}");
+            }
+            return Ok(world);
+        }
+        Ok(World::new(robot, skin, cfg))
     }
+}
+
+/// A MuJoCo model, loaded.
+#[cfg(feature = "mujoco")]
+fn mujoco_model(path: &std::path::Path) -> Result<skin_sim::mujoco::Model, Error> {
+    Ok(skin_sim::mujoco::Model::load(path)?)
+}
+
+/// The robot of a MuJoCo model, as MuJoCo compiled it.
+#[cfg(feature = "mujoco")]
+fn mujoco_robot(path: &std::path::Path) -> Result<Robot, Error> {
+    Ok(mujoco_model(path)?.robot().clone())
+}
+
+/// Without MuJoCo in the build, `--mujoco` says how to get it.
+#[cfg(not(feature = "mujoco"))]
+fn mujoco_robot(_: &std::path::Path) -> Result<Robot, Error> {
+    Err(Error::NoMujoco)
+}
+
+/// What the MuJoCo world assumed of its model (welded floating bases,
+/// added servos, left-out meshes) for the JSON; `null` in the built-in world.
+pub fn mujoco_json(world: &World) -> serde_json::Value {
+    #[cfg(feature = "mujoco")]
+    if let Some(engine) = world.mujoco_engine() {
+        return serde_json::json!({"welded": engine.welded(), "notes": engine.notes()});
+    }
+    let _ = world;
+    serde_json::Value::Null
 }
 
 /// Warns when the declared mounting clearance (m) is more than the

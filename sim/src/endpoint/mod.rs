@@ -147,9 +147,15 @@ impl Endpoint {
         let robot = hrp2::robot();
         let skin = Skin::patches(&robot, |l| hrp2::skin_cells_on(&l.name), seed)
             .map_err(|e| NetworkError::Topology(e.to_string()))?;
-        let topology = Topology::from_wires(skin.wires())?;
-        let world_cell = (0..skin.cells().len()).collect();
-        let world = World::new(robot, skin, WorldConfig { seed, ..WorldConfig::default() });
+        Endpoint::wired(World::new(robot, skin, WorldConfig { seed, ..WorldConfig::default() }), config)
+    }
+
+    /// `world` with its skin wired as it was laid ([`Skin::patches`]): each
+    /// group of cells wired together on its own interface port. A world of
+    /// any engine, the built-in one or MuJoCo.
+    pub fn wired(world: World, config: EndpointConfig) -> Result<Endpoint, NetworkError> {
+        let topology = Topology::from_wires(world.skin().wires())?;
+        let world_cell = (0..world.skin().cells().len()).collect();
         Endpoint::new(world, &topology, world_cell, config)
     }
 

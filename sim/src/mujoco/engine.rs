@@ -18,6 +18,13 @@ use crate::world::{Touch, WorldConfig};
 /// Hz (critically damped): stiff enough that gravity bends a joint by
 /// well under 0.01 rad, slow enough for MuJoCo's 2 ms steps.
 const SERVO_HZ: f64 = 10.0;
+/// Integral time of the servos' outer loop, s: the target is corrected by
+/// the integral of its error, so a joint held against gravity reaches the
+/// commanded position as a velocity-controlled robot does (a bare position
+/// servo sags by load over stiffness), far slower than the servo itself.
+const INTEGRAL_S: f64 = 0.1;
+/// Largest correction of the outer loop, rad or m (no windup at a stop).
+const INTEGRAL_MAX: f64 = 0.1;
 /// Radius of a force cell's touch zone around it, m: the three zones of a
 /// cell (7 mm from its centre, 120 degrees apart) do not overlap.
 const TOUCH_ZONE_M: f64 = 0.006;
@@ -34,7 +41,10 @@ struct Servo {
     actuator: usize,
     /// The actuator's control range (`-inf..inf` when not limited).
     ctrl: (f64, f64),
+    /// The commanded position: the velocity command's integral.
     target: f64,
+    /// The outer loop's correction of the servo's set point.
+    correction: f64,
 }
 
 /// Where a cell's readings are in MuJoCo's sensor data.
@@ -160,7 +170,15 @@ impl Engine {
                 (f64::NEG_INFINITY, f64::INFINITY)
             };
             let target = zero + robot.home()[d];
-            servos.push(Servo { qpos, zero, range: (zero + dof.lower, zero + dof.upper), actuator, ctrl, target });
+            servos.push(Servo {
+                qpos,
+                zero,
+                range: (zero + dof.lower, zero + dof.upper),
+                actuator,
+                ctrl,
+                target,
+                correction: 0.0,
+            });
         }
         let mut data = MjData::new(Box::new(model));
         for s in &servos {
@@ -218,7 +236,8 @@ impl Engine {
     }
 
     /// One control tick under the velocity `command` (DoF order): each
-    /// servo's target moves by it (held inside the joint's range), MuJoCo
+    /// servo's target moves by it (held inside the joint's range, and
+    /// corrected by the integral of its error), MuJoCo
     /// steps, and the positions, cell poses and each cell's specific force
     /// (its accelerometer's mean over the tick, cell frame) are read.
     pub(crate) fn advance(
@@ -231,7 +250,9 @@ impl Engine {
         let started = Instant::now();
         for (s, w) in self.servos.iter_mut().zip(command) {
             s.target = (s.target + w * self.tick_s).clamp(s.range.0, s.range.1);
-            self.data.ctrl_mut()[s.actuator] = s.target.clamp(s.ctrl.0, s.ctrl.1);
+            let error = s.target - self.data.qpos()[s.qpos];
+            s.correction = (s.correction + error * self.tick_s / INTEGRAL_S).clamp(-INTEGRAL_MAX, INTEGRAL_MAX);
+            self.data.ctrl_mut()[s.actuator] = (s.target + s.correction).clamp(s.ctrl.0, s.ctrl.1);
         }
         specific.iter_mut().for_each(|f| *f = Vector3::zeros());
         for _ in 0..self.substeps {
