@@ -15,6 +15,7 @@ mod flash;
 mod grasp;
 mod job;
 mod keygen;
+mod lab;
 mod live;
 mod loadgen;
 mod message;

@@ -13,6 +13,7 @@
 
 mod engine;
 mod load;
+mod stage;
 mod tree;
 
 use std::path::Path;
@@ -21,6 +22,7 @@ use skin_model::robot::{Robot, UrdfError};
 use skin_model::skin::Skin;
 
 pub use engine::Engine;
+pub use stage::{experiment_world, SharedStage};
 
 use crate::world::{World, WorldConfig};
 
@@ -83,7 +85,16 @@ impl Model {
     /// not sway or rock: it stands as the model holds it).
     pub fn world(self, skin: Skin, cfg: WorldConfig) -> Result<World, MujocoError> {
         let robot = self.tree.robot.clone();
-        let engine = Engine::new(self, &skin, &cfg)?;
+        let engine = Engine::new(self, &skin, &cfg, None)?;
+        Ok(World::mujoco(robot, skin, cfg, engine))
+    }
+
+    /// The world as [`Model::world`], in the grasping experiment's lab:
+    /// a floor, the person's hands and the tray they put objects on, as
+    /// MuJoCo bodies the person moves through `lab`.
+    pub fn world_on_stage(self, skin: Skin, cfg: WorldConfig, lab: SharedStage) -> Result<World, MujocoError> {
+        let robot = self.tree.robot.clone();
+        let engine = Engine::new(self, &skin, &cfg, Some(lab))?;
         Ok(World::mujoco(robot, skin, cfg, engine))
     }
 }

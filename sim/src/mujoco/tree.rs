@@ -148,6 +148,8 @@ pub(super) fn read(model: &MjModel, data: &MjData<&MjModel>, name_of_robot: &str
             lower,
             upper,
             max_velocity: NO_VELOCITY_LIMIT,
+            // The servos' force limits are MuJoCo's to apply.
+            max_effort: f64::INFINITY,
         });
     }
     for (j, robot) in robot_joint.iter().enumerate() {
@@ -173,6 +175,8 @@ pub(super) fn read(model: &MjModel, data: &MjData<&MjModel>, name_of_robot: &str
             body: carrier[b],
             in_body: frames[carrier[b]].inverse() * world_pose(b),
             surface: if b == 0 { Surface::None } else { surface(model, b) },
+            mass_kg: model.body_mass()[b],
+            com: Point3::from(Vector3::from(model.body_ipos()[b])),
         })
         .collect();
     let robot = Robot::from_tree(name_of_robot.to_owned(), bodies, joints, dofs, links)?;
