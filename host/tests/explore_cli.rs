@@ -119,3 +119,15 @@ fn mistakes_get_a_message_not_a_panic() {
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
 }
+
+/// A build without MuJoCo keeps `--mujoco` and says how to get it.
+#[cfg(not(feature = "mujoco"))]
+#[test]
+fn mujoco_asked_of_a_build_without_it_says_how_to_rebuild() {
+    let out = skin(&["explore", "--mujoco", "robot.xml"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(
+        stderr(&out).trim_end(),
+        "error: this skin was built without MuJoCo: run `cargo xtask install` (it installs the pinned MuJoCo library), then rebuild with `cargo build --release -p skin-host --features mujoco`"
+    );
+}

@@ -56,7 +56,7 @@ fn an_accelerometer_at_rest_reads_gravity_along_its_sites_up() {
         assert!((got - want).abs() < 1e-6, "tilted site axis {axis}: {got} m/s^2, want {want}");
     }
     // MuJoCo skips the sensors of a body welded to the world (no degree of
-    // freedom between them): it reads zero, so the world adds gravity itself
-    // for cells there. A MuJoCo that changes this must be noticed here.
+    // freedom between them): it reads zero. The skin's world reads its
+    // cells' velocities instead (see the engine), which has no such gap.
     assert_eq!(reading(&model, &data, "static_acc"), [0.0; 3], "a static body's accelerometer");
 }

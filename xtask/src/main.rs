@@ -100,8 +100,12 @@ fn ci_steps() -> Vec<Step> {
             "test -p skin-host --features ros2 --lib --test ros2_dds --test ros2_control --test ros2_live --test foxglove_live",
         ),
         cargo(
-            "tests (the MuJoCo world: libmujoco of the pinned wheel, models the tests write)",
-            "test -p skin-sim --features mujoco --lib --test mujoco_smoke",
+            "tests (the MuJoCo world: libmujoco of the pinned wheel, small models of our own)",
+            "test -p skin-sim --features mujoco --test mujoco_smoke --test mujoco_world",
+        ),
+        cargo(
+            "tests (the MuJoCo world through the skin program: explore, a welded base, sim-endpoint over UDP)",
+            "test -p skin-host --features mujoco --test mujoco_cli",
         ),
         cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
         cargo(

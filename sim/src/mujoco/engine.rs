@@ -18,18 +18,22 @@ use crate::world::{Touch, WorldConfig};
 /// Natural frequency of the position servos added to joints without one,
 /// Hz (critically damped): stiff enough that gravity bends a joint by
 /// well under 0.01 rad, slow enough for MuJoCo's 2 ms steps.
-const SERVO_HZ: f64 = 10.0;
+const SERVO_HZ: f64 = 25.0;
+/// Rotor inertia a geared servo adds to a joint without one, relative to
+/// the joint's own inertia at the start pose: it is what keeps a link from
+/// being thrown back by its neighbour's acceleration.
+const ARMATURE_RATIO: f64 = 10.0;
 /// Integral time of the servos' outer loop, s: the target is corrected by
 /// the integral of its error, so a joint held against gravity reaches the
 /// commanded position as a velocity-controlled robot does (a bare position
 /// servo sags by load over stiffness), far slower than the servo itself.
-const INTEGRAL_S: f64 = 0.1;
+const INTEGRAL_S: f64 = 0.05;
 /// Largest correction of the outer loop, rad or m (no windup at a stop).
 const INTEGRAL_MAX: f64 = 0.1;
 /// Radius of a force cell's touch zone around it, m: the three zones of a
 /// cell (7 mm from its centre, 120 degrees apart) do not overlap.
 const TOUCH_ZONE_M: f64 = 0.006;
-/// Radius of the site a cell's accelerometer and rangefinder sit at, m.
+/// Radius of the site a cell's velocity and rangefinder are read at, m.
 const CELL_SITE_M: f64 = 0.002;
 
 /// How a DoF is driven: its servo's target integrates the velocity command.
@@ -51,11 +55,10 @@ struct Servo {
 /// Where a cell's readings are in MuJoCo's sensor data.
 struct CellSensors {
     site: usize,
-    accel: usize,
+    /// The site's linear velocity in the world (`framelinvel`).
+    velocity: usize,
     range: usize,
     touch: [usize; 3],
-    /// On a body welded to the world, whose sensors MuJoCo skips.
-    fixed: bool,
 }
 
 /// MuJoCo running the robot and its skin.
@@ -65,6 +68,8 @@ pub struct Engine {
     tick_s: f64,
     servos: Vec<Servo>,
     cells: Vec<CellSensors>,
+    /// Each cell's world velocity at the end of the last tick.
+    velocities: Vec<Vector3<f64>>,
     gravity: Vector3<f64>,
     skin_model: SkinModel,
     notes: Vec<String>,
@@ -103,7 +108,7 @@ impl Engine {
                 add_site(body, &format!("skin{i}:f{k}"), &(in_body * Translation3::new(*x, *y, 0.0)), TOUCH_ZONE_M);
             }
             for (kind, suffix, site) in [
-                (MjtSensor::mjSENS_ACCELEROMETER, "acc", format!("skin{i}")),
+                (MjtSensor::mjSENS_FRAMELINVEL, "vel", format!("skin{i}")),
                 (MjtSensor::mjSENS_RANGEFINDER, "range", format!("skin{i}")),
                 (MjtSensor::mjSENS_TOUCH, "touch0", format!("skin{i}:f0")),
                 (MjtSensor::mjSENS_TOUCH, "touch1", format!("skin{i}:f1")),
@@ -156,17 +161,15 @@ impl Engine {
             let site = model
                 .name_to_id(MjtObjBase::mjOBJ_SITE, &format!("skin{i}"))
                 .ok_or_else(|| MujocoError::Compile(format!("the compiled model lacks site skin{i}")))?;
-            let body = model.site_bodyid()[site] as usize;
             cells.push(CellSensors {
                 site,
-                accel: sensor(format!("skin{i}:acc"))?,
+                velocity: sensor(format!("skin{i}:vel"))?,
                 range: sensor(format!("skin{i}:range"))?,
                 touch: [
                     sensor(format!("skin{i}:touch0"))?,
                     sensor(format!("skin{i}:touch1"))?,
                     sensor(format!("skin{i}:touch2"))?,
                 ],
-                fixed: model.body_weldid()[body] == 0,
             });
         }
         let mut servos = Vec::with_capacity(servo_of.len());
@@ -207,8 +210,10 @@ impl Engine {
             data.ctrl_mut()[s.actuator] = s.target.clamp(s.ctrl.0, s.ctrl.1);
         }
         data.forward();
+        let velocities = vec![Vector3::zeros(); cells.len()];
         Ok(Engine {
             data,
+            velocities,
             substeps: substeps as u32,
             tick_s: cfg.tick_s,
             servos,
@@ -259,9 +264,18 @@ impl Engine {
 
     /// One control tick under the velocity `command` (DoF order): each
     /// servo's target moves by it (held inside the joint's range, and
-    /// corrected by the integral of its error), MuJoCo
-    /// steps, and the positions, cell poses and each cell's specific force
-    /// (its accelerometer's mean over the tick, cell frame) are read.
+    /// corrected by the integral of its error), MuJoCo steps, and the
+    /// positions, cell poses and each cell's specific force (cell frame) are
+    /// read at the tick's end.
+    ///
+    /// The specific force is the tick's mean acceleration of the cell's
+    /// site (its world velocity's change over the tick, as the BMA250's
+    /// bandwidth and the built-in world see it) against gravity, not
+    /// MuJoCo's `accelerometer`: that reports the acceleration before the
+    /// implicit integrators' damping correction, 1.2 to 1.6 times the
+    /// motion MuJoCo then makes under stiff damped servos (measured on the
+    /// tests' arm), so it disagrees with the robot's own joint feedback as
+    /// no real accelerometer does. At rest both read gravity.
     pub(crate) fn advance(
         &mut self,
         command: &[f64],
@@ -279,21 +293,23 @@ impl Engine {
             s.correction = (s.correction + error * self.tick_s / INTEGRAL_S).clamp(-INTEGRAL_MAX, INTEGRAL_MAX);
             self.data.ctrl_mut()[s.actuator] = (s.target + s.correction).clamp(s.ctrl.0, s.ctrl.1);
         }
-        specific.iter_mut().for_each(|f| *f = Vector3::zeros());
         for _ in 0..self.substeps {
             self.data.step();
-            let readings = self.data.sensordata();
-            for (f, cell) in specific.iter_mut().zip(&self.cells) {
-                *f += Vector3::new(readings[cell.accel], readings[cell.accel + 1], readings[cell.accel + 2]);
-            }
         }
+        // Poses and sensors of the state the steps reached, with the positions.
+        self.data.forward();
         if let Some(lab) = &mut self.stage {
             lab.after(&self.data);
         }
         self.cell_poses(poses);
-        let steps = f64::from(self.substeps);
-        for ((f, cell), pose) in specific.iter_mut().zip(&self.cells).zip(poses.iter()) {
-            *f = if cell.fixed { pose.rotation.inverse() * -self.gravity } else { *f / steps };
+        let readings = self.data.sensordata();
+        for (((f, cell), pose), last) in
+            specific.iter_mut().zip(&self.cells).zip(poses.iter()).zip(&mut self.velocities)
+        {
+            let v = Vector3::new(readings[cell.velocity], readings[cell.velocity + 1], readings[cell.velocity + 2]);
+            let accel = (v - *last) / self.tick_s;
+            *last = v;
+            *f = pose.rotation.inverse() * (accel - self.gravity);
         }
         for (q, s) in q.iter_mut().zip(&self.servos) {
             *q = self.data.qpos()[s.qpos] - s.zero;
@@ -400,7 +416,14 @@ fn servos(
         }
         let joint = tree::name(compiled, MjtObjBase::mjOBJ_JOINT, j);
         let inertia = compiled.dof_m0()[compiled.jnt_dofadr()[j] as usize].max(1e-6);
-        let kp = inertia * (std::f64::consts::TAU * SERVO_HZ).powi(2);
+        let mut armature = 0.0;
+        if let Some(j) = spec.joint_mut(&joint) {
+            if j.armature() == 0.0 {
+                j.set_armature(ARMATURE_RATIO * inertia);
+            }
+            armature = j.armature();
+        }
+        let kp = (inertia + armature) * (std::f64::consts::TAU * SERVO_HZ).powi(2);
         // A motor's torque limit is the joint's: ctrlrange times gear.
         let limit = on_joint(j).find(|&a| compiled.actuator_ctrllimited()[a]).map(|a| {
             let (r, gear) = (compiled.actuator_ctrlrange()[a], compiled.actuator_gear()[a][0].abs());
