@@ -6,25 +6,33 @@
 use std::process::{Command, Output};
 
 use serde_json::Value;
+use skin_sim::scene::held::BARE_PAIN_N;
 
 fn skin(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_skin")).args(args).output().expect("the skin binary runs")
 }
 
-/// The runs `skin grasp --mujoco --json` printed for `args`, and whether it succeeded.
-fn runs(args: &[&str]) -> (bool, Vec<Value>) {
-    let out = skin(&[&["grasp", "--mujoco", "--json"][..], args].concat());
-    let v: Value = serde_json::from_slice(&out.stdout)
-        .unwrap_or_else(|e| panic!("{args:?}: {e}: {}", String::from_utf8_lossy(&out.stderr)));
-    (out.status.success(), v.as_array().expect("an array").clone())
-}
-
+/// One Figure 16 object, held in MuJoCo by the truth: off the person's
+/// tray (they let go once the arms hug it), between the arms and against
+/// the chest at release, without pain on the skin or the bare surface.
+/// Ignored until the exploration finds the built-in robot's tree in
+/// MuJoCo: today it stops there (`DoF(s) ["RARM_JOINT5", ...] move no
+/// cell`; `skin explore --mujoco` on the same model reports a wrong tree),
+/// before any grasp. `cargo test -p skin-host --features mujoco --test
+/// grasp_mujoco -- --ignored`.
 #[test]
-fn probe() {
-    let (ok, runs) = runs(&["--object", "trash_bin"]);
-    for r in &runs {
-        let mut r = r.clone();
-        eprintln!("{ok} {}", serde_json::to_string_pretty(&r).unwrap());
-        r["state_log"] = Value::Null;
-    }
+#[ignore]
+fn the_trash_bin_is_held_in_mujoco_without_pain() {
+    let out = skin(&["grasp", "--mujoco", "--json", "--object", "trash_bin"]);
+    let runs: Value =
+        serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&out.stderr)));
+    let r = &runs.as_array().expect("an array")[0];
+    let path: Vec<&str> = r["state_log"].as_array().unwrap().iter().map(|l| l["state"].as_str().unwrap()).collect();
+    assert_eq!(r["succeeded"], true, "{path:?} {} {}", r["reason"], r["at_release"]);
+    assert!(out.status.success());
+    let truth = &r["at_release"];
+    assert_eq!((truth["resting"].as_bool(), truth["fallen"].as_bool()), (Some(false), Some(false)), "{truth}");
+    assert_eq!(r["pain_events"], 0);
+    let bare = r["bare_force_max_n"].as_f64().expect("MuJoCo measures the bare surface's force");
+    assert!(bare <= BARE_PAIN_N, "{bare} N on the bare surface");
 }
