@@ -74,6 +74,12 @@ impl Model {
         &self.tree.robot
     }
 
+    /// Makes `pose` (DoF order) the pose the world starts in and its
+    /// servos hold, as a robot's home.
+    pub fn set_home(&mut self, pose: &[f64]) -> Result<(), MujocoError> {
+        Ok(self.tree.robot.set_home(pose)?)
+    }
+
     /// What was assumed of the model so far, one sentence each.
     pub fn notes(&self) -> &[String] {
         &self.notes

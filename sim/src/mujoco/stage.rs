@@ -441,6 +441,10 @@ pub fn experiment_world(
             names(loaded.robot())
         )));
     }
+    // The experiment starts where the built-in robot stands (MuJoCo's
+    // would start at the model's zero pose).
+    let mut loaded = loaded;
+    loaded.set_home(built_in.home())?;
     let cfg = crate::world::WorldConfig { seed, ..crate::world::WorldConfig::default() };
     let stage = SharedStage::new(SkinModel::default());
     let world = loaded.world_on_stage(setup.skin.clone(), cfg, stage.clone())?;
