@@ -16,10 +16,10 @@ fn skin(args: &[&str]) -> Output {
 /// tray (they let go once the arms hug it), between the arms and against
 /// the chest at release, without pain on the skin or the bare surface.
 /// Ignored until the exploration finds the built-in robot's tree in
-/// MuJoCo: today it stops there (`DoF(s) ["RARM_JOINT5", ...] move no
-/// cell`; `skin explore --mujoco` on the same model reports a wrong tree),
-/// before any grasp. `cargo test -p skin-host --features mujoco --test
-/// grasp_mujoco -- --ignored`.
+/// MuJoCo: today it stops there, before any grasp, with a wrist or gripper
+/// DoF that "moves no cell" (seeds 0-3: one to three of the four; only the
+/// hand's three cells and the finger's one are behind them).
+/// `cargo test -p skin-host --features mujoco --test grasp_mujoco -- --ignored`.
 #[test]
 #[ignore]
 fn the_trash_bin_is_held_in_mujoco_without_pain() {

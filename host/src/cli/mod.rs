@@ -15,6 +15,7 @@ mod flash;
 mod grasp;
 mod job;
 mod keygen;
+#[cfg(feature = "sim")]
 mod lab;
 mod live;
 mod loadgen;
