@@ -101,7 +101,7 @@ fn ci_steps() -> Vec<Step> {
         ),
         cargo(
             "tests (the MuJoCo world: libmujoco of the pinned wheel, small models of our own)",
-            "test -p skin-sim --features mujoco --test mujoco_smoke --test mujoco_world",
+            "test -p skin-sim --features mujoco --test mujoco_smoke --test mujoco_world --test mujoco_lab",
         ),
         cargo(
             "tests (the MuJoCo world through the skin program: explore, a welded base, sim-endpoint over UDP)",
