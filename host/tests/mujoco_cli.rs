@@ -81,5 +81,8 @@ fn skin_run_explores_the_mujoco_endpoint_over_udp() {
     let _ = (served.kill(), served.wait());
     let _ = std::fs::remove_dir_all(&dir);
     let v = json(&out);
-    assert_eq!(v["dofs"], serde_json::json!(["yaw", "shoulder", "elbow"]), "{v:#}");
+    let explored = &v["exploration"];
+    assert_eq!(explored["dofs"], serde_json::json!(["yaw", "shoulder", "elbow"]), "{v:#}");
+    assert_eq!(explored["cells"], 16);
+    assert_eq!(explored["body_parts"].as_array().unwrap().len(), 4, "{v:#}");
 }

@@ -96,6 +96,10 @@ pub struct Served {
     pub datagrams_up: u64,
     /// Datagrams from the host the skin network refused.
     pub datagrams_refused: u64,
+    /// Wall time spent moving the world (the built-in kinematics or MuJoCo).
+    pub world_time: Duration,
+    /// Wall time spent running the cell network up to each period's end.
+    pub network_time: Duration,
 }
 
 /// What only the simulator knows after a run, for checking the host.

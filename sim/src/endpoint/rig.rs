@@ -193,7 +193,10 @@ impl Rig {
         self.world.command(&self.command)?;
         self.take_orders();
         self.samples.clear();
+        let started = Instant::now();
         self.world.step(&mut self.samples);
+        let stepped = Instant::now();
+        self.served.world_time += stepped - started;
         if let (Some(op), Some(side)) = (&self.operator, &self.side) {
             if let Some(note) = op.watch(&self.world) {
                 // The experimenter may have gone; the robot serves on.
@@ -213,6 +216,7 @@ impl Rig {
         // The next chance to send is the next period's end.
         let tick_ns = (self.world.config().tick_s * 1e9).round() as u64;
         self.batcher.due(until_ns + tick_ns, up);
+        self.served.network_time += stepped.elapsed();
         self.served.datagrams_up += (up.len() - before) as u64;
         self.served.ticks += 1;
         Ok(())

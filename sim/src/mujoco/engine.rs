@@ -30,6 +30,8 @@ const ARMATURE_RATIO: f64 = 10.0;
 const INTEGRAL_S: f64 = 0.05;
 /// Largest correction of the outer loop, rad or m (no windup at a stop).
 const INTEGRAL_MAX: f64 = 0.1;
+/// Time constant of the welds holding floating bases, s.
+const WELD_TIME_CONSTANT_S: f64 = 0.004;
 /// Radius of a force cell's touch zone around it, m: the three zones of a
 /// cell (7 mm from its centre, 120 degrees apart) do not overlap.
 const TOUCH_ZONE_M: f64 = 0.006;
@@ -381,6 +383,10 @@ fn weld_floating_bases(spec: &mut MjSpec, compiled: &MjModel) -> Vec<String> {
         // start (a zero quaternion), full torque (mjSpec's default data is a
         // joint coupling's).
         *weld.data_mut() = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        // As stiff as MuJoCo keeps stable (a time constant of two 2 ms
+        // steps, hard impedance): a test stand, not a spring the legs rock.
+        *weld.solref_mut() = [WELD_TIME_CONSTANT_S, 1.0];
+        *weld.solimp_mut() = [0.99, 0.999, 0.001, 0.5, 2.0];
     }
     free
 }

@@ -36,10 +36,40 @@ pub(super) fn load(path: &Path) -> Result<Model, MujocoError> {
     let model = spec.compile().map_err(|e| failed(e.to_string()))?;
     let mut data = model.make_data();
     data.forward();
+    let overlapping = exclude_overlaps(&mut spec, &model, &data);
+    if overlapping > 0 {
+        notes.push(format!(
+            "{overlapping} pairs of the robot's bodies overlap in the start pose and never collide (their shapes approximate the links; a link would otherwise be stuck against its neighbour)"
+        ));
+    }
     let name = path.file_stem().map_or_else(|| "robot".into(), |s| s.to_string_lossy().into_owned());
     let tree = tree::read(&model, &data, &name)?;
     drop(data);
     Ok(Model { spec, compiled: model, tree, notes })
+}
+
+/// Excludes from collision every pair of bodies other than the world whose
+/// geoms touch in the model's reference pose; returns how many pairs.
+fn exclude_overlaps(spec: &mut MjSpec, model: &MjModel, data: &MjData<&MjModel>) -> usize {
+    let mut pairs: Vec<(usize, usize)> = data
+        .contact()
+        .iter()
+        .filter(|c| c.dist < 0.0)
+        .map(|c| {
+            let (a, b) =
+                (model.geom_bodyid()[c.geom[0] as usize] as usize, model.geom_bodyid()[c.geom[1] as usize] as usize);
+            (a.min(b), a.max(b))
+        })
+        .filter(|&(a, b)| a != 0 && a != b)
+        .collect();
+    pairs.sort_unstable();
+    pairs.dedup();
+    for &(a, b) in &pairs {
+        let exclude = spec.add_exclude();
+        exclude.set_bodyname1(&tree::name(model, MjtObjBase::mjOBJ_BODY, a));
+        exclude.set_bodyname2(&tree::name(model, MjtObjBase::mjOBJ_BODY, b));
+    }
+    pairs.len()
 }
 
 /// Names every unnamed body and joint `body<k>` / `joint<k>` (their order
