@@ -42,8 +42,16 @@ pub(super) fn name(model: &MjModel, kind: MjtObjBase, id: usize) -> String {
     model.id_to_name(kind, id).map_or_else(|| format!("#{id}"), str::to_owned)
 }
 
-/// What an equality makes of a joint: the master joint, gear and offset.
-fn couplings(model: &MjModel) -> Result<Vec<Option<(usize, f64, f64)>>, MujocoError> {
+/// A joint moved by another through an equality: `q = offset + multiplier * q_master`.
+#[derive(Clone, Copy)]
+struct Coupling {
+    master: usize,
+    multiplier: f64,
+    offset: f64,
+}
+
+/// What the equalities make of each joint.
+fn couplings(model: &MjModel) -> Result<Vec<Option<Coupling>>, MujocoError> {
     let mut coupled = vec![None; model.jnt_type().len()];
     for e in 0..model.eq_type().len() {
         if model.eq_type()[e] != MjtEq::mjEQ_JOINT || !model.eq_active0()[e] {
@@ -57,7 +65,7 @@ fn couplings(model: &MjModel) -> Result<Vec<Option<(usize, f64, f64)>>, MujocoEr
                 "the equality on joint \"{slave_name}\" locks it or couples it by a polynomial: only q1 = c0 + c1 q2 moves as a mimic"
             )));
         }
-        coupled[slave as usize] = Some((master as usize, data[1], data[0]));
+        coupled[slave as usize] = Some(Coupling { master: master as usize, multiplier: data[1], offset: data[0] });
     }
     Ok(coupled)
 }
@@ -156,7 +164,7 @@ pub(super) fn read(model: &MjModel, data: &MjData<&MjModel>, name_of_robot: &str
         let Some(r) = *robot else { continue };
         joints[r].drive = match coupled[j] {
             None => Drive::Dof(dof_joint.iter().position(|&d| d == j).expect("uncoupled joints are DoFs")),
-            Some((master, multiplier, offset)) => {
+            Some(Coupling { master, multiplier, offset }) => {
                 let dof = dof_joint.iter().position(|&d| d == master).ok_or_else(|| {
                     MujocoError::Unsupported(format!(
                         "joint \"{}\" follows \"{}\", which is not a DoF (a chain of couplings)",
