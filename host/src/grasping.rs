@@ -24,7 +24,7 @@ pub mod verdict;
 use serde::Serialize;
 use skin_protocol::{Address, Sample};
 use skin_sim::scene::force::Calibration;
-use skin_sim::scene::held::ObjectTruth;
+use skin_sim::scene::held::{ObjectTruth, BARE_PAIN_N};
 use skin_sim::scene::operator::{Note, Order};
 use skin_sim::scene::placement::ObjectAt;
 use tracing::info;
@@ -149,6 +149,7 @@ struct Watched {
     max_force_n: f64,
     grip_force_max_n: f64,
     hand_force_max_n: f64,
+    bare_force_max_n: Option<f64>,
     object: Option<ObjectTruth>,
     ever_gripped: bool,
     heard: bool,
@@ -156,11 +157,12 @@ struct Watched {
 
 impl Watched {
     fn hear(&mut self, note: &Note) {
-        if let Note::Seen { max_force_n, grip_force_max_n, hand_force_max_n, object, .. } = *note {
+        if let Note::Seen { max_force_n, grip_force_max_n, hand_force_max_n, bare_force_max_n, object, .. } = *note {
             *self = Watched {
                 max_force_n,
                 grip_force_max_n,
                 hand_force_max_n,
+                bare_force_max_n,
                 object,
                 ever_gripped: self.ever_gripped || object.is_some_and(|o| o.gripped()),
                 heard: true,
@@ -205,6 +207,10 @@ pub struct GraspRun {
     pub hand_force_max_n: f64,
     /// Ground truth: the largest force on any one force cell, N.
     pub max_cell_force_n: f64,
+    /// Ground truth: the largest force of the object on the robot's bare
+    /// surface, where no force cell feels it, N (none: the world has no
+    /// honest measure of it; the built-in scene's bare surface is rigid).
+    pub bare_force_max_n: Option<f64>,
     /// Pain-level touches the controller evaded.
     pub pain_events: usize,
     /// Every transition.
@@ -423,12 +429,15 @@ pub fn grasp<R: Robot + SampleSource>(
     let pain_events = state_log.iter().filter(|l| l.cause == Cause::Pain).count();
     let pain_n = Calibration::default().force(f64::from(params.levels.force[3]));
     let seen = verdict::Seen {
-        pain: pain_events > 0 || watched.max_force_n >= pain_n,
+        pain: pain_events > 0
+            || watched.max_force_n >= pain_n
+            || watched.bare_force_max_n.is_some_and(|f| f > BARE_PAIN_N),
         timed_out,
         reached_hold: state_log.iter().any(|l| l.state == State::Hold),
         held_at_release: at_release.map(|o| o.is_some_and(|o: ObjectTruth| o.held())),
         ever_gripped: watched.ever_gripped,
         cancelled_by: state_log.iter().find(|l| l.state == State::Cancel).map(|l| l.cause),
+        dropped: watched.object.is_some_and(|o| o.fallen),
     };
     let verdict = verdict::judge(&seen);
     let run = GraspRun {
@@ -443,6 +452,7 @@ pub fn grasp<R: Robot + SampleSource>(
         grip_force_max_n: watched.grip_force_max_n,
         hand_force_max_n: watched.hand_force_max_n,
         max_cell_force_n: watched.max_force_n,
+        bare_force_max_n: watched.bare_force_max_n,
         pain_events,
         state_log,
         trace,

@@ -104,7 +104,7 @@ fn ci_steps() -> Vec<Step> {
         ),
         cargo(
             "tests (the MuJoCo world: libmujoco of the pinned wheel, models the tests write)",
-            "test -p skin-sim --features mujoco --lib --test mujoco_smoke --test mujoco_world --test mujoco_models",
+            "test -p skin-sim --features mujoco --lib --test mujoco_smoke --test mujoco_world --test mujoco_models --test mujoco_lab",
         ),
         cargo(
             "tests (the MuJoCo world through the skin program: explore, a welded base, sim-endpoint over UDP, robot_with_skin.xml read by MuJoCo's Python package)",

@@ -31,7 +31,7 @@ use skin_host::pipeline::OrganizeConfig;
 use skin_host::remote::{Remote, RobotLink};
 use skin_host::report::{check_folder, GraspSection, LatencySection, Report, TruthSection};
 use skin_model::robot::hrp2;
-use skin_sim::endpoint::{Batching, Endpoint, EndpointConfig, Pacing, Running, Truth};
+use skin_sim::endpoint::{Batching, EndpointConfig, Pacing, Running, Truth};
 use skin_sim::network::NetworkConfig;
 use skin_sim::scene::experiment::Setup;
 use skin_sim::scene::operator::{Note, Order};
@@ -39,6 +39,7 @@ use skin_sim::scene::placement::{ObjectAt, Placement};
 use skin_sim::world::{World, WorldConfig};
 
 use super::job::{self, Steps};
+use super::lab::LabArgs;
 use super::live::LiveArgs;
 use super::objects::built_in;
 
@@ -70,6 +71,8 @@ pub struct Args {
     no_record: bool,
     #[command(flatten)]
     live: LiveArgs,
+    #[command(flatten)]
+    lab: LabArgs,
 }
 
 /// The demo's recording, in its report folder.
@@ -81,7 +84,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     // Refused before anything starts: --ros-domain without --ros2.
     args.live.ros_domain(false)?;
     check_folder(&args.out)?;
-    let (mut endpoint, mut remote, steps) = serve_experiment(seed)?;
+    let (mut endpoint, mut remote, steps) = serve_experiment(seed, &args.lab)?;
     if !args.no_record {
         job::record(&mut remote, &args.out.join(RECORDING), &steps, args.imu)?;
     }
@@ -104,8 +107,9 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let checked = truth_section(&remote, &truth, &exploration, seed)?;
     let cells = truth.ids.len();
     let source = format!(
-        "The built-in simulated HRP-2-like robot ({} DoFs) and the {cells}-cell skin of the grasping experiment (seed {seed}), served on loopback UDP in lockstep: robot link {}, interface ports {}.",
+        "The built-in simulated HRP-2-like robot ({} DoFs) and the {cells}-cell skin of the grasping experiment (seed {seed}) in {}, served on loopback UDP in lockstep: robot link {}, interface ports {}.",
         remote.link().info().dof_names.len(),
+        args.lab.describe(),
         robot_addr,
         remote.interface().ports().iter().filter_map(|p| p.address()).map(|a| a.to_string()).collect::<Vec<_>>().join(", ")
     );
@@ -135,15 +139,21 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
 }
 
 /// The grasping experiment's robot, skin and person served on loopback
-/// UDP in lockstep, the host's link to them, and the main job's steps.
-pub(super) fn serve_experiment(seed: u64) -> Result<(Running, Remote, Steps), Box<dyn std::error::Error>> {
+/// UDP in lockstep (in the world `lab` says), the host's link to them, and
+/// the main job's steps.
+pub(super) fn serve_experiment(
+    seed: u64,
+    lab: &LabArgs,
+) -> Result<(Running, Remote, Steps), Box<dyn std::error::Error>> {
+    lab.check()?;
     let interface = Interface::bind(&InterfaceConfig { listen: LOOPBACK, ..InterfaceConfig::default() })?;
     let host = interface.local_addr();
+    let recipe = lab.recipe();
     let endpoint = Running::spawn(move || {
         let network = NetworkConfig { seed, ..NetworkConfig::default() };
         let config =
             EndpointConfig { robot: LOOPBACK, host, pacing: Pacing::Lockstep, batching: Batching::default(), network };
-        Endpoint::experiment(seed, config)
+        recipe.build(seed, config)
     })?;
     let steps = Steps {
         organize: OrganizeConfig {

@@ -18,6 +18,7 @@ use skin_host::report::check_folder;
 use skin_host::report::traces::write_traces;
 
 use super::demo::{serve_experiment, teach_and_grasp};
+use super::lab::LabArgs;
 use super::{job, objects};
 
 /// Arguments of `skin grasp`.
@@ -37,6 +38,8 @@ pub struct Args {
     /// One JSON array on stdout, one object per grasp, instead of the human summary.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    lab: LabArgs,
 }
 
 pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
@@ -48,7 +51,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     if let Some(dir) = &args.traces {
         check_folder(dir)?;
     }
-    let (mut endpoint, mut remote, steps) = serve_experiment(args.seed)?;
+    let (mut endpoint, mut remote, steps) = serve_experiment(args.seed, &args.lab)?;
     let found = job::run(&mut remote, &steps)?;
     let exploration_s = found.exploration.exploration_time_s();
     let (taught, runs) = teach_and_grasp(&mut remote, &mut endpoint, found.exploration.smm, &params, &chosen)?;

@@ -15,6 +15,8 @@ mod flash;
 mod grasp;
 mod job;
 mod keygen;
+#[cfg(feature = "sim")]
+mod lab;
 mod live;
 mod loadgen;
 mod message;

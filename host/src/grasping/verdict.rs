@@ -17,6 +17,8 @@ pub enum Failure {
     Missed,
     /// The arms had it, and lost it.
     Slipped,
+    /// It fell to the floor (where objects can fall: MuJoCo).
+    Dropped,
     /// A cell felt pain-level force.
     Pain,
     /// The grasp did not end in time.
@@ -28,14 +30,15 @@ pub enum Failure {
 
 impl Failure {
     /// Every reason, in the order tables list them.
-    pub const ALL: [Failure; 5] =
-        [Failure::Missed, Failure::Slipped, Failure::Pain, Failure::TimeOut, Failure::Cancelled];
+    pub const ALL: [Failure; 6] =
+        [Failure::Missed, Failure::Slipped, Failure::Dropped, Failure::Pain, Failure::TimeOut, Failure::Cancelled];
 
     /// The reason's name, as in JSON.
     pub fn name(self) -> &'static str {
         match self {
             Failure::Missed => "missed",
             Failure::Slipped => "slipped",
+            Failure::Dropped => "dropped",
             Failure::Pain => "pain",
             Failure::TimeOut => "time_out",
             Failure::Cancelled => "cancelled",
@@ -59,6 +62,8 @@ pub struct Seen {
     pub ever_gripped: bool,
     /// Why the controller cancelled, if it did.
     pub cancelled_by: Option<Cause>,
+    /// The truth saw the object on the floor by the end.
+    pub dropped: bool,
 }
 
 /// Held (`Ok`), or why not.
@@ -68,6 +73,9 @@ pub fn judge(seen: &Seen) -> Result<(), Failure> {
     }
     if seen.timed_out {
         return Err(Failure::TimeOut);
+    }
+    if seen.dropped {
+        return Err(Failure::Dropped);
     }
     let lost = if seen.ever_gripped { Failure::Slipped } else { Failure::Missed };
     match (seen.held_at_release, seen.cancelled_by) {
@@ -93,6 +101,7 @@ mod tests {
         assert_eq!(judge(&believed), Err(Failure::Slipped));
         assert_eq!(judge(&Seen { ever_gripped: false, ..believed }), Err(Failure::Missed));
         assert_eq!(judge(&Seen { pain: true, ..held }), Err(Failure::Pain), "pain fails even a hold");
+        assert_eq!(judge(&Seen { dropped: true, ..believed }), Err(Failure::Dropped), "on the floor");
         let running = Seen { timed_out: true, ..Seen::default() };
         assert_eq!(judge(&running), Err(Failure::TimeOut));
         let closed_on_nothing = Seen { cancelled_by: Some(Cause::Reached), ..Seen::default() };

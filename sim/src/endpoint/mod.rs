@@ -39,6 +39,7 @@ use skin_protocol::Address;
 use crate::network::{Network, NetworkConfig, NetworkError, Topology};
 use crate::scene::experiment::Setup;
 use crate::scene::operator::Operator;
+use crate::scene::stage::Stage;
 use crate::world::{World, WorldConfig};
 use skin_model::robot::hrp2;
 use skin_model::skin::Skin;
@@ -170,10 +171,37 @@ impl Endpoint {
     pub fn experiment(seed: u64, config: EndpointConfig) -> Result<Endpoint, NetworkError> {
         let robot = hrp2::robot();
         let setup = Setup::new(&robot, seed).map_err(|e| NetworkError::Topology(e.to_string()))?;
-        let (world, scene) = setup.world(robot.clone(), seed);
+        let (world, scene) = setup.world(robot, seed);
+        Endpoint::experiment_on(world, setup, Box::new(scene), config)
+    }
+
+    /// The grasping experiment in MuJoCo: the built-in robot as `model`
+    /// (an MJCF of it; none: the built-in robot written as one) wearing
+    /// the experiment's skin, in a lab of MuJoCo bodies
+    /// ([`crate::mujoco::SharedStage`]) where the person acts.
+    #[cfg(feature = "mujoco")]
+    pub fn experiment_mujoco(
+        model: Option<&std::path::Path>,
+        seed: u64,
+        config: EndpointConfig,
+    ) -> Result<Endpoint, NetworkError> {
+        let setup = Setup::new(&hrp2::robot(), seed).map_err(|e| NetworkError::Topology(e.to_string()))?;
+        let (world, stage) = crate::mujoco::experiment_world(model, &setup, seed)?;
+        Endpoint::experiment_on(world, setup, Box::new(stage), config)
+    }
+
+    /// The grasping experiment in `world` (the built-in robot, moved by any
+    /// engine) wearing `setup`'s skin, wired as [`Topology::hrp2`], the
+    /// person acting on `stage`.
+    pub fn experiment_on(
+        world: World,
+        setup: Setup,
+        stage: Box<dyn Stage>,
+        config: EndpointConfig,
+    ) -> Result<Endpoint, NetworkError> {
         let world_cell = hrp2_wiring(&world);
         let mut endpoint = Endpoint::new(world, &Topology::hrp2(), world_cell, config)?;
-        endpoint.rig.operator = Some(Operator::new(robot, setup, scene));
+        endpoint.rig.operator = Some(Operator::new(hrp2::robot(), setup, stage));
         Ok(endpoint)
     }
 

@@ -14,7 +14,7 @@ use super::MujocoError;
 
 /// Radius of a force cell's touch zone around it, m: the three zones of a
 /// cell (7 mm from its centre, 120 degrees apart) do not overlap.
-const TOUCH_ZONE_M: f64 = 0.006;
+pub(super) const TOUCH_ZONE_M: f64 = 0.006;
 /// Radius of the site a cell's accelerometer and rangefinder sit at, m.
 const CELL_SITE_M: f64 = 0.002;
 

@@ -10,6 +10,7 @@ use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vect
 use rand::Rng;
 use skin_model::skin::Skin;
 
+use super::stage::{self, Scenery, SharedStage};
 use super::{cells, tree, Model, MujocoError};
 use crate::scene::{CellSense, SkinModel};
 use crate::world::{Touch, WorldConfig};
@@ -71,10 +72,17 @@ pub struct Engine {
     notes: Vec<String>,
     welded: Vec<String>,
     busy: Duration,
+    /// The grasping experiment's lab, when the world has one.
+    stage: Option<Scenery>,
 }
 
 impl Engine {
-    pub(super) fn new(model: Model, skin: &Skin, cfg: &WorldConfig) -> Result<Engine, MujocoError> {
+    pub(super) fn new(
+        model: Model,
+        skin: &Skin,
+        cfg: &WorldConfig,
+        lab: Option<SharedStage>,
+    ) -> Result<Engine, MujocoError> {
         let Model { mut spec, compiled, tree, mut notes } = model;
         let robot = &tree.robot;
         let welded = weld_floating_bases(&mut spec, &compiled);
@@ -114,6 +122,9 @@ impl Engine {
             option.gravity = gravity.into();
         }
 
+        if lab.is_some() {
+            stage::furnish(&mut spec);
+        }
         let model = spec.compile().map_err(|e| MujocoError::Compile(e.to_string()))?;
         let sensor = |name: String| {
             model
@@ -159,6 +170,16 @@ impl Engine {
                 correction: 0.0,
             });
         }
+        let stage = match lab {
+            Some(lab) => {
+                let cells = cells_sensors_sites(&model, skin.cells().len())?
+                    .into_iter()
+                    .map(|(site, zones)| (site, model.site_bodyid()[site] as usize, zones))
+                    .collect();
+                Some(Scenery::bind(lab, spec, &model, cells, cells::TOUCH_ZONE_M).map_err(MujocoError::Compile)?)
+            }
+            None => None,
+        };
         let mut data = MjData::new(Box::new(model));
         for s in &servos {
             data.qpos_mut()[s.qpos] = s.target;
@@ -178,6 +199,7 @@ impl Engine {
             notes,
             welded,
             busy: Duration::ZERO,
+            stage,
         })
     }
 
@@ -238,6 +260,9 @@ impl Engine {
         specific: &mut [Vector3<f64>],
     ) {
         let started = Instant::now();
+        if let Some(lab) = &mut self.stage {
+            lab.before(&mut self.data);
+        }
         for (s, w) in self.servos.iter_mut().zip(command) {
             s.target = (s.target + w * self.tick_s).clamp(s.range.0, s.range.1);
             let error = s.target - self.data.qpos()[s.qpos];
@@ -249,6 +274,9 @@ impl Engine {
         }
         // Poses and sensors of the state the steps reached, with the positions.
         self.data.forward();
+        if let Some(lab) = &mut self.stage {
+            lab.after(&self.data);
+        }
         self.cell_poses(poses);
         let readings = self.data.sensordata();
         for (((f, cell), pose), last) in
@@ -283,6 +311,23 @@ impl Engine {
             *t = Touch { proximity, force };
         }
     }
+}
+
+/// Each cell's site and its three touch zones' sites in `model`.
+fn cells_sensors_sites(model: &MjModel, cells: usize) -> Result<Vec<(usize, [usize; 3])>, MujocoError> {
+    let site = |name: String| {
+        model
+            .name_to_id(MjtObjBase::mjOBJ_SITE, &name)
+            .ok_or_else(|| MujocoError::Compile(format!("the compiled model lacks site {name}")))
+    };
+    (0..cells)
+        .map(|i| {
+            Ok((
+                site(format!("skin{i}"))?,
+                [site(format!("skin{i}:f0"))?, site(format!("skin{i}:f1"))?, site(format!("skin{i}:f2"))?],
+            ))
+        })
+        .collect()
 }
 
 /// Holds every body with a free joint where it starts, by a weld to the

@@ -14,6 +14,7 @@
 mod cells;
 mod engine;
 mod load;
+mod stage;
 mod tree;
 mod with_skin;
 
@@ -24,6 +25,7 @@ use skin_model::skin::Skin;
 
 pub use engine::Engine;
 pub use with_skin::{model_with_skin, CellSite, ModelWithSkin};
+pub use stage::{experiment_world, SharedStage};
 
 use crate::world::{World, WorldConfig};
 
@@ -75,6 +77,12 @@ impl Model {
         &self.tree.robot
     }
 
+    /// Makes `pose` (DoF order) the pose the world starts in and its
+    /// servos hold, as a robot's home.
+    pub fn set_home(&mut self, pose: &[f64]) -> Result<(), MujocoError> {
+        Ok(self.tree.robot.set_home(pose)?)
+    }
+
     /// What was assumed of the model so far, one sentence each.
     pub fn notes(&self) -> &[String] {
         &self.notes
@@ -86,7 +94,16 @@ impl Model {
     /// not sway or rock: it stands as the model holds it).
     pub fn world(self, skin: Skin, cfg: WorldConfig) -> Result<World, MujocoError> {
         let robot = self.tree.robot.clone();
-        let engine = Engine::new(self, &skin, &cfg)?;
+        let engine = Engine::new(self, &skin, &cfg, None)?;
+        Ok(World::mujoco(robot, skin, cfg, engine))
+    }
+
+    /// The world as [`Model::world`], in the grasping experiment's lab:
+    /// a floor, the person's hands and the tray they put objects on, as
+    /// MuJoCo bodies the person moves through `lab`.
+    pub fn world_on_stage(self, skin: Skin, cfg: WorldConfig, lab: SharedStage) -> Result<World, MujocoError> {
+        let robot = self.tree.robot.clone();
+        let engine = Engine::new(self, &skin, &cfg, Some(lab))?;
         Ok(World::mujoco(robot, skin, cfg, engine))
     }
 }

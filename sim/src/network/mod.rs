@@ -46,6 +46,10 @@ pub enum NetworkError {
     /// interface port.
     #[error("topology: {0}")]
     Topology(String),
+    /// The MuJoCo world cannot be built.
+    #[cfg(feature = "mujoco")]
+    #[error(transparent)]
+    Mujoco(#[from] crate::mujoco::MujocoError),
     /// A topology file cannot be read or parsed.
     #[error("{path}: {why}")]
     File {

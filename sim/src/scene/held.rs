@@ -4,7 +4,9 @@
 //! Held means the object is between the arms (each arm presses on it from
 //! its own side of the object's centre), against the chest, and both arms
 //! press on it, with their skin or their bare surface: the truth counts
-//! what holds the object, whether the skin feels it or not.
+//! what holds the object, whether the skin feels it or not. Where objects
+//! can be lifted and fall (MuJoCo), held also means that nothing but the
+//! robot carries it.
 
 use super::experiment::gap_to_chest_m;
 use super::{Contact, Placed};
@@ -13,6 +15,10 @@ use super::{Contact, Placed};
 pub const AGAINST_CHEST_M: f64 = 0.01;
 /// At least this much force of the object on an arm's skin is contact, N.
 pub const ARM_CONTACT_N: f64 = 0.05;
+/// A contact force of an object on the robot's bare surface (where no force
+/// cell feels it) above this is pain, N: ten times the weight of the
+/// heaviest object file's object (0.8 kg), a squeeze that crushes cardboard.
+pub const BARE_PAIN_N: f64 = 80.0;
 
 /// Which arm a skin cell is on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -45,6 +51,11 @@ pub struct ObjectTruth {
     pub arm_force_n: [f64; 2],
     /// Each arm presses from its own side of the object's centre.
     pub between_arms: bool,
+    /// Whether something other than the robot carries it (its support, the
+    /// floor); none where objects never leave their table.
+    pub resting: Option<bool>,
+    /// Whether it has fallen to the floor.
+    pub fallen: bool,
 }
 
 impl ObjectTruth {
@@ -70,7 +81,13 @@ impl ObjectTruth {
         let touched = force.map(|f| f >= ARM_CONTACT_N);
         let between_arms =
             touched == [true, true] && weighted_y[0] / force[0] < centre_y && weighted_y[1] / force[1] > centre_y;
-        ObjectTruth { gap_m: gap_to_chest_m(placed, back_m, skin_offset_m), arm_force_n: force, between_arms }
+        ObjectTruth {
+            gap_m: gap_to_chest_m(placed, back_m, skin_offset_m),
+            arm_force_n: force,
+            between_arms,
+            resting: None,
+            fallen: false,
+        }
     }
 
     /// Both arms press on it.
@@ -78,9 +95,15 @@ impl ObjectTruth {
         self.arm_force_n.iter().all(|f| *f >= ARM_CONTACT_N)
     }
 
-    /// Held: between the arms, against the chest, both arms pressing.
-    pub fn held(&self) -> bool {
+    /// Between the arms, against the chest, both arms pressing.
+    pub fn hugged(&self) -> bool {
         self.between_arms && self.gripped() && self.gap_m <= AGAINST_CHEST_M
+    }
+
+    /// Held: hugged, and carried by the robot alone where it could rest
+    /// on something else.
+    pub fn held(&self) -> bool {
+        self.hugged() && self.resting != Some(true) && !self.fallen
     }
 }
 

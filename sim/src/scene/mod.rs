@@ -29,6 +29,7 @@ pub mod placement;
 pub mod proximity;
 pub mod shape;
 mod shared;
+pub mod stage;
 
 pub use shared::SharedScene;
 

@@ -20,9 +20,10 @@ use skin_protocol::Address;
 
 use super::experiment::{back_extent, intended_pose, object_pose, Setup};
 use super::held::{Arm, ObjectTruth};
-use super::person::{self, Guiding, Teacher};
+use super::person::{Guiding, Teacher};
 use super::placement::ObjectAt;
-use super::{Placed, SharedScene};
+use super::stage::Stage;
+use super::Placed;
 use crate::world::World;
 use skin_model::robot::Robot;
 
@@ -80,6 +81,9 @@ pub enum Note {
         grip_force_max_n: f64,
         /// The same of the person's hands alone: pats and guidance, N.
         hand_force_max_n: f64,
+        /// The largest force of the object on the robot's bare surface,
+        /// N; none where the world has no honest measure of it.
+        bare_force_max_n: Option<f64>,
         /// Where the object is and what holds it.
         object: Option<ObjectTruth>,
     },
@@ -115,7 +119,7 @@ enum Act {
 pub struct Operator {
     robot: Robot,
     setup: Setup,
-    scene: SharedScene,
+    stage: Box<dyn Stage>,
     act: Act,
     /// Since the first [`Order::Place`], every period is reported.
     watching: bool,
@@ -129,16 +133,17 @@ pub struct Operator {
 
 impl Operator {
     /// A person at `robot` (its model, to picture poses) wearing the skin
-    /// of `setup`, acting on `scene`, the world's tactile model.
-    pub fn new(robot: Robot, setup: Setup, scene: SharedScene) -> Operator {
+    /// of `setup`, acting on `stage`: the world's tactile scene, or
+    /// MuJoCo's bodies.
+    pub fn new(robot: Robot, setup: Setup, stage: Box<dyn Stage>) -> Operator {
         let arms = setup.skin.cells().iter().map(|c| Arm::of_link(&c.link)).collect();
-        Operator { robot, setup, scene, act: Act::Idle, watching: false, arms, back: Cell::new(None) }
+        Operator { robot, setup, stage, act: Act::Idle, watching: false, arms, back: Cell::new(None) }
     }
 
     /// Takes an order at a period boundary; `ids` are the cells' network
     /// IDs by skin index. A new order ends what the person was doing.
     pub fn order(&mut self, order: Order, world: &World, ids: &[Address]) -> Option<Note> {
-        self.scene.get_mut().set_hands(Vec::new());
+        self.stage.set_hands(Vec::new());
         self.act = Act::Idle;
         match order {
             Order::Teach(pose) => {
@@ -151,14 +156,12 @@ impl Operator {
                 None
             }
             Order::Place(object) => {
-                let mut scene = self.scene.get_mut();
-                scene.clear_objects();
                 self.back.set(None);
-                if let Some(ObjectAt { object, placement }) = object {
-                    let pose = object_pose(&object, &placement, scene.skin().surface_offset_m);
-                    scene.place(object, pose);
-                }
-                scene.reset_max_force();
+                let offset = self.stage.skin().surface_offset_m;
+                self.stage.put(object.map(|ObjectAt { object, placement }| {
+                    let pose = object_pose(&object, &placement, offset);
+                    (object, pose)
+                }));
                 self.watching = true;
                 None
             }
@@ -176,21 +179,24 @@ impl Operator {
     /// Acts once, before the world's next period.
     pub fn act(&mut self, world: &World) -> Option<Note> {
         let (t, poses) = (world.time_s(), world.cell_poses());
-        let mut scene = self.scene.get_mut();
-        let offset = scene.skin().surface_offset_m;
+        let skin = self.stage.skin();
+        let offset = skin.surface_offset_m;
+        if self.watching && self.truth().is_some_and(|o| o.hugged()) {
+            // The robot has it: the person lets go of what it stood on.
+            self.stage.let_go();
+        }
         match std::mem::replace(&mut self.act, Act::Idle) {
             Act::Idle => {}
             Act::Teaching { pose, mut teacher, start_s } => {
                 if teacher.satisfied(poses) || t - start_s >= TEACH_LIMIT_S {
-                    scene.set_hands(Vec::new());
+                    self.stage.set_hands(Vec::new());
                     self.act = Act::Resting { pose, teacher, start_s, ticks_left: REST_TICKS - 1 };
                 } else {
                     let ticks = ((t - start_s) / world.config().tick_s).round() as u64;
                     if ticks.is_multiple_of((LOG_EVERY_S / world.config().tick_s).round() as u64) {
                         tracing::debug!(pose, time_s = t - start_s, error_m = ?teacher.error_m(poses), "teaching");
                     }
-                    let sensor = scene.skin().proximity;
-                    scene.set_hands(teacher.hands(t, poses, offset, &sensor));
+                    self.stage.set_hands(teacher.hands(t, poses, offset, &skin.proximity));
                     self.act = Act::Teaching { pose, teacher, start_s };
                 }
             }
@@ -201,27 +207,40 @@ impl Operator {
                 self.act = Act::Resting { pose, teacher, start_s, ticks_left: ticks_left - 1 };
             }
             Act::Patting { until_s } if t < until_s => {
-                scene.set_hands(vec![person::pat(&poses[self.setup.pat_cell], offset, PAT_DEPTH_M)]);
+                self.stage.set_hands(vec![self.stage.pat(&poses[self.setup.pat_cell], PAT_DEPTH_M)]);
                 self.act = Act::Patting { until_s };
             }
-            Act::Patting { .. } => scene.set_hands(Vec::new()),
+            Act::Patting { .. } => self.stage.set_hands(Vec::new()),
         }
         None
     }
 
     /// What the person sees after a period, once watching.
     pub fn watch(&self, world: &World) -> Option<Note> {
-        let scene = self.scene.get();
-        let offset = scene.skin().surface_offset_m;
-        self.watching.then(|| Note::Seen {
-            time_s: world.time_s(),
-            max_force_n: scene.max_force_n(),
-            grip_force_max_n: scene.max_object_force_n(),
-            hand_force_max_n: scene.max_hand_force_n(),
-            object: scene
-                .objects()
-                .first()
-                .map(|p| ObjectTruth::observe(p, self.back_m(p), offset, &self.arms, scene.contacts())),
+        self.watching.then(|| {
+            let look = self.stage.look();
+            Note::Seen {
+                time_s: world.time_s(),
+                max_force_n: look.max_force_n,
+                grip_force_max_n: look.grip_force_max_n,
+                hand_force_max_n: look.hand_force_max_n,
+                bare_force_max_n: look.bare_force_max_n,
+                object: self.judge(&look),
+            }
+        })
+    }
+
+    /// The truth about the object now, if there is one.
+    fn truth(&self) -> Option<ObjectTruth> {
+        self.judge(&self.stage.look())
+    }
+
+    fn judge(&self, look: &super::stage::Look) -> Option<ObjectTruth> {
+        let offset = self.stage.skin().surface_offset_m;
+        look.object.as_ref().map(|p| ObjectTruth {
+            resting: look.resting,
+            fallen: look.fallen,
+            ..ObjectTruth::observe(p, self.back_m(p), offset, &self.arms, &look.contacts)
         })
     }
 
@@ -250,7 +269,7 @@ mod tests {
         let setup = Setup::new(&robot, 4).unwrap();
         let (mut world, scene) = setup.world(robot.clone(), 4);
         let ids: Vec<Address> = setup.skin.cells().iter().map(|c| c.id).collect();
-        let mut op = Operator::new(robot, setup.clone(), scene.clone());
+        let mut op = Operator::new(robot, setup.clone(), Box::new(scene.clone()));
         let mut samples = Vec::new();
         let mut period = |op: &mut Operator, world: &mut World| {
             let note = op.act(world);

@@ -13,7 +13,10 @@ use nalgebra::Isometry3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use super::Scene;
+use super::hand::Hand;
+use super::object::Object;
+use super::stage::{Look, Stage};
+use super::{person, Scene, SkinModel};
 use crate::world::{Tactile, Touch};
 
 /// A scene shared between the world and the experiment.
@@ -39,6 +42,47 @@ impl SharedScene {
     /// The world's side: raw counts with noise drawn from `seed`.
     pub fn tactile(&self, seed: u64) -> Box<dyn Tactile> {
         Box::new(Sensors { scene: self.0.clone(), rng: ChaCha8Rng::seed_from_u64(seed) })
+    }
+}
+
+/// The built-in scene as the person's stage: the object stands on a table
+/// that stays, and the skin's surface is where hands press.
+impl Stage for SharedScene {
+    fn skin(&self) -> SkinModel {
+        self.get().skin().clone()
+    }
+
+    fn pat(&self, cell: &Isometry3<f64>, depth_m: f64) -> Hand {
+        person::pat(cell, self.get().skin().surface_offset_m, depth_m)
+    }
+
+    fn set_hands(&self, hands: Vec<Hand>) {
+        self.get_mut().set_hands(hands);
+    }
+
+    fn put(&self, object: Option<(Object, Isometry3<f64>)>) {
+        let mut scene = self.get_mut();
+        scene.clear_objects();
+        if let Some((object, pose)) = object {
+            scene.place(object, pose);
+        }
+        scene.reset_max_force();
+    }
+
+    fn let_go(&self) {}
+
+    fn look(&self) -> Look {
+        let scene = self.get();
+        Look {
+            max_force_n: scene.max_force_n(),
+            grip_force_max_n: scene.max_object_force_n(),
+            hand_force_max_n: scene.max_hand_force_n(),
+            bare_force_max_n: None,
+            object: scene.objects().first().cloned(),
+            contacts: scene.contacts().to_vec(),
+            resting: None,
+            fallen: false,
+        }
     }
 }
 

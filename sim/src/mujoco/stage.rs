@@ -1,0 +1,452 @@
+//! The grasping experiment's lab in MuJoCo: the person's hands, the object
+//! and what it stands on, as bodies MuJoCo moves and the skin feels only
+//! through MuJoCo's sensors.
+//!
+//! The scene hook of the MuJoCo world ([`super::Model::world_on_stage`])
+//! adds to the robot's model, through mjSpec: a floor 1 m below the root,
+//! two mocap spheres for the person's hands (they touch the robot, not the
+//! object), and a mocap tray for the person's hands under the object (it
+//! touches the object only). An object put down is a free body with the
+//! object file's mass and friction and a contact softness from its
+//! stiffness; putting one down recompiles the model from the kept spec and
+//! carries the robot's state over. The person ([`crate::scene::operator`])
+//! acts on it through [`SharedStage`], as on the built-in scene.
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use mujoco_rs::prelude::*;
+use mujoco_rs::wrappers::mj_editing::{MjsBody, SpecObject};
+use nalgebra::{Isometry3, Point3, Translation3, Vector3};
+
+use crate::scene::hand::Hand;
+use crate::scene::object::Object;
+use crate::scene::shape::Shape;
+use crate::scene::stage::{Look, Stage};
+use crate::scene::{Contact, Placed, SkinModel};
+
+/// Height of the floor below the root (the chest), m: what a dropped object lands on.
+const FLOOR_Z_M: f64 = -1.0;
+/// The hands the person has.
+const HANDS: usize = 2;
+/// Where a body that is not in use waits: far below the floor, out of every ray.
+const PARKED: [f64; 3] = [0.0, 0.0, -10.0];
+/// Half thickness of the tray the object stands on, m.
+const TRAY_HALF_M: f64 = 0.01;
+/// The tray's half extent as a fraction of the object's, so the arms
+/// closing around the object's sides do not meet the person's hands.
+const TRAY_FRACTION: f64 = 0.7;
+/// Contact stiffness of a hand on the robot's surface, N/m: the palm
+/// (3000 N/m) in series with the skin's foam (1500 N/m).
+const HAND_N_PER_M: f64 = 1000.0;
+/// Mass of a palm, kg (its contact stiffness is referred to it: MuJoCo's
+/// direct stiffness is an acceleration per metre).
+const HAND_MASS_KG: f64 = 0.4;
+/// How much an object's contact softness outweighs the robot's where they
+/// meet (MuJoCo's solmix): the object file's stiffness decides.
+const OBJECT_SOLMIX: f64 = 1000.0;
+/// Contact bit of the robot's geoms (MJCF writer: contype 2, conaffinity 1).
+const ROBOT_AFFINITY: i32 = 1;
+const ROBOT_TYPE: i32 = 2;
+/// Contact bit of what carries objects (floor, tray).
+const SUPPORT_TYPE: i32 = 4;
+
+/// What the person asks of MuJoCo's bodies and what MuJoCo shows them.
+#[derive(Default)]
+struct Props {
+    skin: SkinModel,
+    hands: Vec<Hand>,
+    /// An object to put down (none: take it away) at the next tick.
+    put: Option<Option<(Object, Isometry3<f64>)>>,
+    /// The person holds the tray up under the object.
+    supporting: bool,
+    look: Look,
+}
+
+/// The lab shared between the person and the MuJoCo engine.
+#[derive(Clone, Default)]
+pub struct SharedStage(Rc<RefCell<Props>>);
+
+impl SharedStage {
+    /// An empty lab, the skin's sensing layers as `skin` models them.
+    pub fn new(skin: SkinModel) -> SharedStage {
+        SharedStage(Rc::new(RefCell::new(Props { skin, ..Props::default() })))
+    }
+}
+
+impl Stage for SharedStage {
+    fn skin(&self) -> SkinModel {
+        self.0.borrow().skin.clone()
+    }
+
+    /// MuJoCo's robot has no foam: the hand presses the model's own
+    /// surface at the cell's mount, over its first force cell (a touch
+    /// zone; a sphere on the cell's centre would fall between the zones).
+    fn pat(&self, cell: &Isometry3<f64>, depth_m: f64) -> Hand {
+        let [x, y] = self.0.borrow().skin.force.positions()[0];
+        Hand::facing(&(cell * Translation3::new(x, y, 0.0)), 0.0, -depth_m)
+    }
+
+    fn set_hands(&self, hands: Vec<Hand>) {
+        self.0.borrow_mut().hands = hands;
+    }
+
+    fn put(&self, object: Option<(Object, Isometry3<f64>)>) {
+        let mut props = self.0.borrow_mut();
+        props.supporting = object.is_some();
+        props.look =
+            Look { bare_force_max_n: Some(0.0), resting: object.is_some().then_some(false), ..Look::default() };
+        props.put = Some(object);
+    }
+
+    fn let_go(&self) {
+        self.0.borrow_mut().supporting = false;
+    }
+
+    fn look(&self) -> Look {
+        self.0.borrow().look.clone()
+    }
+}
+
+/// The object as a body in the compiled model.
+struct Body {
+    object: Object,
+    geom: usize,
+    qpos: usize,
+    /// Where the tray stands under it (its centre).
+    tray: [f64; 3],
+}
+
+/// The lab's bodies in the compiled model, and the spec to recompile.
+pub(super) struct Scenery {
+    shared: SharedStage,
+    spec: MjSpec,
+    hand_geom: [usize; HANDS],
+    /// Where each palm's free joint is in `qpos` and `qvel`.
+    hand_q: [(usize, usize); HANDS],
+    tray_mocap: usize,
+    tray_geom: usize,
+    floor_geom: usize,
+    object: Option<Body>,
+    /// Positions and DoFs of the robot and the hands, which come before the object's.
+    kept_nq: usize,
+    kept_nv: usize,
+    /// Per skin cell: its site, its body, its three touch zones' sites.
+    cells: Vec<(usize, usize, [usize; 3])>,
+    /// Radius of a touch zone, m.
+    zone_m: f64,
+}
+
+/// Adds the floor, the hands and the tray to `spec` (before the first compile).
+pub(super) fn furnish(spec: &mut MjSpec) {
+    let world = spec.world_body_mut();
+    let floor = world.add_geom();
+    let _ = floor.set_name("stage:floor");
+    floor.set_type(MjtGeomBase::mjGEOM_PLANE);
+    *floor.size_mut() = [3.0, 3.0, 0.1];
+    *floor.pos_mut() = [0.0, 0.0, FLOOR_Z_M];
+    floor.set_contype(SUPPORT_TYPE);
+    floor.set_conaffinity(0);
+    for k in 0..HANDS {
+        // A palm the person puts where they want it every tick: a free
+        // body (not a mocap, whose contact with a direction the robot
+        // cannot give in would push without bound), whose contact
+        // softness makes its force its depth times the hand's stiffness.
+        let hand = world.add_body();
+        let _ = hand.set_name(&format!("stage:hand{k}"));
+        *hand.pos_mut() = PARKED;
+        hand.set_gravcomp(1.0);
+        hand.add_free_joint();
+        let palm = hand.add_geom();
+        let _ = palm.set_name(&format!("stage:hand{k}"));
+        palm.set_type(MjtGeomBase::mjGEOM_SPHERE);
+        *palm.size_mut() = [Hand::RADIUS_M, 0.0, 0.0];
+        palm.set_mass(HAND_MASS_KG);
+        palm.set_contype(ROBOT_AFFINITY);
+        palm.set_conaffinity(0);
+        let k_acc = HAND_N_PER_M / HAND_MASS_KG;
+        *palm.solref_mut() = [-k_acc, -2.0 * k_acc.sqrt()];
+        palm.set_solmix(OBJECT_SOLMIX);
+    }
+    let tray = mocap(world, "stage:tray");
+    let plate = tray.add_geom();
+    let _ = plate.set_name("stage:tray");
+    plate.set_type(MjtGeomBase::mjGEOM_BOX);
+    *plate.size_mut() = [0.05, 0.05, TRAY_HALF_M];
+    plate.set_contype(SUPPORT_TYPE);
+    plate.set_conaffinity(0);
+    *plate.friction_mut() = [0.0, 0.0, 0.0];
+}
+
+/// A mocap body named `name`, parked.
+fn mocap<'a>(world: &'a mut MjsBody, name: &str) -> &'a mut MjsBody {
+    let body = world.add_body();
+    let _ = body.set_name(name);
+    body.set_mocap(true);
+    *body.pos_mut() = PARKED;
+    body
+}
+
+impl Scenery {
+    /// The lab's bodies in `model`, compiled from `spec`.
+    pub(super) fn bind(
+        shared: SharedStage,
+        spec: MjSpec,
+        model: &MjModel,
+        cells: Vec<(usize, usize, [usize; 3])>,
+        zone_m: f64,
+    ) -> Result<Scenery, String> {
+        let id = |kind, name: &str| model.name_to_id(kind, name).ok_or_else(|| format!("the model lacks {name}"));
+        let mocap_of = |name: &str| -> Result<usize, String> {
+            let body = id(MjtObjBase::mjOBJ_BODY, name)?;
+            Ok(model.body_mocapid()[body] as usize)
+        };
+        let palm = |k: usize| -> Result<(usize, usize), String> {
+            let joint = model.body_jntadr()[id(MjtObjBase::mjOBJ_BODY, &format!("stage:hand{k}"))?] as usize;
+            Ok((model.jnt_qposadr()[joint] as usize, model.jnt_dofadr()[joint] as usize))
+        };
+        Ok(Scenery {
+            hand_q: [palm(0)?, palm(1)?],
+            hand_geom: [id(MjtObjBase::mjOBJ_GEOM, "stage:hand0")?, id(MjtObjBase::mjOBJ_GEOM, "stage:hand1")?],
+            tray_mocap: mocap_of("stage:tray")?,
+            tray_geom: id(MjtObjBase::mjOBJ_GEOM, "stage:tray")?,
+            floor_geom: id(MjtObjBase::mjOBJ_GEOM, "stage:floor")?,
+            object: None,
+            kept_nq: model.ffi().nq as usize,
+            kept_nv: model.ffi().nv as usize,
+            shared,
+            spec,
+            cells,
+            zone_m,
+        })
+    }
+
+    /// Before a tick: the object put down or taken away (a recompile), the
+    /// hands and the tray where the person holds them.
+    pub(super) fn before(&mut self, data: &mut MjData<Box<MjModel>>) {
+        let put = self.shared.0.borrow_mut().put.take();
+        if let Some(object) = put {
+            if let Err(e) = self.rebuild(data, object) {
+                tracing::error!("MuJoCo cannot take the object: {e}");
+            }
+        }
+        let props = self.shared.0.borrow();
+        for (k, &(qpos, qvel)) in self.hand_q.iter().enumerate() {
+            let at: [f64; 3] = props.hands.get(k).map_or(PARKED, |h| h.centre.coords.into());
+            data.qpos_mut()[qpos..qpos + 7].copy_from_slice(&[at[0], at[1], at[2], 1.0, 0.0, 0.0, 0.0]);
+            data.qvel_mut()[qvel..qvel + 6].fill(0.0);
+        }
+        data.mocap_pos_mut()[self.tray_mocap] = match &self.object {
+            Some(body) if props.supporting => body.tray,
+            _ => PARKED,
+        };
+    }
+
+    /// Recompiles the model with `object` (or none) and carries the
+    /// robot's state, its servos' targets and the mocap bodies over.
+    fn rebuild(
+        &mut self,
+        data: &mut MjData<Box<MjModel>>,
+        object: Option<(Object, Isometry3<f64>)>,
+    ) -> Result<(), String> {
+        if let Some(old) = self.spec.body_mut("stage:object") {
+            // SAFETY: the body belongs to this spec, and nothing holds a
+            // reference to it or its children past this call.
+            #[allow(unsafe_code)]
+            unsafe { old.delete() }.map_err(|e| e.to_string())?;
+        }
+        let tray = object.as_ref().map(|(o, pose)| add_object(&mut self.spec, o, pose));
+        let model = self.spec.compile().map_err(|e| e.to_string())?;
+        let mut next = MjData::new(Box::new(model));
+        next.qpos_mut()[..self.kept_nq].copy_from_slice(&data.qpos()[..self.kept_nq]);
+        next.qvel_mut()[..self.kept_nv].copy_from_slice(&data.qvel()[..self.kept_nv]);
+        next.qacc_warmstart_mut()[..self.kept_nv].copy_from_slice(&data.qacc_warmstart()[..self.kept_nv]);
+        next.ctrl_mut().copy_from_slice(data.ctrl());
+        next.act_mut().copy_from_slice(data.act());
+        next.mocap_pos_mut().copy_from_slice(data.mocap_pos());
+        next.mocap_quat_mut().copy_from_slice(data.mocap_quat());
+        next.set_time(data.time());
+        self.object = match (object, tray) {
+            (Some((object, pose)), Some(tray)) => {
+                let model = next.model();
+                let geom = model
+                    .name_to_id(MjtObjBase::mjOBJ_GEOM, "stage:object")
+                    .ok_or("the model lacks the object's geom")?;
+                let joint = model
+                    .name_to_id(MjtObjBase::mjOBJ_JOINT, "stage:object")
+                    .ok_or("the model lacks the object's joint")?;
+                let qpos = model.jnt_qposadr()[joint] as usize;
+                let q = pose.rotation.quaternion();
+                let p = pose.translation.vector;
+                next.qpos_mut()[qpos..qpos + 7].copy_from_slice(&[p.x, p.y, p.z, q.w, q.i, q.j, q.k]);
+                Some(Body { object, geom, qpos, tray })
+            }
+            _ => None,
+        };
+        next.forward();
+        *data = next;
+        Ok(())
+    }
+
+    /// After a tick: what the person sees, from MuJoCo's contacts.
+    pub(super) fn after(&mut self, data: &MjData<Box<MjModel>>) {
+        let mut props = self.shared.0.borrow_mut();
+        let look = &mut props.look;
+        look.contacts.clear();
+        let model = data.model();
+        let sites = data.site_xpos();
+        look.object = self.object.as_ref().map(|body| {
+            let q = &data.qpos()[body.qpos..body.qpos + 7];
+            let pose = Isometry3::from_parts(
+                Translation3::new(q[0], q[1], q[2]),
+                nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[3], q[4], q[5], q[6])),
+            );
+            Placed { object: body.object.clone(), pose }
+        });
+        let object_geom = self.object.as_ref().map(|b| b.geom);
+        // Per touch zone (cell, zone): the object's force and the hands'.
+        let mut zones: Vec<[[f64; 3]; 2]> = vec![[[0.0; 3]; 2]; self.cells.len()];
+        let (mut resting, mut fallen) = (false, false);
+        let hand_geoms = self.hand_geom;
+        for (i, c) in data.contact().iter().enumerate() {
+            let (g1, g2) = (c.geom1 as usize, c.geom2 as usize);
+            let (other, by_hand) = if object_geom.is_some_and(|g| g == g1 || g == g2) {
+                (if object_geom == Some(g1) { g2 } else { g1 }, false)
+            } else if hand_geoms.contains(&g1) || hand_geoms.contains(&g2) {
+                (if hand_geoms.contains(&g1) { g2 } else { g1 }, true)
+            } else {
+                continue;
+            };
+            if other == self.floor_geom || other == self.tray_geom {
+                resting = true;
+                fallen |= other == self.floor_geom;
+                continue;
+            }
+            let force_n = data.contact_force(i)[0].max(0.0);
+            let point = Point3::from(Vector3::from(c.pos));
+            let robot_body = model.geom_bodyid()[other] as usize;
+            let mut felt = false;
+            // The nearest cell on the touched body (any cell, if it has none).
+            let mut nearest = (f64::INFINITY, 0);
+            for (u, (site, cell_body, zone)) in self.cells.iter().enumerate() {
+                let same = *cell_body == robot_body;
+                let d = (Vector3::from(sites[*site]) - point.coords).norm() + if same { 0.0 } else { 1e3 };
+                if d < nearest.0 {
+                    nearest = (d, u);
+                }
+                if !same {
+                    continue;
+                }
+                for (k, z) in zone.iter().enumerate() {
+                    if (Vector3::from(sites[*z]) - point.coords).norm() <= self.zone_m {
+                        zones[u][usize::from(by_hand)][k] += force_n;
+                        felt = true;
+                    }
+                }
+            }
+            if !by_hand {
+                look.contacts.push(Contact { cell: nearest.1, point, force_n, felt });
+                if !felt {
+                    let bare = look.bare_force_max_n.get_or_insert(0.0);
+                    *bare = bare.max(force_n);
+                }
+            }
+        }
+        for [object, hand] in zones {
+            for k in 0..3 {
+                look.max_force_n = look.max_force_n.max(object[k] + hand[k]);
+                look.grip_force_max_n = look.grip_force_max_n.max(object[k]);
+                look.hand_force_max_n = look.hand_force_max_n.max(hand[k]);
+            }
+        }
+        if look.object.is_some() {
+            look.resting = Some(resting);
+            look.fallen = fallen;
+        }
+    }
+}
+
+/// Adds `object` at `pose` as a free body; returns where the tray goes
+/// under it (centre).
+fn add_object(spec: &mut MjSpec, object: &Object, pose: &Isometry3<f64>) -> [f64; 3] {
+    let body = spec.world_body_mut().add_body();
+    let _ = body.set_name("stage:object");
+    let p = pose.translation.vector;
+    let joint = body.add_free_joint();
+    let _ = joint.set_name("stage:object");
+    let geom = body.add_geom();
+    let _ = geom.set_name("stage:object");
+    let (kind, size) = match object.shape {
+        Shape::Box { half, .. } => (MjtGeomBase::mjGEOM_BOX, [half.x, half.y, half.z]),
+        Shape::Cylinder { radius, half_height } => (MjtGeomBase::mjGEOM_CYLINDER, [radius, half_height, 0.0]),
+        Shape::Sphere { radius } => (MjtGeomBase::mjGEOM_SPHERE, [radius, 0.0, 0.0]),
+        // Its bumps left out: MuJoCo collides with convex shapes.
+        Shape::Blob { semi, .. } => (MjtGeomBase::mjGEOM_ELLIPSOID, [semi.x, semi.y, semi.z]),
+    };
+    geom.set_type(kind);
+    *geom.size_mut() = size;
+    geom.set_mass(object.mass_kg);
+    geom.set_contype(ROBOT_AFFINITY);
+    geom.set_conaffinity(ROBOT_TYPE | SUPPORT_TYPE);
+    *geom.friction_mut() = [object.friction, 0.005, 0.0001];
+    // The object's give in series with the skin's foam, as a direct
+    // stiffness per unit of its mass, critically damped.
+    let foam = crate::scene::force::Foam::default().stiffness_n_per_m;
+    let k = 1.0 / (1.0 / foam + 1.0 / object.stiffness_n_per_m);
+    let k_acc = k / object.mass_kg.max(1e-3);
+    *geom.solref_mut() = [-k_acc, -2.0 * k_acc.sqrt()];
+    geom.set_solmix(OBJECT_SOLMIX);
+    // The free joint's pose is set in the data; the tray goes under the
+    // object, as large as most of its footprint.
+    let bottom = object.shape.extent(&(pose.rotation.inverse() * -Vector3::z()));
+    let half = |axis: Vector3<f64>| TRAY_FRACTION * object.shape.extent(&(pose.rotation.inverse() * axis));
+    let tray_half = [half(Vector3::x()), half(Vector3::y())];
+    if let Some(plate) = spec.geom_mut("stage:tray") {
+        *plate.size_mut() = [tray_half[0], tray_half[1], TRAY_HALF_M];
+    }
+    [p.x, p.y, p.z - bottom - TRAY_HALF_M]
+}
+
+/// The grasping experiment's world in MuJoCo: `model` (an MJCF of the
+/// built-in robot; none: the built-in robot written as one) wearing
+/// `setup`'s skin, in the lab, noise drawn from `seed`; and the lab the
+/// person acts on.
+pub fn experiment_world(
+    model: Option<&std::path::Path>,
+    setup: &crate::scene::experiment::Setup,
+    seed: u64,
+) -> Result<(crate::world::World, SharedStage), super::MujocoError> {
+    let built_in = skin_model::robot::hrp2::robot();
+    let loaded = match model {
+        Some(path) => super::Model::load(path)?,
+        None => {
+            // MuJoCo reads a model from a file: the built-in robot's, written
+            // where no other run writes.
+            let path = std::env::temp_dir().join(format!("skin-hrp2-{}-{seed}.xml", std::process::id()));
+            let failed = |e: std::io::Error| super::MujocoError::Load {
+                path: path.display().to_string(),
+                message: e.to_string(),
+            };
+            std::fs::write(&path, skin_model::robot::mjcf::write(&built_in)).map_err(failed)?;
+            let loaded = super::Model::load(&path);
+            let _ = std::fs::remove_file(&path);
+            loaded?
+        }
+    };
+    let names = |r: &skin_model::robot::Robot| r.dofs().iter().map(|d| d.name.clone()).collect::<Vec<_>>();
+    if names(loaded.robot()) != names(&built_in) {
+        return Err(super::MujocoError::Unsupported(format!(
+            "the grasping experiment needs the built-in robot's DoFs {:?}; the model has {:?}",
+            names(&built_in),
+            names(loaded.robot())
+        )));
+    }
+    // The experiment starts where the built-in robot stands (MuJoCo's
+    // would start at the model's zero pose).
+    let mut loaded = loaded;
+    loaded.set_home(built_in.home())?;
+    let cfg = crate::world::WorldConfig { seed, ..crate::world::WorldConfig::default() };
+    let stage = SharedStage::new(SkinModel::default());
+    let world = loaded.world_on_stage(setup.skin.clone(), cfg, stage.clone())?;
+    Ok((world, stage))
+}

@@ -1,0 +1,57 @@
+//! What the person in the lab acts on and looks at: the built-in scene or,
+//! in the MuJoCo world, MuJoCo's bodies.
+//!
+//! The person ([`super::operator::Operator`]) is the same in both worlds:
+//! they picture key poses, guide with their hands, pat and put objects
+//! down. Only how a hand, an object and the truth about them are made
+//! differs, and that is behind [`Stage`].
+
+use nalgebra::Isometry3;
+
+use super::hand::Hand;
+use super::object::Object;
+use super::{Contact, Placed, SkinModel};
+
+/// A stage the person acts on, between control periods.
+pub trait Stage {
+    /// The skin's sensing layers (where a guiding hand is held for an
+    /// intensity, how far the skin's surface is above a cell's mount).
+    fn skin(&self) -> SkinModel;
+    /// A hand patting the cell at `cell` (world pose, z outward), pressed
+    /// `depth_m` into what the hand meets there.
+    fn pat(&self, cell: &Isometry3<f64>, depth_m: f64) -> Hand;
+    /// Puts the person's hands where given (none: taken away).
+    fn set_hands(&self, hands: Vec<Hand>);
+    /// Puts `object` down at the pose given, standing on its support, or
+    /// takes the object away; forgets the largest forces.
+    fn put(&self, object: Option<(Object, Isometry3<f64>)>);
+    /// The person lets go of the support the object stands on, once the
+    /// robot holds it (a table that stays does nothing).
+    fn let_go(&self);
+    /// What the person sees now.
+    fn look(&self) -> Look;
+}
+
+/// What the person sees of the stage after a period.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Look {
+    /// The largest force on any one force cell since the object was put (or taken away), N.
+    pub max_force_n: f64,
+    /// The same of the object's contacts alone, N.
+    pub grip_force_max_n: f64,
+    /// The same of the person's hands alone, N.
+    pub hand_force_max_n: f64,
+    /// The largest force of the object on the robot's bare surface (where
+    /// no force cell is) since it was put, N; none where the world has no
+    /// honest measure of it (the built-in scene's rigid bare surface).
+    pub bare_force_max_n: Option<f64>,
+    /// The object as it is now.
+    pub object: Option<Placed>,
+    /// Where the robot touches the object now.
+    pub contacts: Vec<Contact>,
+    /// Whether the object rests on something other than the robot (its
+    /// support, the floor); none where objects never leave their table.
+    pub resting: Option<bool>,
+    /// Whether the object has fallen to the floor.
+    pub fallen: bool,
+}

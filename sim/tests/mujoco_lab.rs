@@ -1,0 +1,78 @@
+//! The grasping experiment's lab in MuJoCo: an object put down stands on
+//! the person's tray and falls to the floor when they let go, and a pat
+//! is felt by the patted cell through MuJoCo's touch sensors alone, as a
+//! light touch, not pain.
+
+use skin_model::robot::hrp2;
+use skin_protocol::Sample;
+use skin_sim::mujoco::experiment_world;
+use skin_sim::scene::experiment::{object_pose, Setup};
+use skin_sim::scene::force::Calibration;
+use skin_sim::scene::object::Object;
+use skin_sim::scene::placement::Placement;
+use skin_sim::scene::stage::Stage;
+use skin_sim::world::World;
+
+/// Steps `ticks` control periods; the samples of the last.
+fn run(world: &mut World, ticks: usize) -> Vec<(skin_protocol::Address, Sample)> {
+    let mut out = Vec::new();
+    for _ in 0..ticks {
+        out.clear();
+        world.step(&mut out);
+    }
+    out
+}
+
+#[test]
+fn an_object_stands_on_the_tray_and_falls_when_the_person_lets_go() {
+    let setup = Setup::new(&hrp2::robot(), 1).unwrap();
+    let (mut world, stage) = experiment_world(None, &setup, 1).unwrap();
+    run(&mut world, 25);
+    assert_eq!(stage.look().object, None, "nothing put down yet");
+    let bin = Object::by_name("trash_bin").unwrap();
+    let pose = object_pose(&bin, &Placement { yaw_rad: 0.2, ..Placement::default() }, stage.skin().surface_offset_m);
+    stage.put(Some((bin, pose)));
+    run(&mut world, 250);
+    let look = stage.look();
+    let stood = look.object.expect("the object is there").pose;
+    assert!((stood.translation.vector - pose.translation.vector).norm() < 0.002, "it stands where put: {stood}");
+    assert!(stood.rotation.angle_to(&pose.rotation) < 0.01, "upright, as turned");
+    assert_eq!((look.resting, look.fallen), (Some(true), false), "on the tray");
+    assert!(look.contacts.is_empty(), "the robot at home does not touch it");
+    assert_eq!(look.bare_force_max_n, Some(0.0));
+
+    stage.let_go();
+    run(&mut world, 250);
+    let look = stage.look();
+    let fell = look.object.expect("the object is there").pose;
+    assert!(fell.translation.z < -0.5, "on the floor 1 m below the chest: {fell}");
+    assert_eq!((look.resting, look.fallen), (Some(true), true));
+    stage.put(None);
+    run(&mut world, 1);
+    assert_eq!(stage.look().object, None, "taken away");
+}
+
+#[test]
+fn a_pat_is_felt_by_the_patted_cell_alone_through_the_touch_sensors() {
+    let setup = Setup::new(&hrp2::robot(), 2).unwrap();
+    let (mut world, stage) = experiment_world(None, &setup, 2).unwrap();
+    let quiet = run(&mut world, 25);
+    assert!(quiet.iter().all(|(_, s)| s.force().iter().all(|f| *f < 20)), "nothing touches the skin");
+    stage.put(None);
+    let pat = stage.pat(&world.cell_poses()[setup.pat_cell], 0.0015);
+    stage.set_hands(vec![pat]);
+    let out = run(&mut world, 50);
+    let id = setup.skin.cells()[setup.pat_cell].id;
+    let felt = out.iter().find(|(a, _)| *a == id).unwrap().1.force_norm();
+    let pain = Calibration::default().force(0.45);
+    assert!(felt[0] > 0.04 && felt[0] < 0.45, "a light touch on the first force cell: {felt:?}");
+    let others = out.iter().filter(|(a, s)| *a != id && s.force().iter().any(|f| *f > 20)).count();
+    assert_eq!(others, 0, "no other cell is pressed");
+    let look = stage.look();
+    assert!(look.hand_force_max_n > 0.1 && look.max_force_n < pain, "{look:?}");
+    assert_eq!(look.grip_force_max_n, 0.0, "a pat is no grip");
+    stage.set_hands(Vec::new());
+    let after = run(&mut world, 25);
+    let left = after.iter().find(|(a, _)| *a == id).unwrap().1.force_norm();
+    assert!(left.iter().all(|f| *f < 0.02), "the hand is gone: {left:?}");
+}
