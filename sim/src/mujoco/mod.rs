@@ -24,8 +24,8 @@ use skin_model::robot::{Robot, UrdfError};
 use skin_model::skin::Skin;
 
 pub use engine::Engine;
-pub use with_skin::{model_with_skin, CellSite, ModelWithSkin};
 pub use stage::{experiment_world, SharedStage};
+pub use with_skin::{model_with_skin, CellSite, ModelWithSkin};
 
 use crate::world::{World, WorldConfig};
 
