@@ -23,10 +23,10 @@
 //! - *sharpening*: about a vertical axis no posture tilts, the repeats go
 //!   on, fast within the joint's velocity limit, until a lever of the
 //!   mounting clearance would be decided by evidence against the floor,
-//!   for at most [`SHARPEN_SHARE`] of the budget.
+//!   for at most `SHARPEN_SHARE` of the budget.
 //!
 //! Every entry keeps the smallest lever its evidence would have decided
-//! as a movement ([`Step::seen`], then the pooled and floor thresholds).
+//! as a movement (`Step::seen`, then the pooled and floor thresholds).
 //!
 //! Between measurements, entries that the decided ones imply in a
 //! kinematic tree are settled without moving (`infer`): the cells of two
