@@ -72,13 +72,11 @@ fn ci_steps() -> Vec<Step> {
     vec![
         cargo("format", "fmt --all --check"),
         cargo("clippy (host crates)", "clippy --workspace --all-targets -- -D warnings"),
+        // ROS 2 and MuJoCo in one build of skin-host each for clippy and the
+        // tests: every feature build compiles the host again.
         cargo(
-            "clippy (skin-host with ROS 2 over Zenoh)",
-            "clippy -p skin-host --all-targets --features ros2 -- -D warnings",
-        ),
-        cargo(
-            "clippy (the MuJoCo world)",
-            "clippy -p skin-sim -p skin-host --all-targets --features skin-sim/mujoco,skin-host/mujoco -- -D warnings",
+            "clippy (skin-host with ROS 2 and the MuJoCo world)",
+            "clippy -p skin-sim -p skin-host --all-targets --features skin-host/ros2,skin-sim/mujoco,skin-host/mujoco -- -D warnings",
         ),
         cargo(
             "clippy (skin-host without the simulator glue)",
@@ -99,16 +97,12 @@ fn ci_steps() -> Vec<Step> {
         cargo("docs", r#"doc --workspace --no-deps --config build.rustdocflags=["-D","warnings"]"#),
         cargo("tests (host)", "test --workspace"),
         cargo(
-            "tests (ROS 2 over DDS and Zenoh, a ros2_control robot, the Foxglove view: unit, rclpy on Fast DDS, a Python zenoh peer, a Python Foxglove client)",
-            "test -p skin-host --features ros2 --lib --test ros2_dds --test ros2_control --test ros2_live --test foxglove_live",
-        ),
-        cargo(
             "tests (the MuJoCo world: libmujoco of the pinned wheel, models the tests write)",
             "test -p skin-sim --features mujoco --lib --test mujoco_smoke --test mujoco_world --test mujoco_models --test mujoco_lab",
         ),
         cargo(
-            "tests (the MuJoCo world through the skin program: explore, a welded base, sim-endpoint over UDP, robot_with_skin.xml read by MuJoCo's Python package)",
-            "test -p skin-host --features mujoco --test mujoco_cli --test mujoco_calibrate",
+            "tests (ROS 2 over DDS and Zenoh, a ros2_control robot, the Foxglove view: rclpy on Fast DDS, a Python zenoh peer, a Python Foxglove client; the MuJoCo world through the skin program: explore, a welded base, sim-endpoint over UDP, robot_with_skin.xml read by MuJoCo's Python package)",
+            "test -p skin-host --features ros2,mujoco --lib --test ros2_dds --test ros2_control --test ros2_live --test foxglove_live --test mujoco_cli --test mujoco_calibrate",
         ),
         cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
         cargo(
