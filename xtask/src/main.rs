@@ -101,7 +101,10 @@ fn ci_steps() -> Vec<Step> {
             "test -p skin-sim --features mujoco --lib --test mujoco_smoke --test mujoco_world --test mujoco_models --test mujoco_lab",
         ),
         cargo(
-            "tests (ROS 2 over DDS and Zenoh, a ros2_control robot, the Foxglove view: rclpy on Fast DDS, a Python zenoh peer, a Python Foxglove client; the MuJoCo world through the skin program: explore, a welded base, sim-endpoint over UDP, robot_with_skin.xml read by MuJoCo's Python package)",
+            // rclpy on Fast DDS, a Python zenoh peer and Foxglove client; explore, a
+            // welded base, sim-endpoint over UDP, robot_with_skin.xml read by
+            // MuJoCo's Python package.
+            "tests (ROS 2 on DDS and Zenoh, ros2_control, Foxglove; MuJoCo through the skin program)",
             "test -p skin-host --features ros2,mujoco --lib --test ros2_dds --test ros2_control --test ros2_live --test foxglove_live --test mujoco_cli --test mujoco_calibrate",
         ),
         cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
