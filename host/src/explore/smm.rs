@@ -286,11 +286,10 @@ impl SensoryMotorMap {
                     }
                 }
                 Evaluation::Regression => {
-                    let ticks = trace.sampled_ticks();
-                    let rows = ticks.iter().map(|&k| [1.0, phi[k], alpha[k], omega[k] * omega[k]]).collect();
+                    let rows = (0..trace.len()).map(|k| [1.0, phi[k], alpha[k], omega[k] * omega[k]]).collect();
                     if let (Some(fit), Some(sigma)) = (LeastSquares::new(rows), sigma.as_mut()) {
                         for u in 0..u_count {
-                            let (w, s) = tangential_weight(&trace, &ticks, u, u_count, &fit);
+                            let (w, s) = tangential_weight(&trace, u, u_count, &fit);
                             raw[u * dofs + d] = w;
                             sigma[u * dofs + d] = s;
                         }
@@ -352,14 +351,14 @@ fn normal_weight(trace: &Trace, u: usize, cells: usize, lowpass: &Butterworth, a
 /// Standard errors a tangential term must exceed to give a weight.
 const SIGNIFICANT_SIGMAS: f64 = 6.0;
 
-/// The regression's weight for cell `u` over the trace's `ticks`, the
-/// normal share of the fitted tangential term with equation (11)'s sign,
-/// and its standard error. A term within the noise (or a cell with gaps
-/// in those ticks) gives the defined weight 0 with an infinite error.
-fn tangential_weight(trace: &Trace, ticks: &[usize], u: usize, cells: usize, fit: &LeastSquares<4>) -> (f32, f32) {
+/// The regression's weight for cell `u`, the normal share of the fitted
+/// tangential term with equation (11)'s sign, and its standard error. A
+/// term within the noise (or a trace with gaps) gives the defined weight 0
+/// with an infinite error.
+fn tangential_weight(trace: &Trace, u: usize, cells: usize, fit: &LeastSquares<4>) -> (f32, f32) {
     let (mut t, mut s) = ([0.0; 3], [0.0; 3]);
     for a in 0..3 {
-        let y: Vec<f64> = ticks.iter().map(|&k| f64::from(trace.accel[k * cells + u][a])).collect();
+        let y: Vec<f64> = (0..trace.len()).map(|k| f64::from(trace.accel[k * cells + u][a])).collect();
         match fit.fit_with_errors(&y) {
             Some((coefficients, errors)) => (t[a], s[a]) = (coefficients[2], errors[2]),
             None => return (0.0, f32::INFINITY),
