@@ -59,6 +59,19 @@ impl Trace {
         self.q.len()
     }
 
+    /// The ticks with a sample of any cell: a regression on the trace's
+    /// motion skips the others, which say nothing of any cell (ticks
+    /// [`Session::trace`] left out, or where the whole skin sent nothing).
+    pub fn sampled_ticks(&self) -> Vec<usize> {
+        let cells = self.saturated.len();
+        (0..self.len())
+            .filter(|&k| {
+                let samples = self.accel.get(k * cells..(k + 1) * cells).unwrap_or_default();
+                samples.iter().any(|a| a.iter().all(|x| x.is_finite()))
+            })
+            .collect()
+    }
+
     /// Leaves out the samples of the ticks `irregular` and of those within
     /// [`IRREGULAR_REACH_TICKS`] of them: the motion read there spans a
     /// stretch of the robot's clock the feedback did not see.
