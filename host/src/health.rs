@@ -292,6 +292,10 @@ impl<R: SampleSource> SampleSource for Screened<'_, R> {
         }
         Ok(())
     }
+
+    fn robot_time_s(&self) -> Option<f64> {
+        self.rig.robot_time_s()
+    }
 }
 
 #[cfg(test)]

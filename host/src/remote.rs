@@ -362,20 +362,24 @@ impl Remote {
     }
 
     /// One control period: the command goes out and its feedback comes
-    /// back, then every datagram the skin sent is taken.
+    /// back, then every datagram the skin sent is taken. A real-time robot
+    /// is first waited for until the period is due, never between its
+    /// feedback and the datagrams: the skin's latest samples are then of
+    /// the same moment as the feedback, where a wait between let the
+    /// robot run a further period in some ticks and not in others.
     pub fn tick(&mut self) -> Result<(), RobotError> {
-        self.link.tick()?;
         if !self.link.info.lockstep {
             let period = Duration::from_secs_f64(self.link.info.period_s);
             let now = Instant::now();
             // A host that fell behind by more than a period starts a new
             // schedule rather than firing the missed commands at once.
-            let due = self.next_due.map_or(now + period, |d| (d + period).max(now));
+            let due = self.next_due.map_or(now, |d| (d + period).max(now));
             if let Some(wait) = due.checked_duration_since(now) {
                 std::thread::sleep(wait);
             }
             self.next_due = Some(due);
         }
+        self.link.tick()?;
         if let Some(session) = &mut self.recording {
             let link = &self.link;
             let command = ToRobot::Command { seq: link.seq, velocities: link.command.iter().copied().collect() };
@@ -476,6 +480,10 @@ impl SampleSource for Remote {
             _ => None,
         }));
         Ok(())
+    }
+
+    fn robot_time_s(&self) -> Option<f64> {
+        Some(self.link.time_s())
     }
 
     fn grasp_entered(&mut self, transition: &crate::control::grasp::Transition) {

@@ -23,6 +23,8 @@ pub struct Replay {
     ingest: Ingest,
     commanded: Vec<f64>,
     positions: Vec<f64>,
+    /// The robot's clock at the last recorded state, microseconds.
+    time_us: u64,
     events: Vec<Event>,
     ticks: u64,
 }
@@ -53,6 +55,7 @@ impl Replay {
             ingest: Ingest::new(&start.ports),
             commanded: vec![0.0; start.dof_names.len()],
             positions: vec![0.0; start.dof_names.len()],
+            time_us: 0,
             start,
             records: VecDeque::new(),
             events: Vec::new(),
@@ -61,7 +64,10 @@ impl Replay {
         while let Some(record) = records.pop_front() {
             match record {
                 Record::ExploreStart(_) => break,
-                Record::State(positions) => replay.positions = positions,
+                Record::State { positions, time_us } => {
+                    replay.positions = positions;
+                    replay.time_us = time_us;
+                }
                 Record::Datagram { from, now_us, bytes } => {
                     replay.ingest.datagram(from, &bytes, now_us, &mut replay.events);
                     replay.events.clear();
@@ -132,7 +138,10 @@ impl SampleSource for Replay {
             None => return Err(self.diverged("the recording ends".to_owned())),
         }
         match self.records.pop_front() {
-            Some(Record::State(positions)) if positions.len() == self.positions.len() => self.positions = positions,
+            Some(Record::State { positions, time_us }) if positions.len() == self.positions.len() => {
+                self.positions = positions;
+                self.time_us = time_us;
+            }
             other => return Err(self.diverged(format!("the command's answer was recorded as {other:?}"))),
         }
         while let Some(Record::Datagram { .. }) = self.records.front() {
@@ -147,6 +156,11 @@ impl SampleSource for Replay {
         }));
         Ok(())
     }
+
+    /// The recorded clock, so a replay leaves out the ticks the run did.
+    fn robot_time_s(&self) -> Option<f64> {
+        Some(self.time_us as f64 / 1e6)
+    }
 }
 
 #[cfg(test)]
@@ -160,7 +174,7 @@ mod tests {
     }
 
     fn tick(velocity: f64, position: f64) -> [Record; 2] {
-        [Record::Command(vec![velocity]), Record::State(vec![position])]
+        [Record::Command(vec![velocity]), Record::State { positions: vec![position], time_us: 0 }]
     }
 
     fn replay() -> Replay {

@@ -154,6 +154,15 @@ pub trait SampleSource {
     /// simulator: advances its clock) and appends the samples that arrived.
     fn next_tick(&mut self, out: &mut Vec<(Address, Sample)>) -> Result<(), RobotError>;
 
+    /// The robot's clock at the last tick's feedback, s, where the robot
+    /// tells it. A real-time robot does not wait for a host that stalls:
+    /// its clock shows the ticks that took other than one period, whose
+    /// motion between two feedbacks is unknown. `None`: every tick is one
+    /// period (a simulator stepped by the host).
+    fn robot_time_s(&self) -> Option<f64> {
+        None
+    }
+
     /// The grasp controller driving this source entered a state: a source
     /// with live viewers (a [`crate::remote::Remote`] with `--foxglove`)
     /// shows it; the others ignore it.

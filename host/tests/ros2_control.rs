@@ -10,6 +10,7 @@
 
 mod common;
 
+use std::collections::HashMap;
 use std::ffi::OsStr;
 use std::io::{BufRead, BufReader, Read};
 use std::net::UdpSocket;
@@ -19,6 +20,7 @@ use std::sync::mpsc::{channel, Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use common::rclpy::{self, Domain};
+use nalgebra::Vector3;
 use serde_json::Value;
 
 fn now_s() -> f64 {
@@ -308,6 +310,74 @@ fn calibrated(robot: &skin_model::robot::Robot, dir: &Path) -> Cells {
     skin.cells().iter().map(|c| (c.id.0, c.link.clone(), c.pose)).collect()
 }
 
+/// The simulated skin's true cells (`skin sim-endpoint`'s default seed)
+/// on links that move, and for the links only one joint moves, its axis:
+/// the calibration calls a cell on the fixed base unobservable, and the
+/// position along the axis of a link's only joint too.
+fn truth() -> (Cells, HashMap<String, Vector3<f64>>) {
+    let world = skin_sim::world::World::hrp2(0);
+    let robot = world.robot();
+    let mut axes = HashMap::new();
+    let mut cells = Vec::new();
+    for c in world.skin().cells().iter().filter(|c| c.body != 0) {
+        let joint = robot.bodies()[c.body].parent_joint.map(|j| &robot.joints()[j]);
+        if let Some(joint) = joint.filter(|j| j.parent_body == 0) {
+            axes.insert(c.link.clone(), joint.axis.into_inner());
+        }
+        cells.push((c.id.0, c.link.clone(), c.pose));
+    }
+    (cells, axes)
+}
+
+/// How far paired cells are apart: position mean and p95, m; orientation mean, degrees.
+struct Apart {
+    cells: usize,
+    mean_m: f64,
+    p95_m: f64,
+    max_m: f64,
+    turned_deg: f64,
+}
+
+impl Apart {
+    /// Over `pairs`, leaving out of each position difference the direction
+    /// `unobservable` gives for its link.
+    fn of(pairs: &[(&Cell, &Cell)], unobservable: &HashMap<String, Vector3<f64>>) -> Apart {
+        let apart = |(a, b): &(&Cell, &Cell)| {
+            let e = a.2.translation.vector - b.2.translation.vector;
+            unobservable.get(&b.1).map_or(e, |n| e - n * n.dot(&e)).norm()
+        };
+        let mut apart_m: Vec<f64> = pairs.iter().map(apart).collect();
+        apart_m.sort_by(f64::total_cmp);
+        let n = pairs.len() as f64;
+        Apart {
+            cells: pairs.len(),
+            mean_m: apart_m.iter().sum::<f64>() / n,
+            p95_m: apart_m[(apart_m.len() - 1) * 95 / 100],
+            max_m: apart_m[apart_m.len() - 1],
+            turned_deg: pairs.iter().map(|(a, b)| a.2.rotation.angle_to(&b.2.rotation).to_degrees()).sum::<f64>() / n,
+        }
+    }
+
+    /// Within the calibration's goals: position mean 5 mm, p95 10 mm; orientation mean 2 degrees.
+    fn within_goals(&self) -> bool {
+        self.mean_m <= 0.005 && self.p95_m <= 0.010 && self.turned_deg <= 2.0
+    }
+}
+
+impl std::fmt::Display for Apart {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} cells: position mean {:.2} mm, p95 {:.2} mm, max {:.2} mm; orientation mean {:.2} deg",
+            self.cells,
+            self.mean_m * 1e3,
+            self.p95_m * 1e3,
+            self.max_m * 1e3,
+            self.turned_deg
+        )
+    }
+}
+
 /// The cells of `a` and `b` paired: on the same link, nearest first, each
 /// once. A skin numbers itself as its cells boot, so two runs give the same
 /// cells other IDs; where they were calibrated is what tells them apart.
@@ -330,12 +400,12 @@ fn paired<'c>(a: &'c Cells, b: &'c Cells) -> Vec<(&'c Cell, &'c Cell)> {
     out
 }
 
-/// Ignored: two minutes of real time (the robot runs on the wall clock),
-/// and real time needs the cores it runs on: on a machine loaded past its
-/// cores the host stalls (p99 20 ms, once 0.9 s, behind a 4 ms period),
-/// the robot moves on meanwhile, and the calibration's fits see time
-/// jump. Run it on a quiet machine, in release:
-/// `cargo test --release -p skin-host --features ros2 --test ros2_control -- --ignored`.
+/// Ignored: over two minutes of wall-clock time (the robot runs in real
+/// time, then the same run over the robot link), too long for CI; and on
+/// a machine loaded past its cores it is not yet reliable: the rclpy
+/// robot stalls past the 100 ms bound on a silent `/joint_states`, and
+/// some runs put cells in other body parts (docs/src/results/ros2.md).
+/// `cargo test -p skin-host --features ros2 --test ros2_control -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn a_ros2_control_robot_is_explored_and_calibrated_as_over_the_robot_link() {
@@ -396,19 +466,13 @@ fn a_ros2_control_robot_is_explored_and_calibrated_as_over_the_robot_link() {
     let _ = std::fs::remove_file(&urdf);
     let pairs = paired(&ros, &link);
     assert_eq!((ros.len(), link.len(), pairs.len()), (74, 74, 74), "every cell on the same link in both");
-    let mut apart_m: Vec<f64> =
-        pairs.iter().map(|(a, b)| (a.2.translation.vector - b.2.translation.vector).norm()).collect();
-    let turned_deg = pairs.iter().map(|(a, b)| a.2.rotation.angle_to(&b.2.rotation).to_degrees()).sum::<f64>() / 74.0;
-    apart_m.sort_by(f64::total_cmp);
-    let mean_m = apart_m.iter().sum::<f64>() / apart_m.len() as f64;
-    let p95_m = apart_m[(apart_m.len() - 1) * 95 / 100];
-    eprintln!(
-        "calibrations apart: position mean {:.2} mm, p95 {:.2} mm; orientation mean {turned_deg:.2} deg",
-        mean_m * 1e3,
-        p95_m * 1e3
-    );
+    let between = Apart::of(&pairs, &HashMap::new());
+    eprintln!("calibrations apart: {between}");
+    let (truth, unobservable) = truth();
+    let [ros_off, link_off] = [&ros, &link].map(|cells| Apart::of(&paired(cells, &truth), &unobservable));
+    eprintln!("against the truth, over ros2_control: {ros_off}; over the robot link: {link_off}");
     // The same cells make the same body parts, once paired.
-    let id_in_link: std::collections::HashMap<u16, u16> = pairs.iter().map(|(a, b)| (a.0, b.0)).collect();
+    let id_in_link: HashMap<u16, u16> = pairs.iter().map(|(a, b)| (a.0, b.0)).collect();
     let parts = |report: &Value, map: &dyn Fn(u16) -> u16| -> Vec<Vec<u16>> {
         let mut parts: Vec<Vec<u16>> = report["exploration"]["body_parts"]
             .as_array()
@@ -424,5 +488,6 @@ fn a_ros2_control_robot_is_explored_and_calibrated_as_over_the_robot_link() {
         parts
     };
     assert_eq!(parts(&over_ros, &|id| id_in_link[&id]), parts(&over_link, &|id| id), "the body parts' cells");
-    assert!(mean_m <= 0.005 && p95_m <= 0.010 && turned_deg <= 2.0, "the calibrations differ beyond the goals");
+    assert!(between.within_goals(), "the calibrations differ beyond the goals: {between}");
+    assert!(ros_off.within_goals(), "the calibration over ros2_control is off the truth beyond the goals: {ros_off}");
 }

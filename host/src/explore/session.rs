@@ -28,6 +28,12 @@ const MAX_SETTLE_S: f64 = 1.0;
 const REST_TICKS: usize = 5;
 const REST_MOTION: f64 = 1e-4;
 
+/// Ticks of a trace left out on either side of one that took other than
+/// one period of the robot's clock: the motion's central differences reach
+/// one tick beyond it, and the calibration's delay search up to three more
+/// (`CalibrateConfig::max_delay_ticks`), plus the fraction interpolated.
+const IRREGULAR_REACH_TICKS: usize = 5;
+
 /// Mean and spread of every cell's acceleration over a still window.
 #[derive(Clone, Debug)]
 pub(crate) struct Window {
@@ -64,6 +70,37 @@ impl Trace {
     /// Ticks recorded.
     pub fn len(&self) -> usize {
         self.q.len()
+    }
+
+    /// The ticks with a sample of any cell: a regression on the trace's
+    /// motion skips the others, which say nothing of any cell (ticks
+    /// [`Session::trace`] left out, or where the whole skin sent nothing).
+    pub fn sampled_ticks(&self) -> Vec<usize> {
+        let cells = self.saturated.len();
+        (0..self.len())
+            .filter(|&k| {
+                let samples = self.accel.get(k * cells..(k + 1) * cells).unwrap_or_default();
+                samples.iter().any(|a| a.iter().all(|x| x.is_finite()))
+            })
+            .collect()
+    }
+
+    /// Leaves out the samples of the ticks `irregular` and of those within
+    /// [`IRREGULAR_REACH_TICKS`] of them: the motion read there spans a
+    /// stretch of the robot's clock the feedback did not see.
+    fn leave_out(&mut self, irregular: &[usize]) {
+        let cells = self.saturated.len();
+        for &k in irregular {
+            let ticks = k.saturating_sub(IRREGULAR_REACH_TICKS)..(k + IRREGULAR_REACH_TICKS + 1).min(self.len());
+            self.accel[ticks.start * cells..ticks.end * cells].fill([f32::NAN; 3]);
+        }
+        if !irregular.is_empty() {
+            tracing::info!(
+                ticks = irregular.len(),
+                of = self.len(),
+                "ticks took other than one period of the robot's clock (the host fell behind it): their samples and those around them left out"
+            );
+        }
     }
 
     /// The traced DoF's motion at each tick from its position feedback
@@ -104,6 +141,12 @@ pub(crate) struct Session<'r, R> {
     fresh: Vec<bool>,
     saturated: Vec<bool>,
     command: Vec<f64>,
+    /// The robot's clock at the last feedback, s, where it tells it.
+    robot_s: Option<f64>,
+    /// The last tick took one period of the robot's clock (or it has none).
+    regular: bool,
+    /// Whether the user was told of irregular ticks.
+    warned_irregular: bool,
 }
 
 impl<'r, R: Robot + SampleSource> Session<'r, R> {
@@ -123,9 +166,9 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
         if cells.is_empty() {
             return Err(ExploreError::NoCells);
         }
-        let elapsed = s.elapsed_s;
+        let (elapsed, robot_s) = (s.elapsed_s, s.robot_s);
         let mut s = Session::with_cells(s.rig, cells, range);
-        s.elapsed_s = elapsed;
+        (s.elapsed_s, s.robot_s) = (elapsed, robot_s);
         Ok(s)
     }
 
@@ -146,6 +189,9 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
             fresh: vec![false; u],
             saturated: vec![false; u],
             command: vec![0.0; dofs],
+            robot_s: None,
+            regular: true,
+            warned_irregular: false,
         }
     }
 
@@ -193,6 +239,12 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
             return Err(RobotError::FeedbackNotFinite(d).into());
         }
         self.elapsed_s += self.tick_s;
+        let now = self.rig.robot_time_s();
+        self.regular = match (self.robot_s, now) {
+            (Some(before), Some(now)) => ((now - before) / self.tick_s - 1.0).abs() < 0.5,
+            _ => true,
+        };
+        self.robot_s = now;
         self.fresh.fill(false);
         for (addr, s) in &self.samples {
             // Cells that join after discovery are not part of this session.
@@ -265,6 +317,7 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
             start,
             saturated: vec![false; u],
         };
+        let mut irregular = Vec::new();
         self.command.fill(0.0);
         // A real joint lags a command faster than its motors can follow:
         // the trace goes on, commanding nothing, until the DoF has come to
@@ -279,6 +332,9 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
             let t = k as f64 * self.tick_s;
             self.command[dof] = if k < ticks { (phi(t + self.tick_s) - phi(t)) / self.tick_s } else { 0.0 };
             self.tick()?;
+            if !self.regular {
+                irregular.push(k);
+            }
             let q = self.rig.positions();
             trace.q.push(q[dof]);
             trace.positions.extend_from_slice(&q);
@@ -289,6 +345,12 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
             }
         }
         self.command.fill(0.0);
+        trace.leave_out(&irregular);
+        if !irregular.is_empty() && !std::mem::replace(&mut self.warned_irregular, true) {
+            tracing::warn!(
+                "the host fell behind the robot's clock: motion samples of ticks that took other than one period are left out of the fits (RUST_LOG=info counts them per motion)"
+            );
+        }
         Ok(trace)
     }
 
@@ -322,5 +384,77 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
 
     fn ticks(&self, seconds: f64) -> usize {
         (seconds / self.tick_s).round().max(0.0) as usize
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One DoF moving as commanded and one cell, on a robot clock that
+    /// runs `periods(k)` periods during tick `k` (a host that stalls
+    /// behind a real-time robot).
+    struct Stalling {
+        k: usize,
+        periods: fn(usize) -> u32,
+        q: f64,
+        command: f64,
+        time_s: f64,
+    }
+
+    const TICK_S: f64 = 0.004;
+
+    impl Robot for Stalling {
+        fn dof_names(&self) -> Vec<String> {
+            vec!["j".to_owned()]
+        }
+
+        fn command_velocities(&mut self, omega_rad_s: &[f64]) -> Result<(), RobotError> {
+            self.command = omega_rad_s[0];
+            Ok(())
+        }
+
+        fn positions(&self) -> Vec<f64> {
+            vec![self.q]
+        }
+    }
+
+    impl SampleSource for Stalling {
+        fn tick_s(&self) -> f64 {
+            TICK_S
+        }
+
+        fn next_tick(&mut self, out: &mut Vec<(Address, Sample)>) -> Result<(), RobotError> {
+            let periods = f64::from((self.periods)(self.k));
+            self.k += 1;
+            self.q += self.command * TICK_S * periods;
+            self.time_s += TICK_S * periods;
+            out.push((Address(1), Sample::saturating(0, [0; 3], [0, 0, 256], 0, self.k as u8)));
+            Ok(())
+        }
+
+        fn robot_time_s(&self) -> Option<f64> {
+            Some(self.time_s)
+        }
+    }
+
+    fn traced(periods: fn(usize) -> u32) -> Trace {
+        let mut rig = Stalling { k: 0, periods, q: 0.0, command: 0.0, time_s: 0.0 };
+        let mut session = Session::with_cells(&mut rig, vec![Address(1)], AccelRange::G2);
+        session.hold(0.04).unwrap();
+        session.trace(0, 0.2, |t| 0.1 * t).unwrap()
+    }
+
+    #[test]
+    fn samples_around_a_tick_the_robot_clock_ran_on_are_left_out() {
+        let regular = traced(|_| 1);
+        assert!(regular.accel.iter().all(|a| a.iter().all(|x| x.is_finite())), "a steady clock leaves every sample");
+        // The hold takes 10 ticks; trace tick 20 takes five periods.
+        let stalled = traced(|k| if k == 30 { 5 } else { 1 });
+        let missing: Vec<usize> = (0..stalled.len()).filter(|&k| stalled.accel[k][0].is_nan()).collect();
+        let reach = IRREGULAR_REACH_TICKS;
+        assert_eq!(missing, (20 - reach..=20 + reach).collect::<Vec<_>>());
+        // The feedback shows the robot ran on: the positions are kept.
+        assert!((stalled.q[20] - stalled.q[19] - 5.0 * 0.1 * TICK_S).abs() < 1e-12);
     }
 }

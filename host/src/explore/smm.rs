@@ -286,10 +286,11 @@ impl SensoryMotorMap {
                     }
                 }
                 Evaluation::Regression => {
-                    let rows = (0..trace.len()).map(|k| [1.0, phi[k], alpha[k], omega[k] * omega[k]]).collect();
+                    let ticks = trace.sampled_ticks();
+                    let rows = ticks.iter().map(|&k| [1.0, phi[k], alpha[k], omega[k] * omega[k]]).collect();
                     if let (Some(fit), Some(sigma)) = (LeastSquares::new(rows), sigma.as_mut()) {
                         for u in 0..u_count {
-                            let (w, s) = tangential_weight(&trace, u, u_count, &fit);
+                            let (w, s) = tangential_weight(&trace, &ticks, u, u_count, &fit);
                             raw[u * dofs + d] = w;
                             sigma[u * dofs + d] = s;
                         }
@@ -351,14 +352,14 @@ fn normal_weight(trace: &Trace, u: usize, cells: usize, lowpass: &Butterworth, a
 /// Standard errors a tangential term must exceed to give a weight.
 const SIGNIFICANT_SIGMAS: f64 = 6.0;
 
-/// The regression's weight for cell `u`, the normal share of the fitted
-/// tangential term with equation (11)'s sign, and its standard error. A
-/// term within the noise (or a trace with gaps) gives the defined weight 0
-/// with an infinite error.
-fn tangential_weight(trace: &Trace, u: usize, cells: usize, fit: &LeastSquares<4>) -> (f32, f32) {
+/// The regression's weight for cell `u` over the trace's `ticks`, the
+/// normal share of the fitted tangential term with equation (11)'s sign,
+/// and its standard error. A term within the noise (or a cell with gaps
+/// in those ticks) gives the defined weight 0 with an infinite error.
+fn tangential_weight(trace: &Trace, ticks: &[usize], u: usize, cells: usize, fit: &LeastSquares<4>) -> (f32, f32) {
     let (mut t, mut s) = ([0.0; 3], [0.0; 3]);
     for a in 0..3 {
-        let y: Vec<f64> = (0..trace.len()).map(|k| f64::from(trace.accel[k * cells + u][a])).collect();
+        let y: Vec<f64> = ticks.iter().map(|&k| f64::from(trace.accel[k * cells + u][a])).collect();
         match fit.fit_with_errors(&y) {
             Some((coefficients, errors)) => (t[a], s[a]) = (coefficients[2], errors[2]),
             None => return (0.0, f32::INFINITY),
@@ -374,4 +375,29 @@ fn tangential_weight(trace: &Trace, u: usize, cells: usize, fit: &LeastSquares<4
     // First-order propagation through w = -t_z / (|t_x| + |t_y| + |t_z|).
     let sigma = (s[2] * s[2] * (1.0 - w.abs()).powi(2) + w * w * (s[0] * s[0] + s[1] * s[1])).sqrt() / total;
     (w as f32, sigma as f32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ticks_left_out_of_a_trace_leave_the_weight_to_the_others() {
+        // One cell feeling the DoF's angular acceleration along its normal.
+        let tick = 0.004;
+        let q: Vec<f64> =
+            (1..=125).map(|k| 0.1 * (1.0 - (std::f64::consts::TAU * 2.0 * k as f64 * tick).cos())).collect();
+        let t =
+            Trace { accel: Vec::new(), q0: 0.0, q, start: Vec::new(), positions: Vec::new(), saturated: vec![false] };
+        let (phi, omega, alpha) = t.motion(tick);
+        let mut trace = Trace { accel: alpha.iter().map(|a| [0.0, 0.0, (0.5 * a) as f32]).collect(), ..t };
+        // A stall's ticks, as the session leaves them out.
+        trace.accel[40..51].fill([f32::NAN; 3]);
+        let ticks = trace.sampled_ticks();
+        assert_eq!(ticks.len(), 125 - 11);
+        let rows = ticks.iter().map(|&k| [1.0, phi[k], alpha[k], omega[k] * omega[k]]).collect();
+        let fit = LeastSquares::new(rows).unwrap();
+        let (w, sigma) = tangential_weight(&trace, &ticks, 0, 1, &fit);
+        assert!((w + 1.0).abs() < 1e-6 && sigma.is_finite(), "weight {w}, sigma {sigma}");
+    }
 }

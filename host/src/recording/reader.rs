@@ -25,8 +25,13 @@ pub enum Record {
     },
     /// A robot-link command: the velocities.
     Command(Vec<f64>),
-    /// A robot-link state: the positions.
-    State(Vec<f64>),
+    /// A robot-link state.
+    State {
+        /// The positions.
+        positions: Vec<f64>,
+        /// The robot's clock, microseconds.
+        time_us: u64,
+    },
     /// The exploration started.
     ExploreStart(ExploreStart),
 }
@@ -62,7 +67,7 @@ fn decode(topic: &str, cdr: &[u8]) -> Result<Option<Record>, String> {
             other => return Err(format!("{other:?} is not a command")),
         },
         STATE => match robot_link::decode(datagram(cdr)?.2).map_err(|e| e.to_string())? {
-            FromRobot::State { positions, .. } => Record::State(positions.to_vec()),
+            FromRobot::State { positions, time_us, .. } => Record::State { positions: positions.to_vec(), time_us },
             other => return Err(format!("{other:?} is not a state")),
         },
         EXPLORE_START => {

@@ -576,7 +576,7 @@ fn answer(ros: &mut Ros, request: ToRobot, last_seq: &mut Option<u32>, commandin
             // The robot's time is that of its /joint_states, so a robot
             // (or simulator) that runs slow is seen slow, as on the link.
             let first = *ros.first_stamp_s.get_or_insert(ros.stamp_s);
-            ros.time_us = ros.time_us.max(((ros.stamp_s - first).max(0.0) * 1e6) as u64);
+            ros.time_us = ros.time_us.max(((ros.stamp_s - first).max(0.0) * 1e6).round() as u64);
             FromRobot::State { seq, time_us: ros.time_us, positions: ros.positions.iter().copied().collect() }
         }
     }
