@@ -58,6 +58,17 @@ fn grasp_folder(dir: &Path, args: &[&str]) -> (Vec<Value>, f64) {
     (runs.as_array().expect("an array").clone(), started.elapsed().as_secs_f64())
 }
 
+/// The object files of `dir` grasped in each world.
+fn in_every_world(dir: &Path) -> Vec<Column<'static>> {
+    worlds()
+        .into_iter()
+        .map(|(world, flags)| {
+            let (runs, wall_s) = grasp_folder(dir, flags);
+            Column { world, runs, wall_s }
+        })
+        .collect()
+}
+
 fn scratch(name: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("skin-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -184,14 +195,10 @@ fn a_hundred_objects_anywhere_the_arms_reach_in_each_world() {
             std::fs::write(dir.join(format!("{name}.toml")), text + &placement_keys(&placement)).unwrap();
         }
     }
-    let columns: Vec<Column> = worlds()
-        .into_iter()
-        .map(|(world, flags)| {
-            let (runs, wall_s) = grasp_folder(&dir, flags);
-            assert_eq!(runs.len(), COUNT, "{world}");
-            Column { world, runs, wall_s }
-        })
-        .collect();
+    let columns = in_every_world(&dir);
+    for c in &columns {
+        assert_eq!(c.runs.len(), COUNT, "{}", c.world);
+    }
     println!(
         "objects seeds {SIDE_BY_SIDE_SEEDS:?}, {share} each, placed anywhere both arms reach\n{}",
         table(&columns)
@@ -216,13 +223,7 @@ fn objects_that_cannot_be_held_fail_without_pain() {
         let text = format!("name = \"{name}\"\nshape = {shape}\nmass_kg = {mass}\n{common}");
         std::fs::write(dir.join(format!("{name}.toml")), text).unwrap();
     }
-    let columns: Vec<Column> = worlds()
-        .into_iter()
-        .map(|(world, flags)| {
-            let (runs, wall_s) = grasp_folder(&dir, flags);
-            Column { world, runs, wall_s }
-        })
-        .collect();
+    let columns = in_every_world(&dir);
     println!("{}", table(&columns));
     for Column { world, runs, .. } in &columns {
         assert_eq!(runs.len(), 2, "{world}");
