@@ -471,9 +471,12 @@ pub fn grasp<R: Robot + SampleSource>(
 }
 
 /// Notes in `seen` the first pain, the first moment on the floor and the
-/// first moment of the hold phase (from the controller's first Hold until
-/// the pat that releases, `released`) the truth does not call the object
-/// held, at `t` (s after the launching pat), pain at `pain_n`.
+/// first moment of the hold phase the truth does not call the object held,
+/// at `t` (s after the launching pat), pain at `pain_n`. The hold phase is
+/// the controller's last stay in Hold before the pat that releases
+/// (`released`): an arm that slips makes it pull again, and what the truth
+/// saw in a stay that ended so is the grasp settling, not the hold (an
+/// object that falls meanwhile is dropped all the same).
 fn watch_for_failure(
     seen: &mut verdict::Seen,
     watched: &Watched,
@@ -496,9 +499,14 @@ fn watch_for_failure(
     if seen.dropped.is_none() && watched.object.is_some_and(|o| o.fallen) {
         seen.dropped = Some(t);
     }
-    seen.reached_hold |= state == Some(State::Hold);
-    if seen.reached_hold && !released && seen.lost_in_hold.is_none() {
-        seen.lost_in_hold = watched.object.and_then(|o| o.not_held()).map(|why| (t, why));
+    let holding = state == Some(State::Hold);
+    seen.reached_hold |= holding;
+    if !released {
+        if !holding {
+            seen.lost_in_hold = None;
+        } else if seen.lost_in_hold.is_none() {
+            seen.lost_in_hold = watched.object.and_then(|o| o.not_held()).map(|why| (t, why));
+        }
     }
 }
 

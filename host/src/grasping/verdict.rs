@@ -1,8 +1,8 @@
 //! The verdict on one grasp, by the simulator's truth.
 //!
 //! The controller reaching Hold is its own belief; what counts is what the
-//! person at the robot sees: through the whole hold phase, from the
-//! controller's first Hold to the pat that releases, is the object between
+//! person at the robot sees: through the whole hold phase, the controller's
+//! last stay in Hold before the pat that releases, is the object between
 //! the arms, against the chest, both arms on it and (where objects can be
 //! lifted) carried by the robot alone (see [`skin_sim::scene::held`])?
 //! Anything else is a failure with a reason, the robot time it was decided
@@ -109,9 +109,9 @@ pub struct Seen {
     pub timed_out: Option<f64>,
     /// The controller reached Hold.
     pub reached_hold: bool,
-    /// The first moment of the hold phase (from the controller's first
-    /// Hold to the pat that releases) the truth did not call the object
-    /// held, and why.
+    /// The first moment of the hold phase (the controller's last stay in
+    /// Hold before the pat that releases) the truth did not call the
+    /// object held, and why.
     pub lost_in_hold: Option<(f64, NotHeld)>,
     /// The truth when the person patted to release: held (none) or why
     /// not; no object at all is [`Why::NoObject`]. None: never released.
