@@ -21,6 +21,8 @@
 
 pub mod verdict;
 
+use std::time::Instant;
+
 use serde::Serialize;
 use skin_protocol::{Address, Sample};
 use skin_sim::scene::force::Calibration;
@@ -139,8 +141,8 @@ pub struct TraceRow {
     pub force: [f64; 3],
     /// Per touch area (right arm, left arm, chest): highest proximity.
     pub proximity: [f64; 3],
-    /// Ground truth: how far the object is from the chest's skin, m.
-    pub object_gap_m: Option<f64>,
+    /// Ground truth: where the object is and what presses on it.
+    pub object: Option<ObjectTruth>,
 }
 
 /// What the person said they saw during one grasp.
@@ -192,6 +194,8 @@ pub struct GraspRun {
     pub succeeded: bool,
     /// Why not (none: held).
     pub reason: Option<verdict::Failure>,
+    /// When the failure was decided and what decided it (none: held).
+    pub failed: Option<verdict::Failed>,
     /// What the truth said when the person patted to release (none: the
     /// controller never held it that long).
     pub at_release: Option<ObjectTruth>,
@@ -213,6 +217,8 @@ pub struct GraspRun {
     pub bare_force_max_n: Option<f64>,
     /// Pain-level touches the controller evaded.
     pub pain_events: usize,
+    /// Wall time of the grasp, from going home to the object taken away, s.
+    pub wall_s: f64,
     /// Every transition.
     pub state_log: Vec<Logged>,
     /// What the skin felt, at 50 Hz.
@@ -374,6 +380,7 @@ pub fn grasp<R: Robot + SampleSource>(
     object: Option<&ObjectAt>,
     params: &Params,
 ) -> Result<GraspRun, GraspError> {
+    let started = Instant::now();
     let mut lab = Lab::new(robot, person);
     lab.go_home(taught.poses.get("home")?, params.timing)?;
     lab.person.order(Order::Place(object.cloned()))?;
@@ -385,9 +392,11 @@ pub fn grasp<R: Robot + SampleSource>(
     let (mut launched, mut held_s, mut released) = (false, 0.0, false);
     let mut watched = Watched::default();
     let mut at_release = None;
+    let mut seen = verdict::Seen::default();
+    let pain_n = Calibration::default().force(f64::from(params.levels.force[3]));
     let mut trace = Vec::new();
     let mut next_row = launch;
-    let (end, timed_out) = loop {
+    let end = loop {
         let t = lab.time_s;
         // Released once held for HOLD_S in all (an arm that lets go pulls
         // again meanwhile), at a moment it holds.
@@ -398,6 +407,11 @@ pub fn grasp<R: Robot + SampleSource>(
         let release = holding && held_s >= HOLD_S && !std::mem::replace(&mut released, true);
         if release {
             at_release = Some(watched.object);
+            let truth = watched.object.map_or(Err(verdict::Why::NoObject), |o| match o.not_held() {
+                None => Ok(()),
+                Some(why) => Err(verdict::Why::NotHeld(why)),
+            });
+            seen.at_release = Some((t - launch, truth));
         }
         if (t >= launch && !std::mem::replace(&mut launched, true)) || release {
             lab.person.order(Order::Pat)?;
@@ -407,17 +421,18 @@ pub fn grasp<R: Robot + SampleSource>(
             watched.hear(&note);
         }
         let t = lab.time_s;
+        watch_for_failure(&mut seen, &watched, &c, (t - launch, pain_n), released);
         if t >= next_row {
             next_row += 1.0 / TRACE_HZ;
-            let gap = watched.object.map(|o| o.gap_m);
-            trace.push(row(&c, &areas, lab.robot.positions(), t - launch, gap));
+            trace.push(row(&c, &areas, lab.robot.positions(), t - launch, watched.object));
         }
         let state = c.state().expect("grasp mode");
         if launched && matches!(state, State::Done | State::Cancelled) {
-            break (state, false);
+            break state;
         }
         if t - launch > GRASP_LIMIT_S {
-            break (state, true);
+            seen.timed_out = Some(t - launch);
+            break state;
         }
     };
     lab.person.order(Order::Place(None))?;
@@ -427,25 +442,17 @@ pub fn grasp<R: Robot + SampleSource>(
     let state_log: Vec<Logged> =
         c.transitions().iter().map(|tr| Logged { state: tr.to, time_s: tr.time_s - launch, cause: tr.cause }).collect();
     let pain_events = state_log.iter().filter(|l| l.cause == Cause::Pain).count();
-    let pain_n = Calibration::default().force(f64::from(params.levels.force[3]));
-    let seen = verdict::Seen {
-        pain: pain_events > 0
-            || watched.max_force_n >= pain_n
-            || watched.bare_force_max_n.is_some_and(|f| f > BARE_PAIN_N),
-        timed_out,
-        reached_hold: state_log.iter().any(|l| l.state == State::Hold),
-        held_at_release: at_release.map(|o| o.is_some_and(|o: ObjectTruth| o.held())),
-        ever_gripped: watched.ever_gripped,
-        cancelled_by: state_log.iter().find(|l| l.state == State::Cancel).map(|l| l.cause),
-        dropped: watched.object.is_some_and(|o| o.fallen),
-    };
+    seen.cancelled_by = state_log.iter().find(|l| l.state == State::Cancel).map(|l| (l.time_s, l.cause));
+    seen.ever_gripped = watched.ever_gripped;
+    seen.end_s = lab.time_s - launch;
     let verdict = verdict::judge(&seen);
     let run = GraspRun {
         object: object.map_or("none", |o| &o.object.name).to_owned(),
         placement: object
             .map(|o| PlacementJson { offset_m: o.placement.offset_m.into(), yaw_rad: o.placement.yaw_rad }),
         succeeded: verdict.is_ok(),
-        reason: verdict.err(),
+        reason: verdict.err().map(|(reason, _)| reason),
+        failed: verdict.err().map(|(_, failed)| failed),
         at_release: at_release.flatten(),
         controller_state: end,
         time_s: state_log.last().map_or(0.0, |l| l.time_s),
@@ -454,12 +461,53 @@ pub fn grasp<R: Robot + SampleSource>(
         max_cell_force_n: watched.max_force_n,
         bare_force_max_n: watched.bare_force_max_n,
         pain_events,
+        wall_s: started.elapsed().as_secs_f64(),
         state_log,
         trace,
         dof_names: lab.robot.dof_names(),
     };
     info!(object = run.object, succeeded = run.succeeded, reason = ?run.reason, controller_state = ?run.controller_state, "grasp");
     Ok(run)
+}
+
+/// Notes in `seen` the first pain, the first moment on the floor and the
+/// first moment of the hold phase the truth does not call the object held,
+/// at `t` (s after the launching pat), pain at `pain_n`. The hold phase is
+/// the controller's last stay in Hold before the pat that releases
+/// (`released`): an arm that slips makes it pull again, and what the truth
+/// saw in a stay that ended so is the grasp settling, not the hold (an
+/// object that falls meanwhile is dropped all the same).
+fn watch_for_failure(
+    seen: &mut verdict::Seen,
+    watched: &Watched,
+    c: &Controller,
+    (t, pain_n): (f64, f64),
+    released: bool,
+) {
+    let state = c.state();
+    if seen.pain.is_none() {
+        seen.pain = if state == Some(State::Evade) {
+            Some((t, verdict::Why::Controller(Cause::Pain)))
+        } else if watched.max_force_n >= pain_n {
+            Some((t, verdict::Why::CellPain))
+        } else if watched.bare_force_max_n.is_some_and(|f| f > BARE_PAIN_N) {
+            Some((t, verdict::Why::BarePain))
+        } else {
+            None
+        };
+    }
+    if seen.dropped.is_none() && watched.object.is_some_and(|o| o.fallen) {
+        seen.dropped = Some(t);
+    }
+    let holding = state == Some(State::Hold);
+    seen.reached_hold |= holding;
+    if !released {
+        if !holding {
+            seen.lost_in_hold = None;
+        } else if seen.lost_in_hold.is_none() {
+            seen.lost_in_hold = watched.object.and_then(|o| o.not_held()).map(|why| (t, why));
+        }
+    }
 }
 
 /// The traced areas: right arm, left arm and chest (by kind and order).
@@ -473,7 +521,7 @@ fn row(
     areas: &[Option<AreaId>; 3],
     joints_rad: Vec<f64>,
     time_s: f64,
-    object_gap_m: Option<f64>,
+    object: Option<ObjectTruth>,
 ) -> TraceRow {
     let mut force = [0.0; 3];
     let mut proximity = [0.0f64; 3];
@@ -484,5 +532,5 @@ fn row(
             proximity[k] = proximity[k].max(s.proximity);
         }
     }
-    TraceRow { time_s, state: c.state().expect("grasp mode"), joints_rad, force, proximity, object_gap_m }
+    TraceRow { time_s, state: c.state().expect("grasp mode"), joints_rad, force, proximity, object }
 }

@@ -108,6 +108,11 @@ fn summary(exploration_s: f64, taught: &Taught, runs: &[GraspRun], written: &[Pa
             r.pain_events
         );
     }
+    for r in runs {
+        if let (Some(why), Some(failed)) = (r.reason, r.failed) {
+            s += &format!("{}: {} {failed}\n", r.object, why.name());
+        }
+    }
     for f in written {
         s += &format!("wrote {}\n", f.display());
     }

@@ -1,11 +1,16 @@
 //! The verdict on one grasp, by the simulator's truth.
 //!
 //! The controller reaching Hold is its own belief; what counts is what the
-//! person at the robot sees: at the moment they pat to release, is the
-//! object between the arms, against the chest, with both arms on it (see
-//! [`skin_sim::scene::held`])? Anything else is a failure with a reason.
+//! person at the robot sees: through the whole hold phase, the controller's
+//! last stay in Hold before the pat that releases, is the object between
+//! the arms, against the chest, both arms on it and (where objects can be
+//! lifted) carried by the robot alone (see [`skin_sim::scene::held`])?
+//! Anything else is a failure with a reason, the robot time it was decided
+//! and what decided it.
 
 use serde::Serialize;
+
+use skin_sim::scene::held::NotHeld;
 
 use crate::control::grasp::Cause;
 
@@ -46,45 +51,109 @@ impl Failure {
     }
 }
 
-/// What was seen of one grasp.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Seen {
-    /// A cell felt pain-level force (the truth), or the controller evaded pain.
-    pub pain: bool,
+/// What decided that a grasp failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Why {
+    /// The truth: the object was not held, for this reason.
+    NotHeld(NotHeld),
+    /// The controller's transition, for this cause (pain evaded, a
+    /// cancel).
+    Controller(Cause),
+    /// A force cell felt pain-level force.
+    CellPain,
+    /// The object pressed the robot's bare surface above the bound.
+    BarePain,
     /// The grasp was still running at the time limit.
-    pub timed_out: bool,
-    /// The controller reached Hold.
-    pub reached_hold: bool,
-    /// The truth when the person patted to release: held or not (none:
-    /// never released).
-    pub held_at_release: Option<bool>,
-    /// The truth saw both arms on the object at some time.
-    pub ever_gripped: bool,
-    /// Why the controller cancelled, if it did.
-    pub cancelled_by: Option<Cause>,
-    /// The truth saw the object on the floor by the end.
-    pub dropped: bool,
+    TimeLimit,
+    /// Nothing was put between the arms.
+    NoObject,
 }
 
-/// Held (`Ok`), or why not.
-pub fn judge(seen: &Seen) -> Result<(), Failure> {
-    if seen.pain {
-        return Err(Failure::Pain);
+/// When a grasp failed and what decided it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Failed {
+    /// Robot time after the launching pat, s.
+    pub time_s: f64,
+    /// What decided it.
+    pub why: Why,
+}
+
+impl std::fmt::Display for Why {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Why::NotHeld(n) => f.write_str(n.describe()),
+            Why::Controller(c) => write!(f, "the controller: {c:?}"),
+            Why::CellPain => f.write_str("a force cell at the pain level"),
+            Why::BarePain => f.write_str("bare surface pressed above the pain bound"),
+            Why::TimeLimit => f.write_str("still running at the time limit"),
+            Why::NoObject => f.write_str("nothing was put down"),
+        }
     }
-    if seen.timed_out {
-        return Err(Failure::TimeOut);
+}
+
+impl std::fmt::Display for Failed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "at {:.1} s: {}", self.time_s, self.why)
     }
-    if seen.dropped {
-        return Err(Failure::Dropped);
+}
+
+/// What was seen of one grasp, each with its robot time after the
+/// launching pat, s.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Seen {
+    /// The first pain: the controller evading it, or the truth's force
+    /// above the pain level on a cell or above the bound on bare surface.
+    pub pain: Option<(f64, Why)>,
+    /// The grasp was still running at the time limit.
+    pub timed_out: Option<f64>,
+    /// The controller reached Hold.
+    pub reached_hold: bool,
+    /// The first moment of the hold phase (the controller's last stay in
+    /// Hold before the pat that releases) the truth did not call the
+    /// object held, and why.
+    pub lost_in_hold: Option<(f64, NotHeld)>,
+    /// The truth when the person patted to release: held (none) or why
+    /// not; no object at all is [`Why::NoObject`]. None: never released.
+    pub at_release: Option<(f64, Result<(), Why>)>,
+    /// The truth saw both arms on the object at some time.
+    pub ever_gripped: bool,
+    /// When and why the controller cancelled, if it did.
+    pub cancelled_by: Option<(f64, Cause)>,
+    /// When the truth first saw the object on the floor.
+    pub dropped: Option<f64>,
+    /// When the grasp ended.
+    pub end_s: f64,
+}
+
+/// Held (`Ok`), or why not and when.
+pub fn judge(seen: &Seen) -> Result<(), (Failure, Failed)> {
+    let fail = |reason, time_s, why| Err((reason, Failed { time_s, why }));
+    if let Some((t, why)) = seen.pain {
+        return fail(Failure::Pain, t, why);
+    }
+    if let Some(t) = seen.timed_out {
+        return fail(Failure::TimeOut, t, Why::TimeLimit);
+    }
+    if let Some(t) = seen.dropped {
+        return fail(Failure::Dropped, t, Why::NotHeld(NotHeld::Fallen));
+    }
+    if let Some((t, why)) = seen.lost_in_hold {
+        return fail(Failure::Slipped, t, Why::NotHeld(why));
     }
     let lost = if seen.ever_gripped { Failure::Slipped } else { Failure::Missed };
-    match (seen.held_at_release, seen.cancelled_by) {
-        (Some(true), _) => Ok(()),
-        (Some(false), _) => Err(lost),
-        (None, Some(Cause::ContactLost)) => Err(lost),
-        (None, _) if seen.reached_hold => Err(lost),
-        (None, Some(Cause::Reached | Cause::Stalled)) if !seen.ever_gripped => Err(Failure::Missed),
-        (None, _) => Err(Failure::Cancelled),
+    match (seen.at_release, seen.cancelled_by) {
+        (Some((_, Ok(()))), _) => Ok(()),
+        (Some((t, Err(why))), _) => fail(lost, t, why),
+        (None, Some((t, c @ Cause::ContactLost))) => fail(lost, t, Why::Controller(c)),
+        (None, Some((t, c))) if seen.reached_hold => fail(lost, t, Why::Controller(c)),
+        (None, Some((t, c @ (Cause::Reached | Cause::Stalled)))) if !seen.ever_gripped => {
+            fail(Failure::Missed, t, Why::Controller(c))
+        }
+        (None, Some((t, c))) => fail(Failure::Cancelled, t, Why::Controller(c)),
+        // Neither released nor cancelled: the grasp ran out of time,
+        // which is decided above.
+        (None, None) => fail(Failure::TimeOut, seen.end_s, Why::TimeLimit),
     }
 }
 
@@ -93,28 +162,49 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_truth_decides_and_each_failure_has_its_reason() {
-        let held = Seen { reached_hold: true, held_at_release: Some(true), ever_gripped: true, ..Seen::default() };
+    fn the_truth_decides_and_each_failure_has_its_reason_and_time() {
+        let held = Seen { reached_hold: true, at_release: Some((5.0, Ok(()))), ever_gripped: true, ..Seen::default() };
         assert_eq!(judge(&held), Ok(()));
+        let failed = |seen: &Seen| judge(seen).unwrap_err();
         // The controller believed it held; the truth says no.
-        let believed = Seen { held_at_release: Some(false), ..held };
-        assert_eq!(judge(&believed), Err(Failure::Slipped));
-        assert_eq!(judge(&Seen { ever_gripped: false, ..believed }), Err(Failure::Missed));
-        assert_eq!(judge(&Seen { pain: true, ..held }), Err(Failure::Pain), "pain fails even a hold");
-        assert_eq!(judge(&Seen { dropped: true, ..believed }), Err(Failure::Dropped), "on the floor");
-        let running = Seen { timed_out: true, ..Seen::default() };
-        assert_eq!(judge(&running), Err(Failure::TimeOut));
-        let closed_on_nothing = Seen { cancelled_by: Some(Cause::Reached), ..Seen::default() };
-        assert_eq!(judge(&closed_on_nothing), Err(Failure::Missed));
-        let lost = Seen { ever_gripped: true, cancelled_by: Some(Cause::ContactLost), ..Seen::default() };
-        assert_eq!(judge(&lost), Err(Failure::Slipped));
-        let lost_in_hold =
-            Seen { reached_hold: true, ever_gripped: true, cancelled_by: Some(Cause::ContactLost), ..Seen::default() };
-        assert_eq!(judge(&lost_in_hold), Err(Failure::Slipped));
-        let patted = Seen { ever_gripped: true, cancelled_by: Some(Cause::Pat), ..Seen::default() };
-        assert_eq!(judge(&patted), Err(Failure::Cancelled));
-        let wrist = Seen { cancelled_by: Some(Cause::NonContactForce), ..Seen::default() };
-        assert_eq!(judge(&wrist), Err(Failure::Cancelled));
+        let off = Why::NotHeld(NotHeld::OffChest);
+        let believed = Seen { at_release: Some((5.0, Err(off))), ..held };
+        assert_eq!(failed(&believed), (Failure::Slipped, Failed { time_s: 5.0, why: off }));
+        assert_eq!(failed(&Seen { ever_gripped: false, ..believed }).0, Failure::Missed);
+        // Held at release, but it sat on its support for a while in between.
+        let resting = Seen { lost_in_hold: Some((3.2, NotHeld::Resting)), ..held };
+        let why = Why::NotHeld(NotHeld::Resting);
+        assert_eq!(failed(&resting), (Failure::Slipped, Failed { time_s: 3.2, why }));
+        let pain = Seen { pain: Some((2.0, Why::BarePain)), ..held };
+        assert_eq!(
+            failed(&pain),
+            (Failure::Pain, Failed { time_s: 2.0, why: Why::BarePain }),
+            "pain fails even a hold"
+        );
+        let fell = Seen { dropped: Some(4.0), ..resting };
+        assert_eq!(failed(&fell), (Failure::Dropped, Failed { time_s: 4.0, why: Why::NotHeld(NotHeld::Fallen) }));
+        let running = Seen { timed_out: Some(180.0), ..Seen::default() };
+        assert_eq!(failed(&running), (Failure::TimeOut, Failed { time_s: 180.0, why: Why::TimeLimit }));
+        let cancel = |t: f64, c: Cause| Some((t, c));
+        let closed_on_nothing = Seen { cancelled_by: cancel(6.0, Cause::Reached), ..Seen::default() };
+        let reached = Failed { time_s: 6.0, why: Why::Controller(Cause::Reached) };
+        assert_eq!(failed(&closed_on_nothing), (Failure::Missed, reached));
+        let lost = Seen { ever_gripped: true, cancelled_by: cancel(7.0, Cause::ContactLost), ..Seen::default() };
+        assert_eq!(failed(&lost).0, Failure::Slipped);
+        let lost_in_hold = Seen { reached_hold: true, ..lost };
+        assert_eq!(failed(&lost_in_hold).0, Failure::Slipped);
+        let patted = Seen { ever_gripped: true, cancelled_by: cancel(1.0, Cause::Pat), ..Seen::default() };
+        assert_eq!(failed(&patted), (Failure::Cancelled, Failed { time_s: 1.0, why: Why::Controller(Cause::Pat) }));
+        let wrist = Seen { cancelled_by: cancel(2.5, Cause::NonContactForce), ..Seen::default() };
+        assert_eq!(failed(&wrist).0, Failure::Cancelled);
+    }
+
+    #[test]
+    fn why_reads_as_json() {
+        let to = |w: Why| serde_json::to_value(w).unwrap();
+        assert_eq!(to(Why::NotHeld(NotHeld::Resting)), serde_json::json!({ "not_held": "resting" }));
+        assert_eq!(to(Why::Controller(Cause::ContactLost)), serde_json::json!({ "controller": "contact_lost" }));
+        assert_eq!(to(Why::BarePain), "bare_pain");
     }
 
     #[test]

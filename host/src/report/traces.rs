@@ -5,6 +5,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::ReportError;
+use skin_sim::scene::held::ObjectTruth;
+
 use crate::grasping::GraspRun;
 
 /// Writes each run's trace as `<object>.csv` and `<object>.svg` into `dir`
@@ -30,7 +32,10 @@ fn trace_csv(run: &GraspRun) -> String {
     for d in 0..dofs {
         let _ = write!(s, ",q{d}_rad");
     }
-    s.push_str(",force_right,force_left,force_chest,proximity_right,proximity_left,proximity_chest,object_gap_m\n");
+    s.push_str(",force_right,force_left,force_chest,proximity_right,proximity_left,proximity_chest");
+    s.push_str(
+        ",object_x_m,object_y_m,object_z_m,object_force_right_n,object_force_left_n,object_force_body_n,object_gap_m\n",
+    );
     for r in &run.trace {
         let _ = write!(s, "{:.3},{}", r.time_s, r.state.name());
         for q in &r.joints_rad {
@@ -39,7 +44,14 @@ fn trace_csv(run: &GraspRun) -> String {
         for v in r.force.iter().chain(&r.proximity) {
             let _ = write!(s, ",{v:.4}");
         }
-        let _ = writeln!(s, ",{}", r.object_gap_m.map_or(String::new(), |g| format!("{g:.4}")));
+        match &r.object {
+            Some(o) => {
+                let [x, y, z] = o.centre_m;
+                let [right, left] = o.arm_force_n;
+                let _ = writeln!(s, ",{x:.4},{y:.4},{z:.4},{right:.3},{left:.3},{:.3},{:.4}", o.body_force_n, o.gap_m);
+            }
+            None => s.push_str(",,,,,,,\n"),
+        }
     }
     s
 }
@@ -60,17 +72,19 @@ fn most_moved(run: &GraspRun, n: usize) -> Vec<usize> {
     by_span
 }
 
-/// Figure 18: joints, forces and proximity against time, with the states.
+/// Figure 18: joints, forces and proximity against time, with the states;
+/// below, by the simulator's truth, the object's path (its centre) and the
+/// contact forces it exerts on each arm and the rest of the robot.
 fn plot(run: &GraspRun, path: &Path) -> Result<(), Box<dyn std::error::Error>> {
     use plotters::prelude::*;
-    let root = SVGBackend::new(path, (900, 720)).into_drawing_area();
+    let root = SVGBackend::new(path, (900, 1200)).into_drawing_area();
     root.fill(&WHITE)?;
-    let panels = root.split_evenly((3, 1));
+    let panels = root.split_evenly((5, 1));
     let end = run.trace.last().map_or(1.0, |r| r.time_s).max(1.0);
     let names = ["right arm", "left arm", "chest"];
     let colours = [RED, BLUE, BLACK];
     type Series<'a> = Vec<(String, RGBColor, Vec<(f64, f64)>)>;
-    let mut series: [Series<'_>; 3] = [Vec::new(), Vec::new(), Vec::new()];
+    let mut series: [Series<'_>; 5] = Default::default();
     for (k, d) in most_moved(run, 4).into_iter().enumerate() {
         let c = [RED, MAGENTA, BLUE, CYAN][k];
         series[0].push((
@@ -83,14 +97,32 @@ fn plot(run: &GraspRun, path: &Path) -> Result<(), Box<dyn std::error::Error>> {
         series[1].push((name.to_owned(), colours[k], run.trace.iter().map(|r| (r.time_s, r.force[k])).collect()));
         series[2].push((name.to_owned(), colours[k], run.trace.iter().map(|r| (r.time_s, r.proximity[k])).collect()));
     }
+    let truth = |f: fn(&ObjectTruth) -> f64| -> Vec<(f64, f64)> {
+        run.trace.iter().filter_map(|r| r.object.as_ref().map(|o| (r.time_s, f(o)))).collect()
+    };
+    type Of = fn(&ObjectTruth) -> f64;
+    let centre: [(&str, Of); 3] =
+        [("x (forward)", |o| o.centre_m[0]), ("y (left)", |o| o.centre_m[1]), ("z (up)", |o| o.centre_m[2])];
+    let forces: [(&str, Of); 3] =
+        [("right arm", |o| o.arm_force_n[0]), ("left arm", |o| o.arm_force_n[1]), ("chest", |o| o.body_force_n)];
+    for (k, ((axis, x), (name, f))) in centre.into_iter().zip(forces).enumerate() {
+        series[3].push((axis.to_owned(), colours[k], truth(x)));
+        series[4].push((name.to_owned(), colours[k], truth(f)));
+    }
+    // Each panel's title, and whether its axis starts at zero (the
+    // object's path is drawn around its values alone).
     let titles = [
-        format!("{}: joint positions (rad)", run.object),
-        "force: summed normalized readings".to_owned(),
-        "pre-contact: highest proximity intensity".to_owned(),
+        (format!("{}: joint positions (rad)", run.object), true),
+        ("force: summed normalized readings".to_owned(), true),
+        ("pre-contact: highest proximity intensity".to_owned(), true),
+        ("truth: the object's centre (m)".to_owned(), false),
+        ("truth: the object's contact force, skin and bare surface (N)".to_owned(), true),
     ];
-    for ((panel, lines), title) in panels.iter().zip(&series).zip(titles) {
+    for ((panel, lines), (title, from_zero)) in panels.iter().zip(&series).zip(titles) {
+        let first = lines.iter().flat_map(|l| l.2.first()).map(|p| p.1).next();
+        let start = if from_zero { 0.0 } else { first.unwrap_or(0.0) };
         let (lo, hi) =
-            lines.iter().flat_map(|l| l.2.iter().map(|p| p.1)).fold((0.0f64, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+            lines.iter().flat_map(|l| l.2.iter().map(|p| p.1)).fold((start, start), |(a, b), v| (a.min(v), b.max(v)));
         let hi = if hi - lo < 1e-6 { lo + 1.0 } else { hi + 0.05 * (hi - lo) };
         let mut chart = ChartBuilder::on(panel)
             .caption(title, ("sans-serif", 16))

@@ -313,7 +313,7 @@ fn ring(
 }
 
 /// Points about 1.5 cm apart on a link's collision shapes, link frame.
-fn surface_points(surface: &Surface) -> Vec<Point3<f64>> {
+pub(super) fn surface_points(surface: &Surface) -> Vec<Point3<f64>> {
     const STEP: f64 = 0.015;
     let steps = |length: f64| (length / STEP).ceil().max(1.0) as usize;
     let spread = |length: f64| {

@@ -47,8 +47,12 @@ impl Arm {
 pub struct ObjectTruth {
     /// How far the object is from the chest's skin, m.
     pub gap_m: f64,
+    /// Where its centre is (world frame), m.
+    pub centre_m: [f64; 3],
     /// The object's force on the skin of each arm (right, left), N.
     pub arm_force_n: [f64; 2],
+    /// Its force on the rest of the robot (the chest), N.
+    pub body_force_n: f64,
     /// Each arm presses from its own side of the object's centre.
     pub between_arms: bool,
     /// Whether something other than the robot carries it (its support, the
@@ -69,10 +73,14 @@ impl ObjectTruth {
         contacts: &[Contact],
     ) -> ObjectTruth {
         let mut force = [0.0; 2];
+        let mut body_force_n = 0.0;
         // Force-weighted sideways position of each arm's contacts.
         let mut weighted_y = [0.0; 2];
         for c in contacts {
-            let Some(Some(arm)) = arms.get(c.cell) else { continue };
+            let Some(Some(arm)) = arms.get(c.cell) else {
+                body_force_n += c.force_n;
+                continue;
+            };
             let k = *arm as usize;
             force[k] += c.force_n;
             weighted_y[k] += c.force_n * c.point.y;
@@ -83,7 +91,9 @@ impl ObjectTruth {
             touched == [true, true] && weighted_y[0] / force[0] < centre_y && weighted_y[1] / force[1] > centre_y;
         ObjectTruth {
             gap_m: gap_to_chest_m(placed, back_m, skin_offset_m),
+            centre_m: placed.pose.translation.vector.into(),
             arm_force_n: force,
+            body_force_n,
             between_arms,
             resting: None,
             fallen: false,
@@ -103,7 +113,60 @@ impl ObjectTruth {
     /// Held: hugged, and carried by the robot alone where it could rest
     /// on something else.
     pub fn held(&self) -> bool {
-        self.hugged() && self.resting != Some(true) && !self.fallen
+        self.not_held().is_none()
+    }
+
+    /// Why the object is not held, the first of: on the floor, on its
+    /// support, an arm off it, not between the arms, away from the chest;
+    /// none when it is held.
+    pub fn not_held(&self) -> Option<NotHeld> {
+        if self.fallen {
+            Some(NotHeld::Fallen)
+        } else if self.resting == Some(true) {
+            Some(NotHeld::Resting)
+        } else if self.arm_force_n[0] < ARM_CONTACT_N {
+            Some(NotHeld::RightArmOff)
+        } else if self.arm_force_n[1] < ARM_CONTACT_N {
+            Some(NotHeld::LeftArmOff)
+        } else if !self.between_arms {
+            Some(NotHeld::NotBetweenArms)
+        } else if self.gap_m > AGAINST_CHEST_M {
+            Some(NotHeld::OffChest)
+        } else {
+            None
+        }
+    }
+}
+
+/// Why the truth does not call an object held.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NotHeld {
+    /// It lies on the floor.
+    Fallen,
+    /// Something other than the robot carries it (its support).
+    Resting,
+    /// The right arm does not press on it.
+    RightArmOff,
+    /// The left arm does not press on it.
+    LeftArmOff,
+    /// The arms do not press from either side of its centre.
+    NotBetweenArms,
+    /// It is more than [`AGAINST_CHEST_M`] from the chest's skin.
+    OffChest,
+}
+
+impl NotHeld {
+    /// What a person would say of it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            NotHeld::Fallen => "on the floor",
+            NotHeld::Resting => "standing on its support",
+            NotHeld::RightArmOff => "the right arm off it",
+            NotHeld::LeftArmOff => "the left arm off it",
+            NotHeld::NotBetweenArms => "not between the arms",
+            NotHeld::OffChest => "away from the chest",
+        }
     }
 }
 
@@ -132,6 +195,7 @@ mod tests {
         let truth = ObjectTruth::observe(&placed(0.0), 0.06, 0.008, &arms, &press);
         assert!((truth.gap_m - 0.002).abs() < 1e-12);
         assert_eq!(truth.arm_force_n, [0.1, 0.1], "the chest's force is no arm's; bare surface counts");
+        assert_eq!((truth.body_force_n, truth.centre_m), (3.0, [0.2, 0.0, 0.15]));
         assert!(truth.between_arms && truth.held());
         let far = ObjectTruth::observe(&placed(0.0), 0.03, 0.008, &arms, &press);
         assert!(far.gripped() && !far.held(), "3.2 cm from the chest");
@@ -140,6 +204,14 @@ mod tests {
         // Both arms on the object's left: pinned, not held between.
         let aside = ObjectTruth::observe(&placed(-0.25), 0.06, 0.008, &arms, &press);
         assert!(aside.gripped() && !aside.between_arms && !aside.held());
+        assert_eq!(aside.not_held(), Some(NotHeld::NotBetweenArms));
+        assert_eq!(far.not_held(), Some(NotHeld::OffChest));
+        assert_eq!(one_arm.not_held(), Some(NotHeld::LeftArmOff));
+        assert_eq!(truth.not_held(), None);
+        let lifted = ObjectTruth { resting: Some(false), ..truth };
+        assert!(lifted.held(), "carried by the robot alone");
+        assert_eq!(ObjectTruth { resting: Some(true), ..truth }.not_held(), Some(NotHeld::Resting));
+        assert_eq!(ObjectTruth { fallen: true, resting: Some(true), ..truth }.not_held(), Some(NotHeld::Fallen));
     }
 
     #[test]

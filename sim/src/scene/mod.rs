@@ -18,6 +18,7 @@
 
 pub mod experiment;
 pub mod force;
+pub mod generated;
 pub mod hand;
 pub mod held;
 pub mod object;

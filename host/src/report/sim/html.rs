@@ -41,7 +41,10 @@ pub fn grasps(s: &mut String, r: &Report) {
                 "<tr><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{:.1} s</td><td>{:.2} N</td><td>{:.2} N</td></tr>",
                 escape(&run.object),
                 if run.succeeded { "ok" } else { "bad" },
-                run.reason.map_or("held".to_owned(), |why| format!("not held: {}", why.name())),
+                match (run.reason, run.failed) {
+                    (Some(reason), Some(failed)) => escape(&format!("not held: {}, {failed}", reason.name())),
+                    _ => "held".to_owned(),
+                },
                 run.controller_state.name(),
                 run.time_s,
                 run.grip_force_max_n,

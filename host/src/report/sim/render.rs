@@ -44,7 +44,10 @@ impl Renderer<'_> {
                 title: format!("Grasp: {}", run.object),
                 caption: format!(
                     "{} in {:.1} s, the controller ending in {}; largest grip force on one cell {:.2} N (the person's pats {:.2} N). Joint positions, summed force and highest proximity per touch area against time after the launching pat; grey lines mark state changes (Figure 18). Data: {}.",
-                    run.reason.map_or("Held".to_owned(), |why| format!("NOT held ({})", why.name())),
+                    match (run.reason, run.failed) {
+                        (Some(reason), Some(failed)) => format!("NOT held ({}, {failed})", reason.name()),
+                        _ => "Held".to_owned(),
+                    },
                     run.time_s,
                     run.controller_state.name(),
                     run.grip_force_max_n,

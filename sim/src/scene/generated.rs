@@ -1,0 +1,182 @@
+//! Objects and placements nobody tuned the grasp for: a seeded generator
+//! of object files (shapes, sizes, masses, stiffnesses and frictions the
+//! object files allow, of a size the arms reach around) and of placements
+//! anywhere both arms reach, turned up to [`JITTER_YAW_RAD`] either way.
+//!
+//! Where both arms reach is the experimenters' geometry, not a guess: the
+//! object put there stands clear of the robot in its home and open poses
+//! (the arms swing open without bumping it), and closing the arms to the
+//! closed pose drives each arm's contact area into it (each arm meets it
+//! where the skin can feel it). Every placement drawn is checked so.
+
+use nalgebra::{Isometry3, Point3, Vector3};
+use rand::Rng;
+use skin_model::robot::Robot;
+
+use super::experiment::{body_poses, intended_pose, object_pose, surface_points, Setup};
+use super::held::Arm;
+use super::object::Object;
+use super::placement::{Placement, JITTER_YAW_RAD, OBJECT_GAP_M};
+
+/// How far forward of the default spot a placement is drawn, m.
+const FORWARD_M: f64 = 0.20;
+/// How far sideways of the default spot a placement is drawn, either way, m.
+const SIDEWAYS_M: f64 = 0.20;
+/// Draws tried per placement before saying no placement reaches the object.
+const TRIES: usize = 2000;
+/// Clearance of the object from the robot's surface in the home and open
+/// poses beyond the skin's thickness, m: the arms open without touching it.
+const CLEAR_M: f64 = 0.01;
+
+/// One object file's text (`name`, a random shape of a size the arms reach
+/// around, a mass they can pull, stiffness from sponge to packed box,
+/// friction of cardboard to rubber), drawn from `rng`; no placement.
+pub fn object_file(name: &str, rng: &mut impl Rng) -> String {
+    let mut r = |lo: f64, hi: f64| rng.random_range(lo..=hi);
+    let shape = match (r(0.0, 4.0)) as u32 {
+        0 => format!(
+            "{{ box = {{ half = [{:.3}, {:.3}, {:.3}], round_m = {:.3} }} }}",
+            r(0.05, 0.10),
+            r(0.10, 0.18),
+            r(0.10, 0.17),
+            r(0.005, 0.02)
+        ),
+        1 => format!("{{ cylinder = {{ radius = {:.3}, half_height = {:.3} }} }}", r(0.10, 0.14), r(0.10, 0.17)),
+        2 => format!("{{ sphere = {{ radius = {:.3} }} }}", r(0.10, 0.14)),
+        _ => format!(
+            "{{ blob = {{ semi = [{:.3}, {:.3}, {:.3}], bump_m = {:.3}, bump_rad_per_m = {:.1} }} }}",
+            r(0.08, 0.12),
+            r(0.11, 0.16),
+            r(0.10, 0.14),
+            r(0.0, 0.012),
+            r(20.0, 30.0)
+        ),
+    };
+    let stiffness = 10f64.powf(r(350f64.log10(), 20_000f64.log10()));
+    format!(
+        "name = \"{name}\"\nshape = {shape}\nmass_kg = {:.2}\nstiffness_n_per_m = {stiffness:.0}\nreflectance = {:.2}\nfriction = {:.2}\n",
+        r(0.1, 0.8),
+        r(0.5, 0.9),
+        r(0.2, 0.5)
+    )
+}
+
+/// The placement as object-file keys, to append to [`object_file`]'s text.
+pub fn placement_keys(p: &Placement) -> String {
+    let o = p.offset_m;
+    format!("offset_m = [{:.4}, {:.4}, {:.4}]\nyaw_rad = {:.4}\n", o.x, o.y, o.z, p.yaw_rad)
+}
+
+/// One link's surface as the experimenters picture it.
+struct LinkSurface {
+    body: usize,
+    /// The link's frame in its body's.
+    in_body: Isometry3<f64>,
+    /// Points on its surface, link frame.
+    points: Vec<Point3<f64>>,
+    /// The arm whose contact area it carries, if any.
+    arm: Option<Arm>,
+}
+
+/// The experiment's robot surface: every link's surface points, and which
+/// carry an arm's contact area.
+pub struct Reach {
+    robot: Robot,
+    links: Vec<LinkSurface>,
+    skin_offset_m: f64,
+}
+
+impl Reach {
+    /// The reach of `robot` wearing `setup`'s skin, `skin_offset_m` thick.
+    pub fn new(robot: &Robot, setup: &Setup, skin_offset_m: f64) -> Reach {
+        let contact_links: Vec<&str> = setup
+            .areas
+            .iter()
+            .filter(|a| a.kind == "contact")
+            .flat_map(|a| a.cells.iter().map(|&u| setup.skin.cells()[u].link.as_str()))
+            .collect();
+        let links = robot
+            .links()
+            .iter()
+            .map(|l| {
+                let arm = Arm::of_link(&l.name).filter(|_| contact_links.contains(&l.name.as_str()));
+                LinkSurface { body: l.body, in_body: l.in_body, points: surface_points(&l.surface), arm }
+            })
+            .collect();
+        Reach { robot: robot.clone(), links, skin_offset_m }
+    }
+
+    /// Whether both arms reach around `object` put at `placement`: clear
+    /// of the robot at home and in the open pose, met by each arm's contact
+    /// area in the closed pose.
+    pub fn reaches(&self, object: &Object, placement: &Placement) -> bool {
+        let pose = object_pose(object, placement, self.skin_offset_m);
+        let depths = |name: &str| -> Vec<(Option<Arm>, f64)> {
+            let q = intended_pose(&self.robot, name).expect("the experiment's key poses");
+            let bodies = body_poses(&self.robot, &q);
+            self.links
+                .iter()
+                .flat_map(|l| {
+                    let to_object = pose.inverse() * bodies[l.body] * l.in_body;
+                    l.points.iter().map(move |p| (l.arm, object.shape.distance(&(to_object * p))))
+                })
+                .collect()
+        };
+        let clear = |name: &str| depths(name).iter().all(|(_, d)| *d > self.skin_offset_m + CLEAR_M);
+        let closed = depths("closed");
+        let met = |arm: Arm| closed.iter().any(|(a, d)| *a == Some(arm) && *d < 0.0);
+        clear("home") && clear("open") && met(Arm::Right) && met(Arm::Left)
+    }
+
+    /// A placement drawn uniformly from up to [`FORWARD_M`] forward,
+    /// [`SIDEWAYS_M`] either way and [`JITTER_YAW_RAD`] of turn, redrawn
+    /// until both arms reach `object` there; none when no draw of many does.
+    pub fn placement(&self, object: &Object, rng: &mut impl Rng) -> Option<Placement> {
+        (0..TRIES)
+            .map(|_| Placement {
+                offset_m: Vector3::new(
+                    rng.random_range(-OBJECT_GAP_M..=FORWARD_M),
+                    rng.random_range(-SIDEWAYS_M..=SIDEWAYS_M),
+                    0.0,
+                ),
+                yaw_rad: rng.random_range(-JITTER_YAW_RAD..=JITTER_YAW_RAD),
+            })
+            .find(|p| self.reaches(object, p))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::object_file::parse;
+    use crate::scene::SkinModel;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use skin_model::robot::hrp2;
+
+    #[test]
+    fn generated_files_parse_and_placements_reach_around_them() {
+        let robot = hrp2::robot();
+        let setup = Setup::new(&robot, 0).unwrap();
+        let reach = Reach::new(&robot, &setup, SkinModel::default().surface_offset_m);
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut sideways = Vec::new();
+        for k in 0..12 {
+            let text = object_file(&format!("gen_{k}"), &mut rng);
+            let object = parse(&text).unwrap().object;
+            let p = reach.placement(&object, &mut rng).expect("a placement both arms reach");
+            assert!(reach.reaches(&object, &p));
+            let placed = parse(&(text + &placement_keys(&p))).unwrap();
+            assert!((placed.placement.offset_m - p.offset_m).norm() < 1e-4, "{:?} {p:?}", placed.placement);
+            sideways.push(p.offset_m.y);
+        }
+        // Past the few centimetres of the jitter: the arms reach further.
+        assert!(sideways.iter().any(|y| y.abs() > 0.03), "{sideways:?}");
+        let bin = Object::by_name("trash_bin").unwrap();
+        assert!(reach.reaches(&bin, &Placement::default()), "the default spot is reached");
+        let far = Placement { offset_m: Vector3::new(0.6, 0.0, 0.0), yaw_rad: 0.0 };
+        assert!(!reach.reaches(&bin, &far), "beyond the hands");
+        let aside = Placement { offset_m: Vector3::new(0.0, 0.4, 0.0), yaw_rad: 0.0 };
+        assert!(!reach.reaches(&bin, &aside), "in the left arm's way");
+    }
+}
