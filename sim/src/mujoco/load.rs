@@ -16,6 +16,12 @@ const SPECK_M: f64 = 1e-4;
 
 pub(super) fn load(path: &Path) -> Result<Model, MujocoError> {
     let failed = |message: String| MujocoError::Load { path: path.display().to_string(), message };
+    // MuJoCo finds included files and meshes beside the file it reads: a
+    // link to a model (as `cargo xtask menagerie` makes) is read where the
+    // model lives. The robot keeps the name the user gave.
+    let name = path.file_stem().map_or_else(|| "robot".into(), |s| s.to_string_lossy().into_owned());
+    let real = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    let path = real.as_path();
     let mut spec = parse(path)?;
     let mut notes = Vec::new();
     let missing = drop_missing_meshes(&mut spec, path)?;
@@ -33,7 +39,6 @@ pub(super) fn load(path: &Path) -> Result<Model, MujocoError> {
             "{overlapping} pairs of the robot's bodies overlap in the start pose and never collide (their shapes approximate the links; a link would otherwise be stuck against its neighbour)"
         ));
     }
-    let name = path.file_stem().map_or_else(|| "robot".into(), |s| s.to_string_lossy().into_owned());
     let tree = tree::read(&model, &data, &name)?;
     drop(data);
     Ok(Model { spec, compiled: model, tree, notes })
