@@ -2,8 +2,6 @@
 //! with the cells' sites and sensors, the DoFs' position servos, and one
 //! control tick as a few MuJoCo steps.
 
-use std::time::{Duration, Instant};
-
 use mujoco_rs::prelude::*;
 use mujoco_rs::wrappers::mj_editing::{MjtLimited, PositionConfig};
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
@@ -76,7 +74,6 @@ pub struct Engine {
     skin_model: SkinModel,
     notes: Vec<String>,
     welded: Vec<String>,
-    busy: Duration,
     /// The grasping experiment's lab, when the world has one.
     stage: Option<Scenery>,
 }
@@ -204,7 +201,6 @@ impl Engine {
             skin_model,
             notes,
             welded,
-            busy: Duration::ZERO,
             stage,
         })
     }
@@ -217,11 +213,6 @@ impl Engine {
     /// The bodies with a floating base, held by a weld at their start pose.
     pub fn welded(&self) -> &[String] {
         &self.welded
-    }
-
-    /// Wall time spent in MuJoCo so far (stepping, sensors).
-    pub fn busy(&self) -> Duration {
-        self.busy
     }
 
     /// DoF positions relative to the model's reference pose.
@@ -265,7 +256,6 @@ impl Engine {
         poses: &mut [Isometry3<f64>],
         specific: &mut [Vector3<f64>],
     ) {
-        let started = Instant::now();
         if let Some(lab) = &mut self.stage {
             lab.before(&mut self.data);
         }
@@ -299,7 +289,6 @@ impl Engine {
         for (q, s) in q.iter_mut().zip(&self.servos) {
             *q = self.data.qpos()[s.qpos] - s.zero;
         }
-        self.busy += started.elapsed();
     }
 
     /// Poses, velocities and touch of the state the steps reached, as
