@@ -50,7 +50,10 @@ fn the_built_in_robots_mjcf_is_the_same_robot_in_the_mujoco_world() {
     let skin = Skin::with_counts(robot, &hrp2::SKIN, 5).expect("the built-in skin fits");
     let cfg = WorldConfig { base: BaseConfig::rigid(), seed: 5, ..WorldConfig::default() };
     let mut world = model.world(skin, cfg).expect("the robot takes the skin");
-    assert!(world.mujoco_engine().expect("a MuJoCo world").notes().is_empty());
+    // Nothing added but the controllers' gravity compensation, said once.
+    let notes = world.mujoco_engine().expect("a MuJoCo world").notes();
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(notes[0].contains("compensate the links' weight"), "{notes:?}");
     let home = world.positions().to_vec();
     let mut out = Vec::new();
     for _ in 0..250 {

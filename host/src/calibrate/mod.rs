@@ -285,8 +285,6 @@ pub fn calibrate<R: Robot + SampleSource>(
         let record = motion::Record {
             model,
             urdf_dof: &matching.urdf_dof,
-            here: &here,
-            dof: e.dof,
             trace: &trace,
             tick_s: session.tick_s(),
             lsb_mps2: session.lsb_mps2(),

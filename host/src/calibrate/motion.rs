@@ -24,12 +24,11 @@ const DELAY_CELLS: usize = 8;
 /// Steps of the delay search, ticks.
 const DELAY_STEP_TICKS: f64 = 0.25;
 
-/// One excitation of interface DoF `dof`, the others held at `here`.
+/// One excitation of interface DoF `dof`, the others held (each read as
+/// it moved: a held joint gives a little under its neighbours' reactions).
 pub struct Record<'a> {
     pub model: &'a Model,
     pub urdf_dof: &'a [usize],
-    pub here: &'a [f64],
-    pub dof: usize,
     pub trace: &'a Trace,
     pub tick_s: f64,
     pub lsb_mps2: f64,
@@ -86,21 +85,18 @@ impl Record<'_> {
     fn accumulate<'c>(&self, delay: f64, cells: usize, targets: impl Iterator<Item = (usize, &'c mut Candidate)>) {
         let mut targets: Vec<(usize, &mut Candidate)> = targets.filter(|(_, c)| c.gravity.is_some()).collect();
         let n = self.model.dofs().len();
-        let (_, omega, alpha) = self.trace.motion(self.tick_s);
-        let mut q = vec![0.0; n];
-        for (d, &m) in self.urdf_dof.iter().enumerate() {
-            q[m] = self.here[d];
-        }
-        let (mut qd, mut qdd) = (vec![0.0; n], vec![0.0; n]);
-        let m = self.urdf_dof[self.dof];
+        let motions: Vec<_> = (0..self.urdf_dof.len()).map(|d| self.trace.motion_of(d, self.tick_s)).collect();
+        let (mut q, mut qd, mut qdd) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         let up = Vector3::new(0.0, 0.0, G0);
         let base = BodyState::at_rest(Isometry3::identity());
         let mut states = Vec::new();
         for k in 0..self.trace.len() {
             let at = k as f64 - delay;
-            q[m] = lerp(&self.trace.q, at, self.trace.q0);
-            qd[m] = lerp(&omega, at, 0.0);
-            qdd[m] = lerp(&alpha, at, 0.0);
+            for ((&m, (phi, omega, alpha)), start) in self.urdf_dof.iter().zip(&motions).zip(&self.trace.start) {
+                q[m] = start + lerp(phi, at, 0.0);
+                qd[m] = lerp(omega, at, 0.0);
+                qdd[m] = lerp(alpha, at, 0.0);
+            }
             kinematics::forward(self.model, &base, DofMotion { q: &q, qd: &qd, qdd: &qdd }, &mut states);
             for (u, c) in targets.iter_mut() {
                 let (Some(fit), Some(s)) = (c.gravity, self.sample(k, *u, cells)) else { continue };

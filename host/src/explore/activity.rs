@@ -485,7 +485,7 @@ mod tests {
     }
 
     fn trace(accel: Vec<[f32; 3]>, q: Vec<f64>) -> Trace {
-        Trace { accel, q0: 0.0, q, saturated: vec![false] }
+        Trace { accel, q0: 0.0, q, start: Vec::new(), positions: Vec::new(), saturated: vec![false] }
     }
 
     /// Any float at all, the edges included.
@@ -558,7 +558,14 @@ mod tests {
                 delta * (tau - (std::f64::consts::TAU * tau).sin() / std::f64::consts::TAU)
             })
             .collect();
-        let t = Trace { accel: Vec::new(), q0: 0.0, q: q.clone(), saturated: vec![false] };
+        let t = Trace {
+            accel: Vec::new(),
+            q0: 0.0,
+            q: q.clone(),
+            start: Vec::new(),
+            positions: Vec::new(),
+            saturated: vec![false],
+        };
         let (_, _, alpha) = t.motion(tick);
         let accel = alpha.iter().map(|a| [(g[0] + lever * a) as f32, g[1] as f32, g[2] as f32]).collect();
         Trace { accel, ..t }

@@ -206,7 +206,14 @@ mod tests {
                 }
             }
             let q = (0..TICKS).map(|k| sign * 0.2 * (k + 1) as f64 / TICKS as f64).collect();
-            let trace = Trace { accel, q0: 0.0, q, saturated: vec![false; cells.len()] };
+            let trace = Trace {
+                accel,
+                q0: 0.0,
+                q,
+                start: Vec::new(),
+                positions: Vec::new(),
+                saturated: vec![false; cells.len()],
+            };
             let signed: Vec<f64> = alpha.iter().map(|a| sign * a).collect();
             sums.add(&window, &window, &trace, &signed, &vec![NOISE * NOISE; cells.len()]);
         }

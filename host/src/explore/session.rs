@@ -20,6 +20,13 @@ const POSITION_GAIN: f64 = 8.0;
 /// Ticks a session waits for the first samples: a skin on its own clock
 /// (not in lockstep with the robot) can leave a tick without a datagram.
 const DISCOVER_TICKS: usize = 25;
+/// Longest wait after a trace's commanded motion for the DoF to come to rest, s.
+const MAX_SETTLE_S: f64 = 1.0;
+/// A DoF is at rest when it moves less than [`REST_MOTION`] (rad or m)
+/// over [`REST_TICKS`] ticks: 5 mrad/s at 4 ms ticks, well above
+/// encoder noise, well below any commanded motion.
+const REST_TICKS: usize = 5;
+const REST_MOTION: f64 = 1e-4;
 
 /// Mean and spread of every cell's acceleration over a still window.
 #[derive(Clone, Debug)]
@@ -34,7 +41,7 @@ pub(crate) struct Window {
     pub saturated: Vec<bool>,
 }
 
-/// Every cell's acceleration and one DoF's position, tick by tick.
+/// Every cell's acceleration and the DoFs' positions, tick by tick.
 #[derive(Clone, Debug)]
 pub(crate) struct Trace {
     /// `accel[k * cells + u]`, m/s^2 (NaN where a sample was missing).
@@ -43,6 +50,12 @@ pub(crate) struct Trace {
     pub q0: f64,
     /// Position of the traced DoF at each tick, rad.
     pub q: Vec<f64>,
+    /// Every DoF's position before the first tick: the others are held,
+    /// but a real robot's joints give a little under their neighbours'
+    /// reactions.
+    pub start: Vec<f64>,
+    /// Every DoF's position at each tick, `positions[k * dofs + d]`.
+    pub positions: Vec<f64>,
     /// A cell hit the end of its range during the trace.
     pub saturated: Vec<bool>,
 }
@@ -57,13 +70,25 @@ impl Trace {
     /// (central differences): position relative to the start, rad; velocity,
     /// rad/s; acceleration, rad/s^2. The DoF is taken at rest outside the trace.
     pub fn motion(&self, tick_s: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-        let n = self.q.len() as isize;
-        let at = |k: isize| if k < 0 { self.q0 } else { self.q[k.min(n - 1) as usize] };
-        let phi = (0..n).map(|k| at(k) - self.q0).collect();
-        let omega = (0..n).map(|k| (at(k + 1) - at(k - 1)) / (2.0 * tick_s)).collect();
-        let alpha = (0..n).map(|k| (at(k + 1) - 2.0 * at(k) + at(k - 1)) / (tick_s * tick_s)).collect();
-        (phi, omega, alpha)
+        differences(&self.q, self.q0, tick_s)
     }
+
+    /// DoF `d`'s motion, as [`Trace::motion`] gives the traced DoF's.
+    pub fn motion_of(&self, d: usize, tick_s: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let q: Vec<f64> = self.positions.iter().skip(d).step_by(self.start.len()).copied().collect();
+        differences(&q, self.start[d], tick_s)
+    }
+}
+
+/// Position relative to `q0`, velocity and acceleration at each tick of
+/// `q` by central differences, at rest before and after.
+fn differences(q: &[f64], q0: f64, tick_s: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let n = q.len() as isize;
+    let at = |k: isize| if k < 0 { q0 } else { q[k.min(n - 1) as usize] };
+    let phi = (0..n).map(|k| at(k) - q0).collect();
+    let omega = (0..n).map(|k| (at(k + 1) - at(k - 1)) / (2.0 * tick_s)).collect();
+    let alpha = (0..n).map(|k| (at(k + 1) - 2.0 * at(k) + at(k - 1)) / (tick_s * tick_s)).collect();
+    (phi, omega, alpha)
 }
 
 pub(crate) struct Session<'r, R> {
@@ -231,18 +256,32 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
     pub fn trace(&mut self, dof: usize, seconds: f64, phi: impl Fn(f64) -> f64) -> Result<Trace, ExploreError> {
         let u = self.cells.len();
         let ticks = self.ticks(seconds);
+        let start = self.rig.positions();
         let mut trace = Trace {
             accel: Vec::with_capacity(ticks * u),
-            q0: self.rig.positions()[dof],
+            q0: start[dof],
             q: Vec::with_capacity(ticks),
+            positions: Vec::with_capacity(ticks * start.len()),
+            start,
             saturated: vec![false; u],
         };
         self.command.fill(0.0);
-        for k in 0..ticks {
+        // A real joint lags a command faster than its motors can follow:
+        // the trace goes on, commanding nothing, until the DoF has come to
+        // rest, so that the motion is whole and what follows is still.
+        let settle = self.ticks(MAX_SETTLE_S);
+        for k in 0.. {
+            let moving = trace.q.len() >= REST_TICKS
+                && (trace.q[trace.q.len() - 1] - trace.q[trace.q.len() - REST_TICKS]).abs() > REST_MOTION;
+            if k >= ticks + settle || (k >= ticks && !moving) {
+                break;
+            }
             let t = k as f64 * self.tick_s;
-            self.command[dof] = (phi(t + self.tick_s) - phi(t)) / self.tick_s;
+            self.command[dof] = if k < ticks { (phi(t + self.tick_s) - phi(t)) / self.tick_s } else { 0.0 };
             self.tick()?;
-            trace.q.push(self.rig.positions()[dof]);
+            let q = self.rig.positions();
+            trace.q.push(q[dof]);
+            trace.positions.extend_from_slice(&q);
             for c in 0..u {
                 let a = if self.fresh[c] { self.accel[c].map(|x| x as f32) } else { [f32::NAN; 3] };
                 trace.accel.push(a);

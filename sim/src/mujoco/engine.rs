@@ -18,20 +18,22 @@ use crate::world::{Touch, WorldConfig};
 /// well under 0.01 rad, slow enough for MuJoCo's 2 ms steps.
 const SERVO_HZ: f64 = 25.0;
 /// Rotor inertia a geared servo adds to a joint without one, relative to
-/// the joint's own inertia at the start pose: it is what keeps a link from
-/// being thrown back by its neighbour's acceleration.
-const ARMATURE_RATIO: f64 = 10.0;
-/// Integral time of the servos' outer loop, s: the target is corrected by
-/// the integral of its error, so a joint held against gravity reaches the
-/// commanded position as a velocity-controlled robot does (a bare position
-/// servo sags by load over stiffness), far slower than the servo itself.
-const INTEGRAL_S: f64 = 0.05;
-/// Largest correction of the outer loop, rad or m (no windup at a stop).
-const INTEGRAL_MAX: f64 = 0.1;
+/// the joint's own inertia at the start pose: it is what keeps a light link
+/// from being thrown by its neighbour's acceleration.
+const ARMATURE_RATIO: f64 = 1.0;
+/// Share of a joint's force limit its motion planner may spend on
+/// acceleration (at the start pose's inertia); the rest holds the load
+/// against gravity and the neighbours' reactions.
+const ACCEL_SHARE: f64 = 0.5;
 /// Time constant of the welds holding floating bases, s.
 const WELD_TIME_CONSTANT_S: f64 = 0.004;
 
-/// How a DoF is driven: its servo's target integrates the velocity command.
+/// How a DoF is driven, as a velocity-controlled robot's joint controller
+/// does it: the velocity command integrates into a goal; a set point runs
+/// after the goal no faster than the joint's force limit can accelerate
+/// it, so a saturated joint arrives late instead of winding up and
+/// overshooting; the position servo tracks the set point with velocity
+/// feed-forward, gravity compensated.
 struct Servo {
     qpos: usize,
     /// `qpos` at the robot's zero (the model's reference pose).
@@ -42,9 +44,34 @@ struct Servo {
     /// The actuator's control range (`-inf..inf` when not limited).
     ctrl: (f64, f64),
     /// The commanded position: the velocity command's integral.
-    target: f64,
-    /// The outer loop's correction of the servo's set point.
-    correction: f64,
+    goal: f64,
+    /// The set point and its velocity.
+    setpoint: f64,
+    velocity: f64,
+    /// Largest acceleration of the set point (infinite where the joint's
+    /// force is not limited).
+    accel: f64,
+    /// The servo's damping over its stiffness, s: the set point's lead that
+    /// cancels the damping at the set point's velocity.
+    feedforward_s: f64,
+}
+
+impl Servo {
+    /// Moves the goal by the command `w` over `dt` and the set point after
+    /// it: the goal's own velocity, plus the fastest approach that can still
+    /// stop at the goal at the acceleration limit.
+    fn follow(&mut self, w: f64, dt: f64) -> f64 {
+        self.goal = (self.goal + w * dt).clamp(self.range.0, self.range.1);
+        let error = self.goal - self.setpoint;
+        // Braking distance v^2 / 2a; near the goal, half the gap per tick.
+        let approach =
+            if error == 0.0 { 0.0 } else { (2.0 * self.accel * error.abs()).sqrt().min(error.abs() / (2.0 * dt)) };
+        let wanted = error.signum() * approach;
+        let dv = self.accel * dt;
+        self.velocity += (wanted - self.velocity).clamp(-dv, dv);
+        self.setpoint = (self.setpoint + self.velocity * dt).clamp(self.range.0, self.range.1);
+        (self.setpoint + self.feedforward_s * self.velocity).clamp(self.ctrl.0, self.ctrl.1)
+    }
 }
 
 /// Where a cell's readings are in MuJoCo's sensor data.
@@ -95,6 +122,11 @@ impl Engine {
             ));
         }
         let servo_of = servos(&mut spec, &compiled, &tree, &mut notes)?;
+        compensate_gravity(&mut spec, &compiled, &tree);
+        notes.push(format!(
+            "the joint controllers compensate the links' weight within their force limits, and their set points accelerate no faster than {:.0} % of a force limit allows at the start pose's inertia",
+            ACCEL_SHARE * 100.0
+        ));
 
         let skin_model = SkinModel::default();
         let force_positions = skin_model.force.positions();
@@ -162,14 +194,21 @@ impl Engine {
                 (f64::NEG_INFINITY, f64::INFINITY)
             };
             let target = zero + robot.home()[d];
+            let kp = model.actuator_gainprm()[actuator][0];
+            let kv = -model.actuator_biasprm()[actuator][2];
+            let force = force_limit(&model, actuator, joint);
+            let inertia = model.dof_m0()[model.jnt_dofadr()[joint] as usize].max(1e-9);
             servos.push(Servo {
                 qpos,
                 zero,
                 range: (zero + dof.lower, zero + dof.upper),
                 actuator,
                 ctrl,
-                target,
-                correction: 0.0,
+                goal: target,
+                setpoint: target,
+                velocity: 0.0,
+                accel: ACCEL_SHARE * force / inertia,
+                feedforward_s: if kp > 0.0 { kv.max(0.0) / kp } else { 0.0 },
             });
         }
         let stage = match lab {
@@ -184,8 +223,8 @@ impl Engine {
         };
         let mut data = MjData::new(Box::new(model));
         for s in &servos {
-            data.qpos_mut()[s.qpos] = s.target;
-            data.ctrl_mut()[s.actuator] = s.target.clamp(s.ctrl.0, s.ctrl.1);
+            data.qpos_mut()[s.qpos] = s.goal;
+            data.ctrl_mut()[s.actuator] = s.goal.clamp(s.ctrl.0, s.ctrl.1);
         }
         data.forward();
         let velocities = vec![Vector3::zeros(); cells.len()];
@@ -236,8 +275,8 @@ impl Engine {
     }
 
     /// One control tick under the velocity `command` (DoF order): each
-    /// servo's target moves by it (held inside the joint's range, and
-    /// corrected by the integral of its error), MuJoCo steps, and the
+    /// servo's goal moves by it (held inside the joint's range) and its set
+    /// point follows as the joint can ([`Servo::follow`]), MuJoCo steps, and the
     /// positions, cell poses and each cell's specific force (cell frame) are
     /// read at the tick's end.
     ///
@@ -259,11 +298,8 @@ impl Engine {
         if let Some(lab) = &mut self.stage {
             lab.before(&mut self.data);
         }
-        for (s, w) in self.servos.iter_mut().zip(command) {
-            s.target = (s.target + w * self.tick_s).clamp(s.range.0, s.range.1);
-            let error = s.target - self.data.qpos()[s.qpos];
-            s.correction = (s.correction + error * self.tick_s / INTEGRAL_S).clamp(-INTEGRAL_MAX, INTEGRAL_MAX);
-            self.data.ctrl_mut()[s.actuator] = (s.target + s.correction).clamp(s.ctrl.0, s.ctrl.1);
+        for (s, &w) in self.servos.iter_mut().zip(command) {
+            self.data.ctrl_mut()[s.actuator] = s.follow(w, self.tick_s);
         }
         // No step's sensors are read: only those of the state the steps reach.
         let sensors_off = MjtDisableBit::mjDSBL_SENSOR as i32;
@@ -369,6 +405,38 @@ fn weld_floating_bases(spec: &mut MjSpec, compiled: &MjModel) -> Vec<String> {
         *weld.solimp_mut() = [0.99, 0.999, 0.001, 0.5, 2.0];
     }
     free
+}
+
+/// The robot's joint controllers hold its weight, as real ones do: every
+/// link's gravity is compensated through the DoFs' actuators (within
+/// their force limits), so a servo neither sags under load nor needs an
+/// integral term that winds up.
+fn compensate_gravity(spec: &mut MjSpec, compiled: &MjModel, tree: &tree::Tree) {
+    for link in tree.robot.links() {
+        if let Some(body) = spec.body_mut(&link.name) {
+            body.set_gravcomp(1.0);
+        }
+    }
+    for &j in &tree.dof_joint {
+        if let Some(joint) = spec.joint_mut(&tree::name(compiled, MjtObjBase::mjOBJ_JOINT, j)) {
+            joint.set_actgravcomp(true);
+        }
+    }
+}
+
+/// The largest force `actuator` can put on `joint`: its own force range
+/// and the joint's actuator force range, infinite where neither is limited.
+fn force_limit(model: &MjModel, actuator: usize, joint: usize) -> f64 {
+    let mut force = f64::INFINITY;
+    if model.actuator_forcelimited()[actuator] {
+        let r = model.actuator_forcerange()[actuator];
+        force = force.min(r[0].abs().max(r[1].abs()) * model.actuator_gear()[actuator][0].abs());
+    }
+    if model.jnt_actfrclimited()[joint] {
+        let r = model.jnt_actfrcrange()[joint];
+        force = force.min(r[0].abs().max(r[1].abs()));
+    }
+    force
 }
 
 /// The actuator each DoF's servo target goes to: the model's position
