@@ -290,7 +290,9 @@ fn area(shape: &Shape) -> f64 {
     match *shape {
         Shape::Box(s) => 2.0 * (s.x * s.y + s.y * s.z + s.z * s.x),
         Shape::Cylinder { radius, length } => std::f64::consts::TAU * radius * (radius + length),
+        Shape::Capsule { radius, length } => std::f64::consts::TAU * radius * (2.0 * radius + length),
         Shape::Sphere(r) => 2.0 * std::f64::consts::TAU * r * r,
+        Shape::Mesh(ref mesh) => mesh.area(),
     }
 }
 
@@ -321,9 +323,30 @@ fn shape_point(shape: &Shape, rng: &mut ChaCha8Rng) -> (Point3<f64>, Vector3<f64
                 (Point3::from(d * r + Vector3::z() * sign * length / 2.0), Vector3::z() * sign)
             }
         }
+        Shape::Capsule { radius, length } => {
+            // The straight part's share of the area; the rest is the two caps.
+            let side = length / (length + 2.0 * radius);
+            if rng.random_bool(side) {
+                let h = length * rng.random_range(-0.5..0.5);
+                let n = perpendicular(&Vector3::z(), rng.random_range(0.0..std::f64::consts::TAU));
+                (Point3::from(n * radius + Vector3::z() * h), n)
+            } else {
+                // A cap: uniform over its hemisphere, around the end of the axis.
+                let n = random_unit(rng);
+                let end = Vector3::z() * (length / 2.0).copysign(n.z);
+                (Point3::from(end + n * radius), n)
+            }
+        }
         Shape::Sphere(r) => {
             let n = random_unit(rng);
             (Point3::from(n * r), n)
+        }
+        Shape::Mesh(ref mesh) => {
+            // A face by its area, then a uniform point on it.
+            let f = pick(mesh.face_areas(), rng);
+            let (a, b): (f64, f64) = (rng.random_range(0.0..1.0), rng.random_range(0.0..1.0));
+            let (u, v) = if a + b > 1.0 { (1.0 - a, 1.0 - b) } else { (a, b) };
+            mesh.point_on(f, u, v)
         }
     }
 }
@@ -418,6 +441,28 @@ mod tests {
             let on_cap = ((p.z + 0.075).abs() - 0.075).abs() < 1e-9 && n.x == 0.0 && n.y == 0.0;
             assert!(on_side || on_cap, "cell {} at {p} normal {n}", c.id);
         }
+    }
+
+    #[test]
+    fn cells_on_a_capsule_lie_on_its_side_and_its_round_caps_facing_out() {
+        let robot = Robot::from_urdf_str(
+            r#"<robot name="c"><link name="base"/><link name="arm"><collision><geometry><capsule radius="0.04" length="0.2"/></geometry></collision></link>
+            <joint name="j" type="continuous"><parent link="base"/><child link="arm"/><axis xyz="1 0 0"/></joint></robot>"#,
+        )
+        .unwrap();
+        let skin = Skin::with_counts(&robot, &[("arm", 60)], 4).unwrap();
+        let mut on_caps = 0;
+        for c in skin.cells() {
+            let p = c.pose.translation.vector;
+            let n = c.pose.rotation * Vector3::z();
+            // From the nearest point of the axis segment: the radius, along the normal.
+            let from_axis = p - Vector3::z() * p.z.clamp(-0.1, 0.1);
+            assert!((from_axis.norm() - 0.04).abs() < 1e-9, "cell {} at {p}", c.id);
+            assert!((n - from_axis / 0.04).norm() < 1e-9, "cell {} at {p} normal {n}", c.id);
+            on_caps += usize::from(p.z.abs() > 0.1);
+        }
+        // The caps are 2r / (L + 2r) = 2/7 of the area: about 17 of 60.
+        assert!((8..=28).contains(&on_caps), "{on_caps} of 60 cells on the caps");
     }
 
     #[test]

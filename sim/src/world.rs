@@ -8,6 +8,8 @@
 //! deliver to the host. Force and proximity come from a [`Tactile`] model
 //! plugged in by a scene; without one they read zero.
 
+use std::time::{Duration, Instant};
+
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -154,6 +156,9 @@ pub struct World {
     specific: Vec<Vector3<f64>>,
     touches: Vec<Touch>,
     tactile: Option<Box<dyn Tactile>>,
+    /// Wall time spent in [`World::step`] so far, and of it in the engine.
+    step_time: Duration,
+    engine_time: Duration,
 }
 
 /// What moves the robot: the built-in kinematics, or MuJoCo's physics.
@@ -220,6 +225,8 @@ impl World {
             specific: vec![Vector3::zeros(); cells],
             touches: vec![Touch::default(); cells],
             tactile: None,
+            step_time: Duration::ZERO,
+            engine_time: Duration::ZERO,
             robot,
             skin,
             cfg,
@@ -314,6 +321,7 @@ impl World {
     pub fn step(&mut self, out: &mut Vec<(Address, Sample)>) {
         self.ticks += 1;
         let time_s = self.time_s();
+        let started = Instant::now();
         match &mut self.engine {
             Engine::BuiltIn(b) => {
                 b.advance(&self.robot, &self.cfg, &self.command, &mut self.q);
@@ -326,6 +334,8 @@ impl World {
                 m.touches(&mut self.touches, &mut self.rng);
             }
         }
+        let moved = Instant::now();
+        self.engine_time += moved - started;
         if let Some(t) = self.tactile.as_mut() {
             t.sense(time_s, &self.poses, &mut self.touches);
         }
@@ -335,6 +345,20 @@ impl World {
             let t = self.touches[i];
             out.push((cell.id, Sample::saturating(t.proximity, t.force, accel, TEMPERATURE_COUNTS, self.seq)));
         }
+        self.step_time += moved.elapsed() + (moved - started);
+    }
+
+    /// Wall time spent moving the robot so far: the built-in kinematics, or
+    /// MuJoCo's steps and its sensors' readings (the force and proximity
+    /// models' counts among them, a small part); the rest of
+    /// [`World::step`] is the accelerometer models and the scene's touch.
+    pub fn engine_time(&self) -> Duration {
+        self.engine_time
+    }
+
+    /// Wall time spent in [`World::step`] so far: the engine's, and the sensor models'.
+    pub fn step_time(&self) -> Duration {
+        self.step_time
     }
 
     /// The root body's pose in the world now.

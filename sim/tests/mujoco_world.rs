@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use nalgebra::{Isometry3, Vector3};
 use skin_model::robot::kinematics::{self, BodyState, DofMotion};
-use skin_model::robot::{Drive, Robot};
+use skin_model::robot::{Drive, Robot, Shape, Surface};
 use skin_model::skin::Skin;
 use skin_sim::mujoco::Model;
 use skin_sim::world::{BaseConfig, World, WorldConfig};
@@ -206,4 +206,75 @@ fn excited_accelerometers_agree_with_the_kinematics_of_the_reported_positions() 
     let (error, dynamic) = ((error / n).sqrt(), (dynamic / n).sqrt());
     assert!(dynamic > 0.1, "the excitation shows: {dynamic} m/s^2 RMS");
     assert!(error < 0.15 * dynamic, "{error} m/s^2 RMS off a dynamic part of {dynamic} m/s^2 RMS");
+}
+
+/// A capsule link (radius 5 cm, straight part 20 cm along z, 1 m up) and a
+/// wedge-shaped mesh link half a metre beside it, whose slanted face a box
+/// around it would miss by centimetres.
+const SURFACES: &str = r#"
+<mujoco>
+  <asset>
+    <mesh name="wedge" vertex="0 0 0  0.2 0 0  0 0.1 0  0 0 0.1  0.2 0 0.1  0 0.1 0.1"/>
+  </asset>
+  <worldbody>
+    <body name="capsule_link" pos="0 0 1">
+      <joint name="turn" type="hinge" axis="0 0 1"/>
+      <geom type="capsule" size="0.05 0.1"/>
+      <body name="mesh_link" pos="0.5 0 0">
+        <joint name="tilt" type="hinge" axis="0 1 0"/>
+        <geom type="mesh" mesh="wedge"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>"#;
+
+#[test]
+fn cells_lie_on_capsule_caps_and_on_a_meshs_faces_as_mujoco_sees_them() {
+    use mujoco_rs::prelude::*;
+    let path = write_model("surfaces.xml", SURFACES);
+    let model = Model::load(&path).expect("MuJoCo loads the model");
+    // The robot written as MJCF (skin model) keeps the capsule and the mesh.
+    let again = Model::load(&write_model("surfaces_again.xml", &model.robot().to_mjcf())).expect("MuJoCo loads it");
+    for link in ["capsule_link", "mesh_link"] {
+        let shapes = |m: &Model| match &m.robot().link(link).expect("the link").surface {
+            Surface::Shapes(shapes) => shapes.iter().map(|(_, s)| s.clone()).collect::<Vec<_>>(),
+            other => panic!("{link}: {other:?}"),
+        };
+        match (&shapes(&model)[..], &shapes(&again)[..]) {
+            ([Shape::Capsule { radius, length }], [Shape::Capsule { radius: r, length: l }]) => {
+                assert!((radius - 0.05).abs() < 1e-12 && (length - 0.2).abs() < 1e-12, "{radius} {length}");
+                assert!((radius - r).abs() < 1e-12 && (length - l).abs() < 1e-12, "{r} {l}");
+            }
+            ([Shape::Mesh(mesh)], [Shape::Mesh(written)]) => {
+                // The wedge: two 0.01 m^2 triangles, sides of 0.02 and
+                // 0.01 m^2 and a slanted one of 0.1 x sqrt(0.05) m.
+                let area = 2.0 * 0.01 + 0.02 + 0.01 + 0.1 * 0.05f64.sqrt();
+                assert!((mesh.area() - area).abs() < 1e-6 && (written.area() - area).abs() < 1e-6, "{}", mesh.area());
+            }
+            (ours, theirs) => panic!("{link}: {ours:?} written as {theirs:?}"),
+        }
+    }
+    let skin = Skin::per_link(model.robot(), 40, 9).expect("both links have surfaces");
+    let world = model.world(skin, rigid(9)).expect("the model takes the skin");
+    // MuJoCo's own ray, from 2 cm out along each cell's normal back towards
+    // it, on the model as the file has it.
+    let mut data = MjData::new(Box::new(MjModel::from_xml(&path).expect("MuJoCo loads the model")));
+    data.forward();
+    let mut on_caps = 0;
+    for (cell, pose) in world.skin().cells().iter().zip(world.cell_poses()) {
+        let (p, n) = (pose.translation.vector, pose.rotation * Vector3::z());
+        let (_, distance) = data.ray(&(p + n * 0.02).into(), &(-n).into(), None, true, None, None);
+        assert!(
+            (distance - 0.02).abs() < 1e-3,
+            "cell {} on {} lies {:.2} mm off the surface",
+            cell.id.0,
+            cell.link,
+            (0.02 - distance) * 1e3
+        );
+        if cell.link == "capsule_link" && (p.z - 1.0).abs() > 0.1 {
+            on_caps += 1;
+        }
+    }
+    // A third of a capsule's area is its caps: about 13 of 40 cells.
+    assert!(on_caps >= 5, "{on_caps} cells on the capsule's caps");
 }

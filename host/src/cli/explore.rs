@@ -81,12 +81,14 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     match result {
         Ok(found) => {
             let truth = check(&found, rig.world());
+            let speed = Speed::of(rig.world(), found.exploration_time_s(), wall_time_s);
             let text = if args.json {
                 let mut report = report(&name, &found, &truth, wall_time_s);
                 report["mujoco"] = super::world::mujoco_json(rig.world());
+                report["speed"] = speed.json();
                 report.to_string()
             } else {
-                summary(&name, &found, &truth, wall_time_s)
+                summary(&name, &found, &truth, &speed)
             };
             write_stdout(&text)?;
             Ok(ExitCode::SUCCESS)
@@ -217,7 +219,61 @@ fn write_stdout(text: &str) -> std::io::Result<()> {
     }
 }
 
-fn summary(name: &str, found: &Exploration, truth: &TruthReport, wall_time_s: f64) -> String {
+/// How fast the run went against robot time, and where its wall time went:
+/// the world's engine (the built-in kinematics or MuJoCo), its sensor
+/// models, and the host (the exploration itself).
+struct Speed {
+    robot_s: f64,
+    wall_s: f64,
+    engine: &'static str,
+    engine_s: f64,
+    sensor_models_s: f64,
+}
+
+impl Speed {
+    fn of(world: &skin_sim::world::World, robot_s: f64, wall_s: f64) -> Speed {
+        let (engine, step) = (world.engine_time(), world.step_time());
+        Speed {
+            robot_s,
+            wall_s,
+            engine: super::world::engine_name(world),
+            engine_s: engine.as_secs_f64(),
+            sensor_models_s: step.saturating_sub(engine).as_secs_f64(),
+        }
+    }
+
+    fn host_s(&self) -> f64 {
+        (self.wall_s - self.engine_s - self.sensor_models_s).max(0.0)
+    }
+
+    fn real_time(&self) -> f64 {
+        self.robot_s / self.wall_s.max(f64::MIN_POSITIVE)
+    }
+
+    fn json(&self) -> Value {
+        json!({
+            "real_time_factor": self.real_time(),
+            "engine": self.engine,
+            "engine_s": self.engine_s,
+            "sensor_models_s": self.sensor_models_s,
+            "host_s": self.host_s(),
+        })
+    }
+
+    fn line(&self) -> String {
+        format!(
+            "wall time {:.2} s, {:.1}x real time ({} {:.2} s, sensor models {:.2} s, host {:.2} s)",
+            self.wall_s,
+            self.real_time(),
+            self.engine,
+            self.engine_s,
+            self.sensor_models_s,
+            self.host_s()
+        )
+    }
+}
+
+fn summary(name: &str, found: &Exploration, truth: &TruthReport, speed: &Speed) -> String {
     let mut s = format!("robot {name}: {} DoFs, {} cells\n\n", found.dof_names.len(), found.cells.len());
     s += &found.tree.draw();
     let limbs: Vec<String> = found.tree.limbs().iter().map(|l| format!("{l:?}")).collect();
@@ -233,11 +289,11 @@ fn summary(name: &str, found: &Exploration, truth: &TruthReport, wall_time_s: f6
         s += &format!("postures chosen to tilt gravity-aligned axes: {tilted}\n");
     }
     s += &format!(
-        "robot time: structure {:.1} s (the paper: about {PAPER_STRUCTURE_S:.0} s) + sensory-motor map {:.1} s = {:.1} s; wall time {:.2} s\n",
+        "robot time: structure {:.1} s (the paper: about {PAPER_STRUCTURE_S:.0} s) + sensory-motor map {:.1} s = {:.1} s; {}\n",
         found.structure_time_s,
         found.smm_time_s,
         found.exploration_time_s(),
-        wall_time_s
+        speed.line()
     );
     s += &format!(
         "truth: tree {}, {} wrong activity entries, sensory-motor map mean |w - w_true| {:.3} ({:.3} where the DoF moves the cell)",

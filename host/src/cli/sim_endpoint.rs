@@ -100,6 +100,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let (seed, patches, faults) = (args.seed, args.patches, args.sensor_fault);
     let mujoco = args.mujoco.map(|path| SimArgs::mujoco_patches(path, args.cells_per_link, seed));
     let what = if mujoco.is_some() { "the MuJoCo robot" } else { "the simulated robot" };
+    let engine = if mujoco.is_some() { "MuJoCo" } else { "kinematics" };
     let endpoint = Running::spawn(move || {
         let mut endpoint = match mujoco {
             // Built on the serving thread, which owns the world; an unusable
@@ -132,15 +133,24 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         "served {} control periods, {} datagrams up; refused {} commands, rejected {} datagrams, refused {} requests from other hosts",
         served.ticks, served.datagrams_up, served.refused, served.rejected, served.other_hosts
     );
-    // Where the time went (every endpoint runs the default 4 ms period);
-    // the rest is the sockets, the host and waiting for it.
+    // Where the time went while serving (every endpoint runs the default
+    // 4 ms period): the world (its engine, then its sensor models), the
+    // cell network, the sockets, and the host between an answer and its
+    // next request.
     let robot_s = served.ticks as f64 * skin_sim::world::WorldConfig::default().tick_s;
+    let serving = served.serving_time;
+    let parts = served.world_time + served.network_time + served.socket_time + served.host_time;
     eprintln!(
-        "time: {robot_s:.1} s of robot time; of {:.1} s of wall time the world took {:.2} s, the cell network {:.2} s, the rest (sockets, the host, idle) {:.2} s",
+        "time: {robot_s:.1} s of robot time in {:.2} s of serving ({:.1}x real time; {:.1} s of wall time in all): {engine} {:.2} s, sensor models {:.2} s, cell network {:.2} s, sockets {:.2} s, the host {:.2} s (its work and the robot link's way), other {:.2} s",
+        serving.as_secs_f64(),
+        robot_s / serving.as_secs_f64().max(f64::MIN_POSITIVE),
         wall.as_secs_f64(),
-        served.world_time.as_secs_f64(),
+        served.engine_time.as_secs_f64(),
+        served.world_time.saturating_sub(served.engine_time).as_secs_f64(),
         served.network_time.as_secs_f64(),
-        wall.saturating_sub(served.world_time + served.network_time).as_secs_f64()
+        served.socket_time.as_secs_f64(),
+        served.host_time.as_secs_f64(),
+        serving.saturating_sub(parts).as_secs_f64(),
     );
     Ok(ExitCode::SUCCESS)
 }

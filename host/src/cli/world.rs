@@ -212,3 +212,14 @@ pub fn warn_clearance(world: &World, declared_m: f64) {
         );
     }
 }
+
+/// What moves `world`'s robot, as the time it took is labelled: MuJoCo,
+/// or the built-in world's kinematics.
+pub fn engine_name(world: &World) -> &'static str {
+    #[cfg(feature = "mujoco")]
+    if world.mujoco_engine().is_some() {
+        return "MuJoCo";
+    }
+    let _ = world;
+    "kinematics"
+}

@@ -58,6 +58,8 @@ struct Geom {
     centre: Point3<f64>,
     /// Mass, kg.
     mass_kg: f64,
+    /// The `<mesh>` asset a mesh geom names, written inline.
+    mesh: Option<String>,
 }
 
 /// The MJCF text of `robot`, its servos' targets and its joints at its home pose.
@@ -80,6 +82,14 @@ fn write_to(robot: &Robot, s: &mut String) -> std::fmt::Result {
     // on mass to compile; their joints' armature carries the dynamics.
     writeln!(s, "  <compiler angle=\"radian\" autolimits=\"true\" boundmass=\"1e-6\" boundinertia=\"1e-12\"/>")?;
     writeln!(s, "  <option integrator=\"implicitfast\" timestep=\"{TIMESTEP_S}\"/>")?;
+    let meshes: Vec<&String> = geoms.iter().flatten().filter_map(|g| g.mesh.as_ref()).collect();
+    if !meshes.is_empty() {
+        writeln!(s, "  <asset>")?;
+        for mesh in meshes {
+            writeln!(s, "    {mesh}")?;
+        }
+        writeln!(s, "  </asset>")?;
+    }
     writeln!(s, "  <worldbody>")?;
     writeln!(s, "    <light pos=\"0 0 3\" dir=\"0 0 -1\" directional=\"true\"/>")?;
     let mut joint_order = Vec::new();
@@ -198,22 +208,41 @@ fn write_body(
 /// Every body's collision shapes, body frame, with the masses of the rules above.
 fn body_geoms(robot: &Robot) -> Vec<Vec<Geom>> {
     let mut out: Vec<Vec<Geom>> = robot.bodies().iter().map(|_| Vec::new()).collect();
+    // Meshes written so far: each gets an asset of its own.
+    let mut meshes = 0usize;
     for link in robot.links() {
-        let shapes: Vec<(String, Point3<f64>, f64)> = match &link.surface {
+        let shapes: Vec<(String, Point3<f64>, f64, Option<String>)> = match &link.surface {
             Surface::None => Vec::new(),
             Surface::Shapes(shapes) => shapes
                 .iter()
                 .map(|(pose, shape)| {
                     let pose = link.in_body * pose;
-                    let (kind, size, volume) = match *shape {
-                        Shape::Box(e) => ("box", format!("{} {} {}", e.x / 2.0, e.y / 2.0, e.z / 2.0), e.x * e.y * e.z),
-                        Shape::Cylinder { radius, length } => {
-                            ("cylinder", format!("{radius} {}", length / 2.0), PI * radius * radius * length)
+                    let mut centre = Point3::from(pose.translation.vector);
+                    let mut asset = None;
+                    let (kind, volume) = match *shape {
+                        Shape::Box(e) => (
+                            format!("type=\"box\" size=\"{} {} {}\"", e.x / 2.0, e.y / 2.0, e.z / 2.0),
+                            e.x * e.y * e.z,
+                        ),
+                        Shape::Cylinder { radius, length } => (
+                            format!("type=\"cylinder\" size=\"{radius} {}\"", length / 2.0),
+                            PI * radius * radius * length,
+                        ),
+                        Shape::Capsule { radius, length } => (
+                            format!("type=\"capsule\" size=\"{radius} {}\"", length / 2.0),
+                            PI * radius * radius * (length + 4.0 / 3.0 * radius),
+                        ),
+                        Shape::Sphere(r) => (format!("type=\"sphere\" size=\"{r}\""), 4.0 / 3.0 * PI * r.powi(3)),
+                        Shape::Mesh(ref mesh) => {
+                            let (volume, at) = mesh.volume();
+                            centre = pose * at;
+                            let name = format!("mesh{meshes}");
+                            meshes += 1;
+                            asset = Some(mesh_asset(&name, mesh));
+                            (format!("type=\"mesh\" mesh=\"{name}\""), volume)
                         }
-                        Shape::Sphere(r) => ("sphere", format!("{r}"), 4.0 / 3.0 * PI * r.powi(3)),
                     };
-                    let attributes = format!("type=\"{kind}\" size=\"{size}\"{}", pose_attributes(&pose));
-                    (attributes, Point3::from(pose.translation.vector), volume)
+                    (format!("{kind}{}", pose_attributes(&pose)), centre, volume, asset)
                 })
                 .collect(),
             Surface::Bones { points, radius } => points
@@ -226,18 +255,25 @@ fn body_geoms(robot: &Robot) -> Vec<Vec<Geom>> {
                         from.x, from.y, from.z, to.x, to.y, to.z
                     );
                     let volume = PI * radius * radius * length + 4.0 / 3.0 * PI * radius.powi(3);
-                    (attributes, from + (to - from) / 2.0, volume)
+                    (attributes, from + (to - from) / 2.0, volume, None)
                 })
                 .collect(),
         };
-        let total: f64 = shapes.iter().map(|(_, _, v)| v).sum();
-        for (attributes, centre, volume) in shapes {
+        let total: f64 = shapes.iter().map(|(_, _, v, _)| v).sum();
+        for (attributes, centre, volume, mesh) in shapes {
             let mass_kg =
                 if link.mass_kg > 0.0 && total > 0.0 { link.mass_kg * volume / total } else { DENSITY_KG_M3 * volume };
-            out[link.body].push(Geom { attributes, centre, mass_kg });
+            out[link.body].push(Geom { attributes, centre, mass_kg, mesh });
         }
     }
     out
+}
+
+/// A `<mesh>` asset named `name` carrying `mesh`'s vertices and faces inline.
+fn mesh_asset(name: &str, mesh: &super::Mesh) -> String {
+    let vertices: Vec<String> = mesh.vertices().iter().map(|p| format!("{} {} {}", p.x, p.y, p.z)).collect();
+    let faces: Vec<String> = mesh.faces().iter().map(|[a, b, c]| format!("{a} {b} {c}")).collect();
+    format!("<mesh name=\"{name}\" vertex=\"{}\" face=\"{}\"/>", vertices.join(" "), faces.join(" "))
 }
 
 /// The effort limit of DoF `d`: the description's, else [`GRAVITY_MARGIN`]

@@ -10,11 +10,13 @@
 
 pub mod hrp2;
 pub mod kinematics;
+mod mesh;
 pub mod mjcf;
 mod urdf;
 
 use nalgebra::{Isometry3, Point3, Unit, Vector3};
 
+pub use mesh::Mesh;
 pub use urdf::{limits, UrdfError};
 
 /// One rigid body: a group of URDF links welded by fixed or locked joints.
@@ -84,8 +86,8 @@ pub struct Dof {
     pub max_effort: f64,
 }
 
-/// A primitive shape a URDF link declares, for skin placement.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A collision shape a link declares, for skin placement.
+#[derive(Clone, Debug, PartialEq)]
 pub enum Shape {
     /// A box with the given full edge lengths, m.
     Box(Vector3<f64>),
@@ -96,17 +98,29 @@ pub enum Shape {
         /// Length, m.
         length: f64,
     },
+    /// A cylinder along its local z axis closed by hemispheres, m.
+    Capsule {
+        /// Radius, m.
+        radius: f64,
+        /// Length of the straight part, m.
+        length: f64,
+    },
     /// A sphere, m.
     Sphere(f64),
+    /// A triangle mesh (a MuJoCo model's; a URDF's mesh files are not read).
+    Mesh(std::sync::Arc<Mesh>),
 }
 
 impl Shape {
-    /// Whether the shape has a surface to put skin on (no edge or radius is zero).
+    /// Whether the shape has a surface to put skin on (no edge or radius is
+    /// zero, a mesh has a face).
     pub fn has_area(&self) -> bool {
-        match *self {
+        match self {
             Shape::Box(size) => size.min() > 0.0,
-            Shape::Cylinder { radius, length } => radius > 0.0 && length > 0.0,
-            Shape::Sphere(r) => r > 0.0,
+            Shape::Cylinder { radius, length } => *radius > 0.0 && *length > 0.0,
+            Shape::Capsule { radius, length } => *radius > 0.0 && *length >= 0.0,
+            Shape::Sphere(r) => *r > 0.0,
+            Shape::Mesh(mesh) => mesh.area() > 0.0,
         }
     }
 }

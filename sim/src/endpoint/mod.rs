@@ -96,10 +96,21 @@ pub struct Served {
     pub datagrams_up: u64,
     /// Datagrams from the host the skin network refused.
     pub datagrams_refused: u64,
-    /// Wall time spent moving the world (the built-in kinematics or MuJoCo).
+    /// Wall time spent in the world: its engine and its sensor models.
     pub world_time: Duration,
+    /// Of `world_time`, the engine's: the built-in kinematics, or MuJoCo's
+    /// steps and its sensors' readings ([`World::engine_time`]).
+    pub engine_time: Duration,
     /// Wall time spent running the cell network up to each period's end.
     pub network_time: Duration,
+    /// Wall time spent on the sockets: the host's datagrams taken, the
+    /// skin's sent, the robot link's answers.
+    pub socket_time: Duration,
+    /// Wall time from each answer on the robot link to the next request:
+    /// the host's own work on the period, and the link's way there and back.
+    pub host_time: Duration,
+    /// Wall time from the first request served to the last answer.
+    pub serving_time: Duration,
 }
 
 /// What only the simulator knows after a run, for checking the host.
@@ -295,6 +306,9 @@ impl Endpoint {
         let mut buf = [0u8; robot_link::MAX_DATAGRAM + 1];
         // In lockstep the host's next command follows within microseconds.
         let mut spin = SpinRecv::for_peer(self.rig.pacing == Pacing::Lockstep);
+        // When the first request came and when the last answer went.
+        let mut first: Option<Instant> = None;
+        let mut answered: Option<Instant> = None;
         while !stop.load(Ordering::Relaxed) {
             if self.rig.pacing == Pacing::RealTime {
                 let due = start + Duration::from_secs_f64(tick_s * (self.rig.served.ticks + 1) as f64);
@@ -330,11 +344,21 @@ impl Endpoint {
                 continue;
             }
             self.robot_host = Some((from, now));
+            let first = *first.get_or_insert(now);
+            if let Some(answered) = answered.take() {
+                self.rig.served.host_time += now - answered;
+            }
             self.take_from_host()?;
-            let answer = self.rig.answer(request, from, Instant::now(), &mut self.up)?;
+            let taken = Instant::now();
+            let answer = self.rig.answer(request, from, taken, &mut self.up)?;
+            let advanced = Instant::now();
             self.send_up()?;
             let len = robot_link::encode(&answer, &mut out).expect("answers fit a robot-link datagram");
             self.robot_socket.send_to(&out[..len], from)?;
+            let sent = Instant::now();
+            self.rig.served.socket_time += (taken - now) + (sent - advanced);
+            self.rig.served.serving_time = sent - first;
+            answered = Some(sent);
         }
         Ok(self.rig.served)
     }
@@ -356,6 +380,9 @@ impl Endpoint {
 
     /// Hands every datagram the host sent to an interface port to the network.
     fn take_from_host(&mut self) -> Result<(), NetworkError> {
+        if !any_readable(&self.ports)? {
+            return Ok(());
+        }
         let mut buf = [0u8; MAX_DATAGRAM + 1];
         for k in 0..self.ports.len() {
             loop {
@@ -379,6 +406,30 @@ fn hrp2_wiring(world: &World) -> Vec<usize> {
     let cells = world.skin().cells();
     let by_link = |prefix: &'static str| (0..cells.len()).filter(move |&i| cells[i].link.starts_with(prefix));
     ["RARM", "LARM", "CHEST"].into_iter().flat_map(by_link).collect()
+}
+
+/// Whether any of `sockets` has a datagram (or an error) waiting: one
+/// system call for all the interface ports, which the host seldom writes
+/// to, instead of a try on each in every control period.
+#[cfg(target_os = "linux")]
+#[allow(unsafe_code)]
+fn any_readable(sockets: &[UdpSocket]) -> std::io::Result<bool> {
+    use std::os::fd::AsRawFd;
+    let mut fds: Vec<libc::pollfd> =
+        sockets.iter().map(|s| libc::pollfd { fd: s.as_raw_fd(), events: libc::POLLIN, revents: 0 }).collect();
+    // SAFETY: `fds` holds `fds.len()` initialized entries, each an open
+    // socket's descriptor borrowed for the call; a zero timeout never blocks.
+    let ready = unsafe { libc::poll(fds.as_mut_ptr(), fds.len() as libc::nfds_t, 0) };
+    if ready < 0 {
+        return Err(std::io::Error::last_os_error());
+    }
+    Ok(ready > 0)
+}
+
+/// Elsewhere every port is tried.
+#[cfg(not(target_os = "linux"))]
+fn any_readable(_: &[UdpSocket]) -> std::io::Result<bool> {
+    Ok(true)
 }
 
 /// Shortest wait on the robot socket (a zero timeout would block forever).

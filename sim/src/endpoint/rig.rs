@@ -193,10 +193,10 @@ impl Rig {
         self.world.command(&self.command)?;
         self.take_orders();
         self.samples.clear();
-        let started = Instant::now();
         self.world.step(&mut self.samples);
         let stepped = Instant::now();
-        self.served.world_time += stepped - started;
+        self.served.world_time = self.world.step_time();
+        self.served.engine_time = self.world.engine_time();
         if let (Some(op), Some(side)) = (&self.operator, &self.side) {
             if let Some(note) = op.watch(&self.world) {
                 // The experimenter may have gone; the robot serves on.

@@ -4,7 +4,8 @@
 //! reads more than the motion MuJoCo integrates) and a `rangefinder` along
 //! its normal, and a site per force cell with a `touch` sensor. One place, so that the world
 //! the skin is simulated in and the model a calibration writes out
-//! (`robot_with_skin.xml`) carry the same cells.
+//! (`robot_with_skin.xml`) carry the same cells; the world leaves out the
+//! sensors it does not read from MuJoCo's sensor data ([`Carried`]).
 
 use mujoco_rs::prelude::*;
 use mujoco_rs::wrappers::mj_editing::MjsBody;
@@ -18,16 +19,31 @@ pub(super) const TOUCH_ZONE_M: f64 = 0.006;
 /// Radius of the site a cell's accelerometer and rangefinder sit at, m.
 const CELL_SITE_M: f64 = 0.002;
 
+/// Which of a cell's sensors a model carries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Carried {
+    /// All of them, for any MuJoCo program to read (`robot_with_skin.xml`).
+    All,
+    /// What the simulated world reads from MuJoCo's sensor data: the
+    /// velocity and the touch zones. MuJoCo computes every sensor in every
+    /// step; the world does not read the accelerometer (see
+    /// [`super::Engine`]), and casts the rangefinder's ray itself only where
+    /// something is within the proximity sensor's range
+    /// ([`super::rangefinder`]), with the same result.
+    World,
+}
+
 /// Adds cell `name` on body `body` at `pose` (body frame, z the outward
 /// normal), its force cells at `forces` (cell frame, x y): sites `name` and
-/// `name:f<k>`, sensors `name:acc`, `name:vel`, `name:range` and
-/// `name:touch<k>`.
+/// `name:f<k>`, sensors `name:vel` and `name:touch<k>`, and with
+/// [`Carried::All`] `name:acc` and `name:range`.
 pub(super) fn add(
     spec: &mut MjSpec,
     body: &str,
     name: &str,
     pose: &Isometry3<f64>,
     forces: &[[f64; 2]; 3],
+    carried: Carried,
 ) -> Result<(), MujocoError> {
     let on = spec.body_mut(body).ok_or_else(|| MujocoError::UnknownBody(body.to_owned()))?;
     add_site(on, name, pose, CELL_SITE_M);
@@ -42,6 +58,10 @@ pub(super) fn add(
         (MjtSensor::mjSENS_TOUCH, "touch1", format!("{name}:f1")),
         (MjtSensor::mjSENS_TOUCH, "touch2", format!("{name}:f2")),
     ] {
+        let read_by_world = !matches!(kind, MjtSensor::mjSENS_ACCELEROMETER | MjtSensor::mjSENS_RANGEFINDER);
+        if carried == Carried::World && !read_by_world {
+            continue;
+        }
         let sensor = spec.add_sensor();
         sensor.set_type(kind);
         sensor.set_objtype(MjtObjBase::mjOBJ_SITE);

@@ -2,8 +2,6 @@
 //! with the cells' sites and sensors, the DoFs' position servos, and one
 //! control tick as a few MuJoCo steps.
 
-use std::time::{Duration, Instant};
-
 use mujoco_rs::prelude::*;
 use mujoco_rs::wrappers::mj_editing::{MjtLimited, PositionConfig};
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
@@ -11,7 +9,7 @@ use rand::Rng;
 use skin_model::skin::Skin;
 
 use super::stage::{self, Scenery, SharedStage};
-use super::{cells, tree, Model, MujocoError};
+use super::{cells, rangefinder, tree, Model, MujocoError};
 use crate::scene::{CellSense, SkinModel};
 use crate::world::{Touch, WorldConfig};
 
@@ -84,9 +82,10 @@ impl Servo {
 /// Where a cell's readings are in MuJoCo's sensor data.
 struct CellSensors {
     site: usize,
+    /// The body the site is on, which its rangefinder does not see.
+    body: usize,
     /// The site's linear velocity in the world (`framelinvel`).
     velocity: usize,
-    range: usize,
     touch: [usize; 3],
 }
 
@@ -99,11 +98,14 @@ pub struct Engine {
     cells: Vec<CellSensors>,
     /// Each cell's world velocity at the end of the last tick.
     velocities: Vec<Vector3<f64>>,
+    /// Whether anything touches anything at the end of the last tick:
+    /// without a contact every touch zone reads zero, and MuJoCo's
+    /// acceleration stage (contact forces) is not computed.
+    touching: bool,
     gravity: Vector3<f64>,
     skin_model: SkinModel,
     notes: Vec<String>,
     welded: Vec<String>,
-    busy: Duration,
     /// The grasping experiment's lab, when the world has one.
     stage: Option<Scenery>,
 }
@@ -136,7 +138,7 @@ impl Engine {
         for (i, cell) in skin.cells().iter().enumerate() {
             let link = robot.link(&cell.link).ok_or_else(|| MujocoError::UnknownBody(cell.link.clone()))?;
             let in_body = link.in_body.inverse() * cell.pose;
-            cells::add(&mut spec, &link.name, &format!("skin{i}"), &in_body, &force_positions)?;
+            cells::add(&mut spec, &link.name, &format!("skin{i}"), &in_body, &force_positions, cells::Carried::World)?;
         }
 
         // A control tick is a whole number of MuJoCo steps.
@@ -176,8 +178,8 @@ impl Engine {
                 .ok_or_else(|| MujocoError::Compile(format!("the compiled model lacks site skin{i}")))?;
             cells.push(CellSensors {
                 site,
+                body: model.site_bodyid()[site] as usize,
                 velocity: sensor(format!("skin{i}:vel"))?,
-                range: sensor(format!("skin{i}:range"))?,
                 touch: [
                     sensor(format!("skin{i}:touch0"))?,
                     sensor(format!("skin{i}:touch1"))?,
@@ -234,6 +236,7 @@ impl Engine {
         Ok(Engine {
             data,
             velocities,
+            touching: true,
             substeps: substeps as u32,
             tick_s: cfg.tick_s,
             servos,
@@ -242,7 +245,6 @@ impl Engine {
             skin_model,
             notes,
             welded,
-            busy: Duration::ZERO,
             stage,
         })
     }
@@ -255,11 +257,6 @@ impl Engine {
     /// The bodies with a floating base, held by a weld at their start pose.
     pub fn welded(&self) -> &[String] {
         &self.welded
-    }
-
-    /// Wall time spent in MuJoCo so far (stepping, sensors).
-    pub fn busy(&self) -> Duration {
-        self.busy
     }
 
     /// DoF positions relative to the model's reference pose.
@@ -303,18 +300,20 @@ impl Engine {
         poses: &mut [Isometry3<f64>],
         specific: &mut [Vector3<f64>],
     ) {
-        let started = Instant::now();
         if let Some(lab) = &mut self.stage {
             lab.before(&mut self.data);
         }
         for (s, &w) in self.servos.iter_mut().zip(command) {
             self.data.ctrl_mut()[s.actuator] = s.follow(w, self.tick_s);
         }
+        // No step's sensors are read: only those of the state the steps reach.
+        let sensors_off = MjtDisableBit::mjDSBL_SENSOR as i32;
+        self.data.model_opt_mut().disableflags |= sensors_off;
         for _ in 0..self.substeps {
             self.data.step();
         }
-        // Poses and sensors of the state the steps reached, with the positions.
-        self.data.forward();
+        self.data.model_opt_mut().disableflags &= !sensors_off;
+        self.sense_state();
         if let Some(lab) = &mut self.stage {
             lab.after(&self.data);
         }
@@ -331,23 +330,41 @@ impl Engine {
         for (q, s) in q.iter_mut().zip(&self.servos) {
             *q = self.data.qpos()[s.qpos] - s.zero;
         }
-        self.busy += started.elapsed();
+    }
+
+    /// Poses, velocities and touch of the state the steps reached, as
+    /// `mj_forward` computes them with their sensors: its position and
+    /// velocity stages, and the acceleration stage (contact forces, the
+    /// touch zones) only when something touches. Nothing of this feeds
+    /// back: the next step computes its own.
+    fn sense_state(&mut self) {
+        self.data.fwd_position();
+        self.data.sensor_pos();
+        self.data.fwd_velocity();
+        self.data.sensor_vel();
+        self.touching = !self.data.contact().is_empty();
+        if self.touching {
+            self.data.fwd_actuation();
+            self.data.fwd_acceleration();
+            self.data.fwd_constraint();
+            self.data.sensor_acc();
+        }
     }
 
     /// Every cell's force and proximity counts: its touch zones' normal
     /// forces and its rangefinder's distance (from the skin's surface),
     /// through the skin's force-cell and VCNL4010 models.
-    pub(crate) fn touches(&self, out: &mut [Touch], rng: &mut impl Rng) {
-        let readings = self.data.sensordata();
+    pub(crate) fn touches(&mut self, out: &mut [Touch], rng: &mut impl Rng) {
         let m = &self.skin_model;
+        // Beyond this the proximity sensor reads nothing.
+        let reach = m.proximity.range_m + m.surface_offset_m;
         for (t, cell) in out.iter_mut().zip(&self.cells) {
-            let distance = readings[cell.range];
-            let proximity = if distance < 0.0 {
-                0.0
-            } else {
-                m.proximity.intensity((distance - m.surface_offset_m).max(0.0), 1.0, 1.0)
+            let proximity = match rangefinder::distance(&mut self.data, cell.site, cell.body, reach) {
+                Some(distance) => m.proximity.intensity((distance - m.surface_offset_m).max(0.0), 1.0, 1.0),
+                None => 0.0,
             };
-            let sense = CellSense { force_n: cell.touch.map(|a| readings[a]), proximity };
+            let force_n = if self.touching { cell.touch.map(|a| self.data.sensordata()[a]) } else { [0.0; 3] };
+            let sense = CellSense { force_n, proximity };
             let (proximity, force) = m.counts(&sense, rng);
             *t = Touch { proximity, force };
         }

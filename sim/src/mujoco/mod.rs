@@ -14,6 +14,7 @@
 mod cells;
 mod engine;
 mod load;
+mod rangefinder;
 mod stage;
 mod tree;
 mod with_skin;

@@ -13,8 +13,10 @@
 //! geometry the surface the skin is laid on.
 
 use mujoco_rs::prelude::*;
+use std::sync::Arc;
+
 use nalgebra::{Isometry3, Point3, Quaternion, Translation3, Unit, UnitQuaternion, Vector3};
-use skin_model::robot::{Body, Dof, DofKind, Drive, Joint, Link, Robot, Shape, Surface};
+use skin_model::robot::{Body, Dof, DofKind, Drive, Joint, Link, Mesh, Robot, Shape, Surface};
 
 use super::MujocoError;
 
@@ -191,6 +193,18 @@ pub(super) fn read(model: &MjModel, data: &MjData<&MjModel>, name_of_robot: &str
     Ok(Tree { robot, dof_joint })
 }
 
+/// Mesh `id`'s triangles as MuJoCo compiled them, in the frame of the
+/// geoms using it; `None` for no mesh.
+fn mesh(model: &MjModel, id: i32) -> Option<Mesh> {
+    let m = usize::try_from(id).ok()?;
+    let (vert, face) = (model.mesh_vertadr()[m] as usize, model.mesh_faceadr()[m] as usize);
+    let (verts, faces) = (model.mesh_vertnum()[m] as usize, model.mesh_facenum()[m] as usize);
+    let vertices = model.mesh_vert().get(vert..vert + verts)?.iter().map(|v| Point3::from(v.map(f64::from))).collect();
+    let faces =
+        model.mesh_face().get(face..face + faces)?.iter().map(|f| f.map(|i| u32::try_from(i).unwrap_or(u32::MAX)));
+    Some(Mesh::new(vertices, faces))
+}
+
 /// Where skin goes on MuJoCo body `b`: its collision geoms (those that
 /// collide with something), else bones to its children and centre of mass,
 /// as for a URDF link with only meshes.
@@ -205,17 +219,9 @@ fn surface(model: &MjModel, b: usize) -> Surface {
                 MjtGeomBase::mjGEOM_BOX => Shape::Box(Vector3::from(s) * 2.0),
                 MjtGeomBase::mjGEOM_SPHERE => Shape::Sphere(s[0]),
                 MjtGeomBase::mjGEOM_ELLIPSOID => Shape::Box(Vector3::from(s) * 2.0),
-                // A capsule's straight part; cells on its ends lie inside the caps.
-                MjtGeomBase::mjGEOM_CYLINDER | MjtGeomBase::mjGEOM_CAPSULE => {
-                    Shape::Cylinder { radius: s[0], length: 2.0 * s[1] }
-                }
-                // A mesh's bounding box in its frame (MuJoCo's aabb).
-                MjtGeomBase::mjGEOM_MESH => {
-                    let aabb = model.geom_aabb()[g];
-                    let centre = Translation3::new(aabb[0], aabb[1], aabb[2]);
-                    return Some((pose * centre, Shape::Box(Vector3::new(aabb[3], aabb[4], aabb[5]) * 2.0)))
-                        .filter(|(_, shape)| shape.has_area());
-                }
+                MjtGeomBase::mjGEOM_CYLINDER => Shape::Cylinder { radius: s[0], length: 2.0 * s[1] },
+                MjtGeomBase::mjGEOM_CAPSULE => Shape::Capsule { radius: s[0], length: 2.0 * s[1] },
+                MjtGeomBase::mjGEOM_MESH => Shape::Mesh(Arc::new(mesh(model, model.geom_dataid()[g])?)),
                 _ => return None,
             };
             Some((pose, shape)).filter(|(_, shape)| shape.has_area())

@@ -15,7 +15,7 @@ use crate::scene::SkinModel;
 /// that body's frame (z the outward normal, x y its accelerometer's).
 #[derive(Clone, Debug)]
 pub struct CellSite {
-    /// Site name; its sensors are `name:acc`, `name:range`, `name:touch0..2`.
+    /// Site name; its sensors are `name:acc`, `name:vel`, `name:range`, `name:touch0..2`.
     pub name: String,
     /// The model's body (as the skin names links).
     pub body: String,
@@ -42,7 +42,7 @@ pub fn model_with_skin(path: &Path, cells: &[CellSite]) -> Result<ModelWithSkin,
     let mut spec = load::parse(path)?;
     let forces = SkinModel::default().force.positions();
     for cell in cells {
-        cells::add(&mut spec, &cell.body, &cell.name, &cell.pose, &forces)?;
+        cells::add(&mut spec, &cell.body, &cell.name, &cell.pose, &forces, cells::Carried::All)?;
     }
     let mut notes = Vec::new();
     let missing = load::drop_missing_meshes(&mut spec, path)?;

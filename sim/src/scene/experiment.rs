@@ -312,14 +312,50 @@ fn ring(
     }
 }
 
-/// Points about 1.5 cm apart on a link's collision shapes, link frame.
+/// Spacing of the points laid on a link's collision shapes, m.
+const POINT_STEP_M: f64 = 0.015;
+
+/// Intervals of about [`POINT_STEP_M`] over `length` (at least one).
+fn steps(length: f64) -> usize {
+    (length / POINT_STEP_M).ceil().max(1.0) as usize
+}
+
+/// Points about [`POINT_STEP_M`] apart from `-length / 2` to `length / 2`.
+fn spread(length: f64) -> impl Iterator<Item = f64> {
+    let n = steps(length);
+    (0..=n).map(move |k| length * (k as f64 / n as f64 - 0.5))
+}
+
+/// Points about [`POINT_STEP_M`] apart on a cylinder's side (z its axis).
+fn tube(radius: f64, length: f64) -> Vec<Point3<f64>> {
+    let around = steps(std::f64::consts::TAU * radius);
+    spread(length)
+        .flat_map(|z| {
+            (0..around).map(move |k| {
+                let a = std::f64::consts::TAU * k as f64 / around as f64;
+                Point3::new(radius * a.cos(), radius * a.sin(), z)
+            })
+        })
+        .collect()
+}
+
+/// Points about [`POINT_STEP_M`] apart on a sphere of radius `r`.
+fn ball(r: f64) -> Vec<Point3<f64>> {
+    let n = steps(std::f64::consts::PI * r);
+    (0..=n)
+        .flat_map(|i| {
+            let polar = std::f64::consts::PI * i as f64 / n as f64;
+            let around = steps(std::f64::consts::TAU * r * polar.sin()).max(1);
+            (0..around).map(move |k| {
+                let a = std::f64::consts::TAU * k as f64 / around as f64;
+                Point3::new(r * polar.sin() * a.cos(), r * polar.sin() * a.sin(), r * polar.cos())
+            })
+        })
+        .collect()
+}
+
+/// Points about [`POINT_STEP_M`] apart on a link's collision shapes, link frame.
 pub(super) fn surface_points(surface: &Surface) -> Vec<Point3<f64>> {
-    const STEP: f64 = 0.015;
-    let steps = |length: f64| (length / STEP).ceil().max(1.0) as usize;
-    let spread = |length: f64| {
-        let n = steps(length);
-        (0..=n).map(move |k| length * (k as f64 / n as f64 - 0.5))
-    };
     let Surface::Shapes(shapes) = surface else { return Vec::new() };
     let mut points = Vec::new();
     for (pose, shape) in shapes {
@@ -342,29 +378,30 @@ pub(super) fn surface_points(surface: &Surface) -> Vec<Point3<f64>> {
                 }
                 v
             }
-            RobotShape::Cylinder { radius, length } => {
-                let around = steps(std::f64::consts::TAU * radius);
-                spread(length)
-                    .flat_map(|z| {
-                        (0..around).map(move |k| {
-                            let a = std::f64::consts::TAU * k as f64 / around as f64;
-                            Point3::new(radius * a.cos(), radius * a.sin(), z)
-                        })
-                    })
-                    .collect()
+            RobotShape::Cylinder { radius, length } => tube(radius, length),
+            RobotShape::Capsule { radius, length } => {
+                let mut v = tube(radius, length);
+                // Each cap: its half of a sphere around its end of the axis.
+                let caps = ball(radius)
+                    .into_iter()
+                    .map(|p| p + Vector3::z() * (length / 2.0).copysign(p.z))
+                    .filter(|p| p.z.abs() > length / 2.0);
+                v.extend(caps);
+                v
             }
-            RobotShape::Sphere(r) => {
-                let n = steps(std::f64::consts::PI * r);
-                (0..=n)
-                    .flat_map(|i| {
-                        let polar = std::f64::consts::PI * i as f64 / n as f64;
-                        let around = steps(std::f64::consts::TAU * r * polar.sin()).max(1);
-                        (0..around).map(move |k| {
-                            let a = std::f64::consts::TAU * k as f64 / around as f64;
-                            Point3::new(r * polar.sin() * a.cos(), r * polar.sin() * a.sin(), r * polar.cos())
-                        })
-                    })
-                    .collect()
+            RobotShape::Sphere(r) => ball(r),
+            RobotShape::Mesh(ref mesh) => {
+                let mut v = mesh.vertices().to_vec();
+                for (f, face) in mesh.faces().iter().enumerate() {
+                    let [a, b, c] = face.map(|i| mesh.vertices()[i as usize]);
+                    let n = steps((b - a).norm().max((c - a).norm()).max((c - b).norm()));
+                    for i in 0..=n {
+                        for j in 0..=n - i {
+                            v.push(mesh.point_on(f, i as f64 / n as f64, j as f64 / n as f64).0);
+                        }
+                    }
+                }
+                v
             }
         };
         points.extend(local.into_iter().map(|p| pose * p));

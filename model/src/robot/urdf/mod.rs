@@ -308,7 +308,7 @@ fn surface(link: &LinkDesc, child_origins: &[Point3<f64>]) -> Surface {
     let geometries = if link.collisions.is_empty() { &link.visuals } else { &link.collisions };
     let shapes: Vec<_> = geometries
         .iter()
-        .filter_map(|(pose, shape)| shape.filter(|s| s.has_area()).map(|s| (pose.isometry(), s)))
+        .filter_map(|(pose, shape)| shape.as_ref().filter(|s| s.has_area()).map(|s| (pose.isometry(), s.clone())))
         .collect();
     if !shapes.is_empty() {
         return Surface::Shapes(shapes);

@@ -181,8 +181,8 @@ fn geometry(node: Node, at: &dyn Fn(&str) -> String) -> Result<Geometry, UrdfErr
             let text = required(shape, "size", || at("<box>"))?;
             Some(Shape::Box(Vector3::from(numbers::<3>(text, Quantity::Size, || at("<box> size"))?)))
         }
-        // A capsule's skin lies on its straight part.
-        "cylinder" | "capsule" => Some(Shape::Cylinder { radius: size("radius")?, length: size("length")? }),
+        "cylinder" => Some(Shape::Cylinder { radius: size("radius")?, length: size("length")? }),
+        "capsule" => Some(Shape::Capsule { radius: size("radius")?, length: size("length")? }),
         "sphere" => Some(Shape::Sphere(size("radius")?)),
         // A mesh (its file is not read) or something unknown: no primitive.
         _ => None,
