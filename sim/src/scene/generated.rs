@@ -19,9 +19,9 @@ use super::object::Object;
 use super::placement::{Placement, JITTER_YAW_RAD, OBJECT_GAP_M};
 
 /// How far forward of the default spot a placement is drawn, m.
-const FORWARD_M: f64 = 0.20;
+pub const FORWARD_M: f64 = 0.20;
 /// How far sideways of the default spot a placement is drawn, either way, m.
-const SIDEWAYS_M: f64 = 0.20;
+pub const SIDEWAYS_M: f64 = 0.20;
 /// Draws tried per placement before saying no placement reaches the object.
 const TRIES: usize = 2000;
 /// Clearance of the object from the robot's surface in the home and open
