@@ -282,13 +282,7 @@ pub fn calibrate<R: Robot + SampleSource>(
         let seconds = f64::from(cfg.excitation_periods) / cfg.excitation_hz;
         let w = std::f64::consts::TAU * cfg.excitation_hz;
         let trace = session.trace(e.dof, seconds, |t| e.amplitude * (1.0 - (w * t).cos()).powi(2) / 4.0)?;
-        let record = motion::Record {
-            model,
-            urdf_dof: &matching.urdf_dof,
-            trace: &trace,
-            tick_s: session.tick_s(),
-            lsb_mps2: session.lsb_mps2(),
-        };
+        let record = motion::Record::new(model, &matching.urdf_dof, &trace, session.tick_s(), session.lsb_mps2());
         let delay = if e.levers {
             let delay = record.delay_ticks(&candidates, cfg.max_delay_ticks);
             delays_ms.push(delay * session.tick_s() * 1e3);

@@ -27,14 +27,21 @@ const DELAY_STEP_TICKS: f64 = 0.25;
 /// One excitation of interface DoF `dof`, the others held (each read as
 /// it moved: a held joint gives a little under its neighbours' reactions).
 pub struct Record<'a> {
-    pub model: &'a Model,
-    pub urdf_dof: &'a [usize],
-    pub trace: &'a Trace,
-    pub tick_s: f64,
-    pub lsb_mps2: f64,
+    model: &'a Model,
+    urdf_dof: &'a [usize],
+    trace: &'a Trace,
+    lsb_mps2: f64,
+    /// Every interface DoF's motion (position, velocity, acceleration per
+    /// tick), differenced once for all the delays tried.
+    motions: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)>,
 }
 
-impl Record<'_> {
+impl<'a> Record<'a> {
+    pub fn new(model: &'a Model, urdf_dof: &'a [usize], trace: &'a Trace, tick_s: f64, lsb_mps2: f64) -> Self {
+        let motions = (0..urdf_dof.len()).map(|d| trace.motion_of(d, tick_s)).collect();
+        Record { model, urdf_dof, trace, lsb_mps2, motions }
+    }
+
     /// The delay of the samples behind the feedback within `max_ticks`
     /// that leaves the smallest residual on the cells moving most (each on
     /// the body its still fit prefers).
@@ -85,14 +92,13 @@ impl Record<'_> {
     fn accumulate<'c>(&self, delay: f64, cells: usize, targets: impl Iterator<Item = (usize, &'c mut Candidate)>) {
         let mut targets: Vec<(usize, &mut Candidate)> = targets.filter(|(_, c)| c.gravity.is_some()).collect();
         let n = self.model.dofs().len();
-        let motions: Vec<_> = (0..self.urdf_dof.len()).map(|d| self.trace.motion_of(d, self.tick_s)).collect();
         let (mut q, mut qd, mut qdd) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         let up = Vector3::new(0.0, 0.0, G0);
         let base = BodyState::at_rest(Isometry3::identity());
         let mut states = Vec::new();
         for k in 0..self.trace.len() {
             let at = k as f64 - delay;
-            for ((&m, (phi, omega, alpha)), start) in self.urdf_dof.iter().zip(&motions).zip(&self.trace.start) {
+            for ((&m, (phi, omega, alpha)), start) in self.urdf_dof.iter().zip(&self.motions).zip(&self.trace.start) {
                 q[m] = start + lerp(phi, at, 0.0);
                 qd[m] = lerp(omega, at, 0.0);
                 qdd[m] = lerp(alpha, at, 0.0);
