@@ -138,10 +138,12 @@ fn mistakes_get_a_message_not_a_panic() {
 #[cfg(not(feature = "mujoco"))]
 #[test]
 fn mujoco_asked_of_a_build_without_it_says_how_to_rebuild() {
+    let how = "this skin was built without MuJoCo: run `cargo xtask install` (it installs the pinned MuJoCo library), then rebuild with `cargo build --release -p skin-host --features mujoco`";
     let out = skin(&["explore", "--mujoco", "robot.xml"]);
     assert_eq!(out.status.code(), Some(1));
-    assert_eq!(
-        stderr(&out).trim_end(),
-        "error: this skin was built without MuJoCo: run `cargo xtask install` (it installs the pinned MuJoCo library), then rebuild with `cargo build --release -p skin-host --features mujoco`"
-    );
+    assert_eq!(stderr(&out).trim_end(), format!("error: {how}"));
+    // The endpoint's built-in robot in MuJoCo (no file) says the same.
+    let out = skin(&["sim-endpoint", "--mujoco", "--robot", "127.0.0.1:0", "--duration", "5"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr(&out).trim_end().ends_with(how), "{}", stderr(&out));
 }

@@ -86,3 +86,24 @@ fn skin_run_explores_the_mujoco_endpoint_over_udp() {
     assert_eq!(explored["cells"].as_array().unwrap().len(), 16, "every cell organized and explored");
     assert_eq!(explored["body_parts"].as_array().unwrap().len(), 4, "{v:#}");
 }
+
+#[test]
+fn the_endpoint_without_a_model_serves_the_built_in_robot_and_its_own_skin() {
+    let robot = free_addr();
+    let mut served = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(["sim-endpoint", "--mujoco", "--robot", &robot, "--host", &free_addr(), "--duration", "60"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("the skin binary runs");
+    let mut line = String::new();
+    std::io::BufReader::new(served.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let _ = (served.kill(), served.wait());
+    assert!(line.starts_with(&format!("serving the MuJoCo robot on {robot}")), "{line}");
+    let ports = line.split("interface ports ").nth(1).unwrap().split(" send to").next().unwrap().split(", ").count();
+    assert_eq!(ports, 5, "the paper's five interface ports: {line}");
+    // Its skin is its own: a cell count is for a model's.
+    let out = skin(&["sim-endpoint", "--mujoco", "--cells-per-link", "3", "--robot", &free_addr()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--cells-per-link lays a skin on a --mujoco FILE"));
+}

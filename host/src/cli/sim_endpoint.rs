@@ -38,12 +38,13 @@ pub struct Args {
     #[arg(long)]
     patches: bool,
     /// Serve this model (MJCF or URDF) run in MuJoCo instead of the built-in robot, its skin laid
-    /// in wired patches on its collision geometry (a build with the `mujoco` feature).
-    #[arg(long, value_name = "FILE", conflicts_with = "patches")]
-    mujoco: Option<std::path::PathBuf>,
-    /// Cells on every body of the --mujoco model with geometry or mass.
-    #[arg(long, value_name = "N", default_value_t = 4, requires = "mujoco", value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1000))]
-    cells_per_link: usize,
+    /// in wired patches on its collision geometry; without FILE, the built-in robot and its own
+    /// 74-cell skin on the five ports, moved by MuJoCo (a build with the `mujoco` feature).
+    #[arg(long, value_name = "FILE", num_args = 0..=1, conflicts_with = "patches")]
+    mujoco: Option<Option<std::path::PathBuf>>,
+    /// Cells on every body of the --mujoco FILE model with geometry or mass [default: 4].
+    #[arg(long, value_name = "N", requires = "mujoco", value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1000))]
+    cells_per_link: Option<usize>,
     /// Stop after this many wall-clock seconds [default: run until killed].
     #[arg(long, value_name = "S")]
     duration: Option<f64>,
@@ -98,14 +99,21 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     // Served on a thread of its own, watched from here: when it fails or
     // panics, the process ends with its error instead of serving nothing.
     let (seed, patches, faults) = (args.seed, args.patches, args.sensor_fault);
-    let mujoco = args.mujoco.map(|path| SimArgs::mujoco_patches(path, args.cells_per_link, seed));
+    let mujoco = match (args.mujoco, args.cells_per_link) {
+        (Some(None), Some(_)) => {
+            return Err("--cells-per-link lays a skin on a --mujoco FILE; the built-in robot wears its own".into())
+        }
+        (Some(file), cells) => Some(file.map(|path| SimArgs::mujoco_patches(path, cells.unwrap_or(4), seed))),
+        (None, _) => None,
+    };
     let what = if mujoco.is_some() { "the MuJoCo robot" } else { "the simulated robot" };
     let engine = if mujoco.is_some() { "MuJoCo" } else { "kinematics" };
     let endpoint = Running::spawn(move || {
         let mut endpoint = match mujoco {
             // Built on the serving thread, which owns the world; an unusable
             // model is a bad --mujoco value.
-            Some(sim) => Endpoint::wired(sim.world().map_err(|e| NetworkError::Flag(e.to_string()))?, config),
+            Some(Some(sim)) => Endpoint::wired(sim.world().map_err(|e| NetworkError::Flag(e.to_string()))?, config),
+            Some(None) => built_in_mujoco(seed, config),
             None if patches => Endpoint::patches(seed, config),
             None => Endpoint::hrp2(seed, config),
         }?;
@@ -153,4 +161,16 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
         serving.saturating_sub(parts).as_secs_f64(),
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// The built-in robot and its own skin moved by MuJoCo (`--mujoco` without a file).
+#[cfg(feature = "mujoco")]
+fn built_in_mujoco(seed: u64, config: EndpointConfig) -> Result<Endpoint, NetworkError> {
+    Endpoint::hrp2_mujoco(None, seed, config)
+}
+
+/// Without MuJoCo in the build, `--mujoco` says how to get it.
+#[cfg(not(feature = "mujoco"))]
+fn built_in_mujoco(_: u64, _: EndpointConfig) -> Result<Endpoint, NetworkError> {
+    Err(NetworkError::Flag(super::world::Error::NoMujoco.to_string()))
 }

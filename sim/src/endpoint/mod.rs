@@ -154,6 +154,24 @@ impl Endpoint {
         Endpoint::new(world, &Topology::hrp2(), world_cell, config)
     }
 
+    /// The paper's robot and skin, as [`Endpoint::hrp2`], moved by MuJoCo:
+    /// `model` (an MJCF of the built-in robot; none: the built-in robot
+    /// written as one) wearing the same 74 cells on the same five
+    /// interface ports.
+    #[cfg(feature = "mujoco")]
+    pub fn hrp2_mujoco(
+        model: Option<&std::path::Path>,
+        seed: u64,
+        config: EndpointConfig,
+    ) -> Result<Endpoint, NetworkError> {
+        let robot = hrp2::robot();
+        let skin = Skin::with_counts(&robot, &hrp2::SKIN, seed).map_err(|e| NetworkError::Topology(e.to_string()))?;
+        let cfg = crate::world::WorldConfig { seed, ..crate::world::WorldConfig::default() };
+        let world = crate::mujoco::Model::built_in(model, seed)?.world(skin, cfg)?;
+        let world_cell = hrp2_wiring(&world);
+        Endpoint::new(world, &Topology::hrp2(), world_cell, config)
+    }
+
     /// The built-in robot wearing its skin laid in wired patches
     /// ([`Skin::patches`], seeded), wired as laid: each group of cells
     /// wired together on its own interface port, so the neighbour tables

@@ -72,6 +72,40 @@ impl Model {
         load::load(path)
     }
 
+    /// The built-in HRP-2-like upper body in MuJoCo: `model` (an MJCF of
+    /// it) or, with none, the built-in robot written as one; checked to
+    /// have the built-in robot's DoFs, and starting where the built-in
+    /// robot stands (MuJoCo's would start at the model's zero pose).
+    pub fn built_in(model: Option<&Path>, seed: u64) -> Result<Model, MujocoError> {
+        let built_in = skin_model::robot::hrp2::robot();
+        let mut loaded = match model {
+            Some(path) => Model::load(path)?,
+            None => {
+                // MuJoCo reads a model from a file: the built-in robot's,
+                // written where no other run writes.
+                let path = std::env::temp_dir().join(format!("skin-hrp2-{}-{seed}.xml", std::process::id()));
+                let failed = |e: std::io::Error| MujocoError::Load {
+                    path: path.display().to_string(),
+                    message: e.to_string(),
+                };
+                std::fs::write(&path, skin_model::robot::mjcf::write(&built_in)).map_err(failed)?;
+                let loaded = Model::load(&path);
+                let _ = std::fs::remove_file(&path);
+                loaded?
+            }
+        };
+        let names = |r: &Robot| r.dofs().iter().map(|d| d.name.clone()).collect::<Vec<_>>();
+        if names(loaded.robot()) != names(&built_in) {
+            return Err(MujocoError::Unsupported(format!(
+                "the built-in robot's DoFs {:?} are needed; the model has {:?}",
+                names(&built_in),
+                names(loaded.robot())
+            )));
+        }
+        loaded.set_home(built_in.home())?;
+        Ok(loaded)
+    }
+
     /// The robot as MuJoCo compiled it: bodies, DoFs named as the model's
     /// joints, links named as its bodies.
     pub fn robot(&self) -> &Robot {

@@ -416,35 +416,7 @@ pub fn experiment_world(
     setup: &crate::scene::experiment::Setup,
     seed: u64,
 ) -> Result<(crate::world::World, SharedStage), super::MujocoError> {
-    let built_in = skin_model::robot::hrp2::robot();
-    let loaded = match model {
-        Some(path) => super::Model::load(path)?,
-        None => {
-            // MuJoCo reads a model from a file: the built-in robot's, written
-            // where no other run writes.
-            let path = std::env::temp_dir().join(format!("skin-hrp2-{}-{seed}.xml", std::process::id()));
-            let failed = |e: std::io::Error| super::MujocoError::Load {
-                path: path.display().to_string(),
-                message: e.to_string(),
-            };
-            std::fs::write(&path, skin_model::robot::mjcf::write(&built_in)).map_err(failed)?;
-            let loaded = super::Model::load(&path);
-            let _ = std::fs::remove_file(&path);
-            loaded?
-        }
-    };
-    let names = |r: &skin_model::robot::Robot| r.dofs().iter().map(|d| d.name.clone()).collect::<Vec<_>>();
-    if names(loaded.robot()) != names(&built_in) {
-        return Err(super::MujocoError::Unsupported(format!(
-            "the grasping experiment needs the built-in robot's DoFs {:?}; the model has {:?}",
-            names(&built_in),
-            names(loaded.robot())
-        )));
-    }
-    // The experiment starts where the built-in robot stands (MuJoCo's
-    // would start at the model's zero pose).
-    let mut loaded = loaded;
-    loaded.set_home(built_in.home())?;
+    let loaded = super::Model::built_in(model, seed)?;
     let cfg = crate::world::WorldConfig { seed, ..crate::world::WorldConfig::default() };
     let stage = SharedStage::new(SkinModel::default());
     let world = loaded.world_on_stage(setup.skin.clone(), cfg, stage.clone())?;
