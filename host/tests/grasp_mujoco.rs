@@ -34,10 +34,10 @@ fn check_held(r: &Value) {
 }
 
 /// One Figure 16 object held in MuJoCo.
-/// Ignored until the exploration finds the built-in robot's tree in
-/// MuJoCo: today it stops there, before any grasp, with a wrist or gripper
-/// DoF that "moves no cell" (seeds 0-3: one to three of the four; only the
-/// hand's three cells and the finger's one are behind them).
+/// Ignored until one is: today (seed 0) the bin slides out of a 1-4 N
+/// grip once the person lets go and ends in pain on the cells it falls
+/// against; on other seeds the exploration stops at the left wrist (see
+/// the book's Grasping in MuJoCo).
 /// `cargo test -p skin-host --features mujoco --test grasp_mujoco -- --ignored`.
 #[test]
 #[ignore]

@@ -33,10 +33,28 @@ pub(super) enum Carried {
     World,
 }
 
+/// Radius of the pad a force cell stands on under the cell's cover, m:
+/// inside its touch zone, so that whatever presses the pad is felt.
+const PAD_M: f64 = 0.005;
+
+/// The cell's cover standing off the link, as the skin is worn where
+/// objects are held: each force cell a massless pad of this height on the
+/// link, touching what the robot touches (contact bits `contype`,
+/// `conaffinity`), its touch zone on the pad's face. Without one, the
+/// zones sit on the link's own surface, which a convex object meets at a
+/// single point, mostly between the zones: a hug no cell feels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Cover {
+    pub height_m: f64,
+    pub contype: i32,
+    pub conaffinity: i32,
+}
+
 /// Adds cell `name` on body `body` at `pose` (body frame, z the outward
-/// normal), its force cells at `forces` (cell frame, x y): sites `name` and
-/// `name:f<k>`, sensors `name:vel` and `name:touch<k>`, and with
-/// [`Carried::All`] `name:acc` and `name:range`.
+/// normal), its force cells at `forces` (cell frame, x y), on pads under a
+/// `cover` if it has one: sites `name` and `name:f<k>`, sensors
+/// `name:vel` and `name:touch<k>`, and with [`Carried::All`] `name:acc`
+/// and `name:range`.
 pub(super) fn add(
     spec: &mut MjSpec,
     body: &str,
@@ -44,11 +62,26 @@ pub(super) fn add(
     pose: &Isometry3<f64>,
     forces: &[[f64; 2]; 3],
     carried: Carried,
+    cover: Option<Cover>,
 ) -> Result<(), MujocoError> {
     let on = spec.body_mut(body).ok_or_else(|| MujocoError::UnknownBody(body.to_owned()))?;
     add_site(on, name, pose, CELL_SITE_M);
+    let face_m = cover.map_or(0.0, |c| c.height_m);
     for (k, [x, y]) in forces.iter().enumerate() {
-        add_site(on, &format!("{name}:f{k}"), &(pose * Translation3::new(*x, *y, 0.0)), TOUCH_ZONE_M);
+        add_site(on, &format!("{name}:f{k}"), &(pose * Translation3::new(*x, *y, face_m)), TOUCH_ZONE_M);
+        if let Some(cover) = cover {
+            let centre = pose * Translation3::new(*x, *y, face_m / 2.0);
+            let q = centre.rotation.quaternion();
+            let pad = on.add_geom();
+            let _ = pad.set_name(&format!("{name}:pad{k}"));
+            pad.set_type(MjtGeomBase::mjGEOM_CYLINDER);
+            *pad.size_mut() = [PAD_M, face_m / 2.0, 0.0];
+            *pad.pos_mut() = centre.translation.vector.into();
+            *pad.quat_mut() = [q.w, q.i, q.j, q.k];
+            pad.set_density(0.0);
+            pad.set_contype(cover.contype);
+            pad.set_conaffinity(cover.conaffinity);
+        }
     }
     for (kind, suffix, site) in [
         (MjtSensor::mjSENS_ACCELEROMETER, "acc", name.to_owned()),

@@ -38,7 +38,11 @@ const WELD_TIME_CONSTANT_S: f64 = 0.004;
 /// after the goal no faster than the joint's force limit can accelerate
 /// it, so a saturated joint arrives late instead of winding up and
 /// overshooting; the position servo tracks the set point with velocity
-/// feed-forward, gravity compensated.
+/// and inertia feed-forward, gravity compensated. Without the inertia
+/// term a stiff servo runs ahead of a decelerating set point by the
+/// inertia times the deceleration over its stiffness (13 mrad at the
+/// built-in robot's shoulder after a 0.2 rad step in 0.2 s) and rings for
+/// 0.2 s, which the exploration's still windows read as noise.
 struct Servo {
     qpos: usize,
     /// `qpos` at the robot's zero (the model's reference pose).
@@ -59,13 +63,17 @@ struct Servo {
     /// The servo's damping over its stiffness, s: the set point's lead that
     /// cancels the damping at the set point's velocity.
     feedforward_s: f64,
+    /// The DoF's row in MuJoCo's mass matrix, and the servo's compliance
+    /// (1 / stiffness), rad per N m: the inertia feed-forward's factors.
+    dof: usize,
+    compliance: f64,
 }
 
 impl Servo {
     /// Moves the goal by the command `w` over `dt` and the set point after
     /// it: the goal's own velocity, plus the fastest approach that can still
     /// stop at the goal at the acceleration limit.
-    fn follow(&mut self, w: f64, dt: f64) -> f64 {
+    fn follow(&mut self, w: f64, dt: f64, inertia: f64) -> f64 {
         self.goal = (self.goal + w * dt).clamp(self.range.0, self.range.1);
         let error = self.goal - self.setpoint;
         // Braking distance v^2 / 2a; near the goal, half the gap per tick.
@@ -73,9 +81,11 @@ impl Servo {
             if error == 0.0 { 0.0 } else { (2.0 * self.accel * error.abs()).sqrt().min(error.abs() / (2.0 * dt)) };
         let wanted = error.signum() * approach;
         let dv = self.accel * dt;
-        self.velocity += (wanted - self.velocity).clamp(-dv, dv);
+        let accel = (wanted - self.velocity).clamp(-dv, dv) / dt;
+        self.velocity += accel * dt;
         self.setpoint = (self.setpoint + self.velocity * dt).clamp(self.range.0, self.range.1);
-        (self.setpoint + self.feedforward_s * self.velocity).clamp(self.ctrl.0, self.ctrl.1)
+        let lead = self.feedforward_s * self.velocity + self.compliance * inertia * accel;
+        (self.setpoint + lead).clamp(self.ctrl.0, self.ctrl.1)
     }
 }
 
@@ -135,10 +145,20 @@ impl Engine {
 
         let skin_model = SkinModel::default();
         let force_positions = skin_model.force.positions();
+        // In the lab objects are held: the cells' covers stand off the links.
+        let cover = lab.is_some().then(|| stage::cover(&skin_model));
         for (i, cell) in skin.cells().iter().enumerate() {
             let link = robot.link(&cell.link).ok_or_else(|| MujocoError::UnknownBody(cell.link.clone()))?;
             let in_body = link.in_body.inverse() * cell.pose;
-            cells::add(&mut spec, &link.name, &format!("skin{i}"), &in_body, &force_positions, cells::Carried::World)?;
+            cells::add(
+                &mut spec,
+                &link.name,
+                &format!("skin{i}"),
+                &in_body,
+                &force_positions,
+                cells::Carried::World,
+                cover,
+            )?;
         }
 
         // A control tick is a whole number of MuJoCo steps.
@@ -214,6 +234,8 @@ impl Engine {
                 velocity: 0.0,
                 accel: ACCEL_SHARE * force / inertia,
                 feedforward_s: if kp > 0.0 { kv.max(0.0) / kp } else { 0.0 },
+                dof: model.jnt_dofadr()[joint] as usize,
+                compliance: if kp > 0.0 { 1.0 / kp } else { 0.0 },
             });
         }
         let stage = match lab {
@@ -304,7 +326,8 @@ impl Engine {
             lab.before(&mut self.data);
         }
         for (s, &w) in self.servos.iter_mut().zip(command) {
-            self.data.ctrl_mut()[s.actuator] = s.follow(w, self.tick_s);
+            let inertia = inertia_of(&self.data, s.dof);
+            self.data.ctrl_mut()[s.actuator] = s.follow(w, self.tick_s, inertia);
         }
         // No step's sensors are read: only those of the state the steps reach.
         let sensors_off = MjtDisableBit::mjDSBL_SENSOR as i32;
@@ -368,6 +391,19 @@ impl Engine {
             let (proximity, force) = m.counts(&sense, rng);
             *t = Touch { proximity, force };
         }
+    }
+}
+
+/// The diagonal of MuJoCo's mass matrix at `dof` (its armature included)
+/// in the last computed state: the last entry of the dof's row of the
+/// lower-triangular sparse matrix `M`.
+fn inertia_of(data: &MjData<Box<MjModel>>, dof: usize) -> f64 {
+    let model = data.model();
+    let last = (model.m_rowadr()[dof] + model.m_rownnz()[dof] - 1) as usize;
+    if model.m_colind()[last] as usize == dof {
+        data.m()[last]
+    } else {
+        model.dof_m0()[dof]
     }
 }
 

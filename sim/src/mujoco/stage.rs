@@ -51,6 +51,12 @@ const ROBOT_TYPE: i32 = 2;
 /// Contact bit of what carries objects (floor, tray).
 const SUPPORT_TYPE: i32 = 4;
 
+/// The cells' covers in the lab: as thick as the skin stands off the
+/// robot in the built-in world, touching what the robot's geoms touch.
+pub(super) fn cover(skin: &SkinModel) -> super::cells::Cover {
+    super::cells::Cover { height_m: skin.surface_offset_m, contype: ROBOT_TYPE, conaffinity: ROBOT_AFFINITY }
+}
+
 /// What the person asks of MuJoCo's bodies and what MuJoCo shows them.
 #[derive(Default)]
 struct Props {
@@ -79,12 +85,12 @@ impl Stage for SharedStage {
         self.0.borrow().skin.clone()
     }
 
-    /// MuJoCo's robot has no foam: the hand presses the model's own
-    /// surface at the cell's mount, over its first force cell (a touch
-    /// zone; a sphere on the cell's centre would fall between the zones).
+    /// The hand presses the cell's cover over its first force cell (its
+    /// pad; a sphere on the cell's centre would fall between the pads).
     fn pat(&self, cell: &Isometry3<f64>, depth_m: f64) -> Hand {
-        let [x, y] = self.0.borrow().skin.force.positions()[0];
-        Hand::facing(&(cell * Translation3::new(x, y, 0.0)), 0.0, -depth_m)
+        let props = self.0.borrow();
+        let [x, y] = props.skin.force.positions()[0];
+        Hand::facing(&(cell * Translation3::new(x, y, 0.0)), props.skin.surface_offset_m, -depth_m)
     }
 
     fn set_hands(&self, hands: Vec<Hand>) {

@@ -42,7 +42,7 @@ pub fn model_with_skin(path: &Path, cells: &[CellSite]) -> Result<ModelWithSkin,
     let mut spec = load::parse(path)?;
     let forces = SkinModel::default().force.positions();
     for cell in cells {
-        cells::add(&mut spec, &cell.body, &cell.name, &cell.pose, &forces, cells::Carried::All)?;
+        cells::add(&mut spec, &cell.body, &cell.name, &cell.pose, &forces, cells::Carried::All, None)?;
     }
     let mut notes = Vec::new();
     let missing = load::drop_missing_meshes(&mut spec, path)?;
