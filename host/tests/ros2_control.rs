@@ -5,8 +5,9 @@
 //! simulated robot, so its motion moves the simulated skin: explored and
 //! calibrated as over the robot link. The faults where a forward
 //! controller's habit of holding its last command forever matters: SIGTERM
-//! mid-motion, a `/joint_states` that falls silent, a controller with the
-//! wrong joints or none known; and the ROS domain kept apart.
+//! mid-motion, a `/joint_states` that falls silent (and a host that was
+//! only descheduled, which is not), a controller with the wrong joints or
+//! none known; and the ROS domain kept apart.
 
 mod common;
 
@@ -267,10 +268,38 @@ fn joint_states_falling_silent_end_the_run_within_200_ms_with_a_zero_command() {
     assert!(stderr.contains("/joint_states fell silent"), "{stderr}");
     let got = rig.finish();
     let silent = got["silent_since"].as_f64().expect("the broadcaster fell silent");
-    assert!(at - silent < 0.2, "skin run ended {:.1} ms after /joint_states fell silent", (at - silent) * 1e3);
+    assert!(
+        at - silent < 0.2,
+        "skin run ended {:.1} ms after /joint_states fell silent: {stderr}",
+        (at - silent) * 1e3
+    );
     let commands = commands(&got);
     let (last_at, last) = commands.last().unwrap();
     assert!(last.iter().all(|v| *v == 0.0) && *last_at >= silent, "the last command stops every joint: {last:?}");
+}
+
+#[test]
+fn the_host_descheduled_is_not_taken_for_a_silent_robot() {
+    let Some(python) = rclpy::python() else { return };
+    let mut rig = Rig::start(&python, "descheduled", &[]);
+    let (mut run, drain) = rig.run(&[]);
+    rig.robot_says("moving", Some(&mut run));
+    // The whole skin process stopped for three times the silence bound,
+    // as a loaded machine's scheduler may: /joint_states kept coming,
+    // into its socket.
+    let pid = run.id().to_string();
+    assert!(Command::new("kill").args(["-STOP", &pid]).status().unwrap().success());
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(Command::new("kill").args(["-CONT", &pid]).status().unwrap().success());
+    std::thread::sleep(Duration::from_secs(1));
+    let running = run.try_wait().unwrap().is_none();
+    assert!(Command::new("kill").args(["-TERM", &pid]).status().unwrap().success());
+    let (status, _) = ended(&mut run, Duration::from_secs(5));
+    let stderr = drain.join().unwrap();
+    assert!(running && status.code() == Some(128 + 15), "the run went on after the pause: {status}, {stderr}");
+    assert!(!stderr.contains("fell silent"), "{stderr}");
+    let commands = commands(&rig.finish());
+    assert!(commands.last().unwrap().1.iter().all(|v| *v == 0.0), "the last command stops every joint");
 }
 
 #[test]
@@ -351,6 +380,27 @@ fn truth() -> (Cells, HashMap<String, Vector3<f64>>) {
         cells.push((c.id.0, c.link.clone(), c.pose));
     }
     (cells, axes)
+}
+
+/// The links whose count of calibrated `cells` differs from the simulated
+/// skin's (calibrated/true), or "none": which run put a cell on another
+/// link than the one it sits on.
+fn links_off_truth(cells: &Cells) -> String {
+    let mut count: std::collections::BTreeMap<&str, (usize, usize)> = Default::default();
+    for c in cells {
+        count.entry(c.1.as_str()).or_default().0 += 1;
+    }
+    let world = skin_sim::world::World::hrp2(0);
+    for c in world.skin().cells() {
+        count.entry(c.link.as_str()).or_default().1 += 1;
+    }
+    let off: Vec<String> =
+        count.iter().filter(|(_, (a, b))| a != b).map(|(l, (a, b))| format!("{l} {a}/{b}")).collect();
+    if off.is_empty() {
+        "none".to_owned()
+    } else {
+        off.join(", ")
+    }
 }
 
 /// How far paired cells are apart: position mean and p95, m; orientation mean, degrees.
@@ -492,7 +542,13 @@ fn a_ros2_control_robot_is_explored_and_calibrated_as_over_the_robot_link() {
     let _ = std::fs::remove_dir_all(&link_dir);
     let _ = std::fs::remove_file(&urdf);
     let pairs = paired(&ros, &link);
-    assert_eq!((ros.len(), link.len(), pairs.len()), (74, 74, 74), "every cell on the same link in both");
+    assert_eq!(
+        (ros.len(), link.len(), pairs.len()),
+        (74, 74, 74),
+        "every cell on the same link in both; cells per link against the truth (calibrated/true), over ros2_control: {}; over the robot link: {}",
+        links_off_truth(&ros),
+        links_off_truth(&link)
+    );
     let between = Apart::of(&pairs, &HashMap::new());
     eprintln!("calibrations apart: {between}");
     let (truth, unobservable) = truth();

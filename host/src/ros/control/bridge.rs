@@ -29,6 +29,11 @@ const HOST_SILENCE: Duration = Duration::from_millis(50);
 /// cycle (two periods, at most this): a robot that skips one is answered
 /// with what it last said, and its silence is judged by [`SILENCE`].
 const NEXT_STATE_MOST: Duration = Duration::from_millis(20);
+/// A turn of the serving loop longer than this means the bridge itself was
+/// not running (descheduled on a loaded machine): its turns last a
+/// millisecond, or two robot periods while a command awaits the next
+/// state, at most [`NEXT_STATE_MOST`].
+const AWAY: Duration = Duration::from_millis(25);
 /// `/joint_states` messages after the first whose stamps measure the
 /// robot's control period.
 const PERIOD_SAMPLES: usize = 8;
@@ -472,8 +477,27 @@ fn serve(ros: &mut Ros, socket: &UdpSocket, stop: &AtomicBool) {
     let mut commanding = false;
     let mut host = None;
     let mut commanded = Instant::now();
+    // Silences are judged over the time the bridge was there to hear:
+    // while it was descheduled, the robot's states and the host's commands
+    // waited in its sockets, and its absence is no evidence that either
+    // fell silent (the robot held its command meanwhile, which no judgment
+    // made afterwards could change). How long it was away since the last
+    // state, and since the last command:
+    let (mut away_since_state, mut away_since_command) = (Duration::ZERO, Duration::ZERO);
+    let mut last_turn = Instant::now();
     loop {
+        let turn = Instant::now();
+        let away = turn - last_turn;
+        last_turn = turn;
+        if away > AWAY {
+            away_since_state += away;
+            away_since_command += away;
+        }
+        let taken = ros.states_taken;
         ros.take_states();
+        if ros.states_taken != taken {
+            away_since_state = Duration::ZERO;
+        }
         if stop.load(Ordering::SeqCst) {
             ros.zero();
             ros.report();
@@ -484,14 +508,19 @@ fn serve(ros: &mut Ros, socket: &UdpSocket, stop: &AtomicBool) {
             eprintln!("skin: stopped by signal {signal}; the robot was sent a zero command");
             std::process::exit(128 + signal);
         }
-        if commanding && commanded.elapsed() > HOST_SILENCE {
+        if commanding && commanded.elapsed().saturating_sub(away_since_command) > HOST_SILENCE {
             ros.zero();
             commanding = false;
         }
-        if commanding && ros.heard.elapsed() > SILENCE {
+        if commanding && ros.heard.elapsed().saturating_sub(away_since_state) > SILENCE {
             ros.zero();
+            let away = if away_since_state.is_zero() {
+                String::new()
+            } else {
+                format!(" ({away_since_state:?} of it with this process descheduled, not counted)")
+            };
             eprintln!(
-                "error: /joint_states fell silent for {:?} while the robot moved: stopped commanding it (a zero command sent) and ended",
+                "error: /joint_states fell silent for {:?}{away} while the robot moved: stopped commanding it (a zero command sent) and ended",
                 ros.heard.elapsed()
             );
             std::process::exit(1);
@@ -518,6 +547,7 @@ fn serve(ros: &mut Ros, socket: &UdpSocket, stop: &AtomicBool) {
             Ok(request) => {
                 if matches!(request, ToRobot::Command { .. }) {
                     commanded = Instant::now();
+                    away_since_command = Duration::ZERO;
                 }
                 answer(ros, request, &mut last_seq, &mut commanding)
             }
@@ -557,6 +587,7 @@ fn answer(ros: &mut Ros, request: ToRobot, last_seq: &mut Option<u32>, commandin
         ToRobot::Command { seq, velocities } => {
             if let Some(reason) = Refusal::of_command(&velocities, dofs) {
                 ros.zero();
+                *commanding = false;
                 return FromRobot::Refused { seq, reason };
             }
             if *last_seq != Some(seq) {
