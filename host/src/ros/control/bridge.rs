@@ -134,6 +134,12 @@ impl Ros {
     /// Takes every `/joint_states` that arrived; the positions of the last
     /// one that reports every joint.
     fn take_states(&mut self) {
+        self.take_states_stamped(None);
+    }
+
+    /// [`Ros::take_states`], the stamp of each one taken added to `stamps`
+    /// (a loaded machine delivers them in bursts now and then).
+    fn take_states_stamped(&mut self, mut stamps: Option<&mut Vec<f64>>) {
         loop {
             match self.states.take() {
                 Ok(Some((state, _))) => {
@@ -142,6 +148,9 @@ impl Ros {
                         self.stamp_s = state.header.stamp_s();
                         self.heard = Instant::now();
                         self.states_taken += 1;
+                        if let Some(stamps) = stamps.as_deref_mut() {
+                            stamps.push(self.stamp_s);
+                        }
                     }
                 }
                 Ok(None) => return,
@@ -383,17 +392,17 @@ struct Measured {
 }
 
 /// The robot's control period: the median step between the stamps of the
-/// next [`PERIOD_SAMPLES`] `/joint_states`, or between their arrivals
-/// when the stamps do not advance (a broadcaster that leaves them zero).
+/// next [`PERIOD_SAMPLES`] `/joint_states`, each message's own (not only
+/// the last of a burst delivered at once), or between their arrivals when
+/// the stamps do not advance (a broadcaster that leaves them zero).
 fn measure_period(ros: &mut Ros) -> Measured {
     let mut stamps = vec![ros.stamp_s];
     let mut arrivals = vec![ros.heard];
     let start = Instant::now();
     while stamps.len() <= PERIOD_SAMPLES && start.elapsed() < SILENCE * 10 {
         let taken = ros.states_taken;
-        ros.take_states();
+        ros.take_states_stamped(Some(&mut stamps));
         if ros.states_taken > taken {
-            stamps.push(ros.stamp_s);
             arrivals.push(ros.heard);
         } else {
             std::thread::sleep(Duration::from_micros(200));
