@@ -5,8 +5,9 @@
 //! simulated robot, so its motion moves the simulated skin: explored and
 //! calibrated as over the robot link. The faults where a forward
 //! controller's habit of holding its last command forever matters: SIGTERM
-//! mid-motion, a `/joint_states` that falls silent, a controller with the
-//! wrong joints or none known; and the ROS domain kept apart.
+//! mid-motion, a `/joint_states` that falls silent (and a host that was
+//! only descheduled, which is not), a controller with the wrong joints or
+//! none known; and the ROS domain kept apart.
 
 mod common;
 
@@ -17,6 +18,7 @@ use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError};
+use std::sync::OnceLock;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use common::rclpy::{self, Domain};
@@ -127,7 +129,7 @@ impl Drop for Rig {
 /// port: that port, the child, and its robot-link address.
 fn endpoint() -> (String, Child, String) {
     let host = UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string();
-    let mut endpoint = Command::new(env!("CARGO_BIN_EXE_skin"))
+    let mut endpoint = hardware()
         .args(["sim-endpoint", "--pace", "lockstep", "--robot", "127.0.0.1:0", "--host", &host])
         .args(["--duration", "300"])
         .stdout(Stdio::piped())
@@ -142,6 +144,29 @@ fn endpoint() -> (String, Child, String) {
         .unwrap_or_else(|| panic!("no robot-link address in {line:?}"))
         .to_owned();
     (host, endpoint, link)
+}
+
+/// `skin` at real-time priority where the system permits it (SCHED_FIFO
+/// 50 by `chrt`, the priority ros2_control's controller manager takes):
+/// the simulator is the rclpy robot's hardware, stepped inside its control
+/// loop, and a robot's hardware keeps its time however busy the host's
+/// CPU is. Elsewhere at normal priority, said once.
+fn hardware() -> Command {
+    static PERMITTED: OnceLock<bool> = OnceLock::new();
+    let permitted = *PERMITTED.get_or_init(|| {
+        let ok = Command::new("chrt").args(["-f", "50", "true"]).status().is_ok_and(|s| s.success());
+        if !ok {
+            eprintln!("chrt -f 50 is not permitted here: the simulated robot runs at normal priority");
+        }
+        ok
+    });
+    if permitted {
+        let mut c = Command::new("chrt");
+        c.args(["-f", "50"]).arg(env!("CARGO_BIN_EXE_skin"));
+        c
+    } else {
+        Command::new(env!("CARGO_BIN_EXE_skin"))
+    }
 }
 
 /// The commands the controller got: (wall time, velocities).
@@ -243,10 +268,47 @@ fn joint_states_falling_silent_end_the_run_within_200_ms_with_a_zero_command() {
     assert!(stderr.contains("/joint_states fell silent"), "{stderr}");
     let got = rig.finish();
     let silent = got["silent_since"].as_f64().expect("the broadcaster fell silent");
-    assert!(at - silent < 0.2, "skin run ended {:.1} ms after /joint_states fell silent", (at - silent) * 1e3);
+    assert!(
+        at - silent < 0.2,
+        "skin run ended {:.1} ms after /joint_states fell silent: {stderr}",
+        (at - silent) * 1e3
+    );
     let commands = commands(&got);
     let (last_at, last) = commands.last().unwrap();
     assert!(last.iter().all(|v| *v == 0.0) && *last_at >= silent, "the last command stops every joint: {last:?}");
+}
+
+/// Ignored: the run ended after the pause in 5 of 7 runs on the loaded
+/// development machine; where its error was read, `/joint_states`
+/// reached the bridge again only about 200 ms of its running time after
+/// the pause (the 300 ms away not counted). Why is not found: a
+/// best-effort reader did the same as the reliable one (3 of 4 runs).
+/// `cargo test -p skin-host --features ros2 --test ros2_control the_host_descheduled -- --ignored`.
+#[test]
+#[ignore]
+fn the_host_descheduled_is_not_taken_for_a_silent_robot() {
+    let Some(python) = rclpy::python() else { return };
+    let mut rig = Rig::start(&python, "descheduled", &[]);
+    let (mut run, drain) = rig.run(&[]);
+    rig.robot_says("moving", Some(&mut run));
+    // The whole skin process stopped for three times the silence bound,
+    // as a loaded machine's scheduler may: /joint_states kept coming,
+    // into its socket.
+    let pid = run.id().to_string();
+    assert!(Command::new("kill").args(["-STOP", &pid]).status().unwrap().success());
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(Command::new("kill").args(["-CONT", &pid]).status().unwrap().success());
+    std::thread::sleep(Duration::from_secs(1));
+    if let Some(status) = run.try_wait().unwrap() {
+        panic!("the run ended after the pause ({status}): {}", drain.join().unwrap());
+    }
+    assert!(Command::new("kill").args(["-TERM", &pid]).status().unwrap().success());
+    let (status, _) = ended(&mut run, Duration::from_secs(5));
+    let stderr = drain.join().unwrap();
+    assert_eq!(status.code(), Some(128 + 15), "{stderr}");
+    assert!(!stderr.contains("fell silent"), "{stderr}");
+    let commands = commands(&rig.finish());
+    assert!(commands.last().unwrap().1.iter().all(|v| *v == 0.0), "the last command stops every joint");
 }
 
 #[test]
@@ -329,6 +391,27 @@ fn truth() -> (Cells, HashMap<String, Vector3<f64>>) {
     (cells, axes)
 }
 
+/// The links whose count of calibrated `cells` differs from the simulated
+/// skin's (calibrated/true), or "none": which run put a cell on another
+/// link than the one it sits on.
+fn links_off_truth(cells: &Cells) -> String {
+    let mut count: std::collections::BTreeMap<&str, (usize, usize)> = Default::default();
+    for c in cells {
+        count.entry(c.1.as_str()).or_default().0 += 1;
+    }
+    let world = skin_sim::world::World::hrp2(0);
+    for c in world.skin().cells() {
+        count.entry(c.link.as_str()).or_default().1 += 1;
+    }
+    let off: Vec<String> =
+        count.iter().filter(|(_, (a, b))| a != b).map(|(l, (a, b))| format!("{l} {a}/{b}")).collect();
+    if off.is_empty() {
+        "none".to_owned()
+    } else {
+        off.join(", ")
+    }
+}
+
 /// How far paired cells are apart: position mean and p95, m; orientation mean, degrees.
 struct Apart {
     cells: usize,
@@ -400,11 +483,14 @@ fn paired<'c>(a: &'c Cells, b: &'c Cells) -> Vec<(&'c Cell, &'c Cell)> {
     out
 }
 
-/// Ignored: over two minutes of wall-clock time (the robot runs in real
-/// time, then the same run over the robot link), too long for CI; and on
-/// a machine loaded past its cores it is not yet reliable: the rclpy
-/// robot stalls past the 100 ms bound on a silent `/joint_states`, and
-/// some runs put cells in other body parts (docs/src/results/ros2.md).
+/// Ignored: about two minutes of wall-clock time (the robot runs in real
+/// time, then the same run over the robot link), and on a machine loaded
+/// past its cores not yet reliable: 12 of 17 runs passed on the 2-core
+/// development machine at load 6-12 with the rclpy robot and its
+/// simulator at SCHED_FIFO; two put a cell on another link than the
+/// truth's (RARM_LINK3's on RARM_LINK4), the others stopped on a
+/// silence or a mismeasured period since fixed, or on the robot stalling
+/// beside other real-time test rigs (docs/src/results/ros2.md).
 /// `cargo test -p skin-host --features ros2 --test ros2_control -- --ignored --nocapture`.
 #[test]
 #[ignore]
@@ -417,6 +503,11 @@ fn a_ros2_control_robot_is_explored_and_calibrated_as_over_the_robot_link() {
     let (run, drain) = rig.run(&["--urdf".as_ref(), urdf.as_os_str()]);
     let out = run.wait_with_output().unwrap();
     let stderr = drain.join().unwrap();
+    let ros_dir = rig.out.with_extension("kept");
+    let _ = std::fs::rename(&rig.out, &ros_dir);
+    let robot = rig.finish();
+    // How well the robot kept its schedule: what a stall shows first.
+    eprintln!("the rclpy robot's schedule: {}", robot["schedule"]);
     assert!(out.status.success(), "skin run --robot ros2 failed: {stderr}");
     assert!(stderr.contains("control period 4.00 ms (measured from /joint_states stamps)"), "{stderr}");
     let over_ros: Value = serde_json::from_slice(&out.stdout).unwrap();
@@ -424,9 +515,7 @@ fn a_ros2_control_robot_is_explored_and_calibrated_as_over_the_robot_link() {
     let latency = stderr.lines().find(|l| l.starts_with("ros2_control:")).unwrap_or_else(|| panic!("{stderr}"));
     eprintln!("{latency}");
     eprintln!("over ros2_control: {:.1} s", started.elapsed().as_secs_f64());
-    let ros_dir = rig.out.with_extension("kept");
-    std::fs::rename(&rig.out, &ros_dir).unwrap();
-    let commands = commands(&rig.finish());
+    let commands = commands(&robot);
     assert!(commands.iter().filter(|(_, v)| v.iter().any(|x| *x != 0.0)).count() > 100, "the robot moved");
     let (_, last) = commands.last().unwrap();
     assert!(last.iter().all(|v| *v == 0.0), "a zero command when the run ends: {last:?}");
@@ -465,7 +554,13 @@ fn a_ros2_control_robot_is_explored_and_calibrated_as_over_the_robot_link() {
     let _ = std::fs::remove_dir_all(&link_dir);
     let _ = std::fs::remove_file(&urdf);
     let pairs = paired(&ros, &link);
-    assert_eq!((ros.len(), link.len(), pairs.len()), (74, 74, 74), "every cell on the same link in both");
+    assert_eq!(
+        (ros.len(), link.len(), pairs.len()),
+        (74, 74, 74),
+        "every cell on the same link in both; cells per link against the truth (calibrated/true), over ros2_control: {}; over the robot link: {}",
+        links_off_truth(&ros),
+        links_off_truth(&link)
+    );
     let between = Apart::of(&pairs, &HashMap::new());
     eprintln!("calibrations apart: {between}");
     let (truth, unobservable) = truth();

@@ -29,6 +29,11 @@ const HOST_SILENCE: Duration = Duration::from_millis(50);
 /// cycle (two periods, at most this): a robot that skips one is answered
 /// with what it last said, and its silence is judged by [`SILENCE`].
 const NEXT_STATE_MOST: Duration = Duration::from_millis(20);
+/// A turn of the serving loop longer than this means the bridge itself was
+/// not running (descheduled on a loaded machine): its turns last a
+/// millisecond, or two robot periods while a command awaits the next
+/// state, at most [`NEXT_STATE_MOST`].
+const AWAY: Duration = Duration::from_millis(25);
 /// `/joint_states` messages after the first whose stamps measure the
 /// robot's control period.
 const PERIOD_SAMPLES: usize = 8;
@@ -129,6 +134,12 @@ impl Ros {
     /// Takes every `/joint_states` that arrived; the positions of the last
     /// one that reports every joint.
     fn take_states(&mut self) {
+        self.take_states_stamped(None);
+    }
+
+    /// [`Ros::take_states`], the stamp of each one taken added to `stamps`
+    /// (a loaded machine delivers them in bursts now and then).
+    fn take_states_stamped(&mut self, mut stamps: Option<&mut Vec<f64>>) {
         loop {
             match self.states.take() {
                 Ok(Some((state, _))) => {
@@ -137,6 +148,9 @@ impl Ros {
                         self.stamp_s = state.header.stamp_s();
                         self.heard = Instant::now();
                         self.states_taken += 1;
+                        if let Some(stamps) = stamps.as_deref_mut() {
+                            stamps.push(self.stamp_s);
+                        }
                     }
                 }
                 Ok(None) => return,
@@ -378,17 +392,17 @@ struct Measured {
 }
 
 /// The robot's control period: the median step between the stamps of the
-/// next [`PERIOD_SAMPLES`] `/joint_states`, or between their arrivals
-/// when the stamps do not advance (a broadcaster that leaves them zero).
+/// next [`PERIOD_SAMPLES`] `/joint_states`, each message's own (not only
+/// the last of a burst delivered at once), or between their arrivals when
+/// the stamps do not advance (a broadcaster that leaves them zero).
 fn measure_period(ros: &mut Ros) -> Measured {
     let mut stamps = vec![ros.stamp_s];
     let mut arrivals = vec![ros.heard];
     let start = Instant::now();
     while stamps.len() <= PERIOD_SAMPLES && start.elapsed() < SILENCE * 10 {
         let taken = ros.states_taken;
-        ros.take_states();
+        ros.take_states_stamped(Some(&mut stamps));
         if ros.states_taken > taken {
-            stamps.push(ros.stamp_s);
             arrivals.push(ros.heard);
         } else {
             std::thread::sleep(Duration::from_micros(200));
@@ -472,8 +486,27 @@ fn serve(ros: &mut Ros, socket: &UdpSocket, stop: &AtomicBool) {
     let mut commanding = false;
     let mut host = None;
     let mut commanded = Instant::now();
+    // Silences are judged over the time the bridge was there to hear:
+    // while it was descheduled, the robot's states and the host's commands
+    // waited in its sockets, and its absence is no evidence that either
+    // fell silent (the robot held its command meanwhile, which no judgment
+    // made afterwards could change). How long it was away since the last
+    // state, and since the last command:
+    let (mut away_since_state, mut away_since_command) = (Duration::ZERO, Duration::ZERO);
+    let mut last_turn = Instant::now();
     loop {
+        let turn = Instant::now();
+        let away = turn - last_turn;
+        last_turn = turn;
+        if away > AWAY {
+            away_since_state += away;
+            away_since_command += away;
+        }
+        let taken = ros.states_taken;
         ros.take_states();
+        if ros.states_taken != taken {
+            away_since_state = Duration::ZERO;
+        }
         if stop.load(Ordering::SeqCst) {
             ros.zero();
             ros.report();
@@ -484,14 +517,19 @@ fn serve(ros: &mut Ros, socket: &UdpSocket, stop: &AtomicBool) {
             eprintln!("skin: stopped by signal {signal}; the robot was sent a zero command");
             std::process::exit(128 + signal);
         }
-        if commanding && commanded.elapsed() > HOST_SILENCE {
+        if commanding && commanded.elapsed().saturating_sub(away_since_command) > HOST_SILENCE {
             ros.zero();
             commanding = false;
         }
-        if commanding && ros.heard.elapsed() > SILENCE {
+        if commanding && ros.heard.elapsed().saturating_sub(away_since_state) > SILENCE {
             ros.zero();
+            let away = if away_since_state.is_zero() {
+                String::new()
+            } else {
+                format!(" ({away_since_state:?} of it with this process descheduled, not counted)")
+            };
             eprintln!(
-                "error: /joint_states fell silent for {:?} while the robot moved: stopped commanding it (a zero command sent) and ended",
+                "error: /joint_states fell silent for {:?}{away} while the robot moved: stopped commanding it (a zero command sent) and ended",
                 ros.heard.elapsed()
             );
             std::process::exit(1);
@@ -518,6 +556,7 @@ fn serve(ros: &mut Ros, socket: &UdpSocket, stop: &AtomicBool) {
             Ok(request) => {
                 if matches!(request, ToRobot::Command { .. }) {
                     commanded = Instant::now();
+                    away_since_command = Duration::ZERO;
                 }
                 answer(ros, request, &mut last_seq, &mut commanding)
             }
@@ -557,6 +596,7 @@ fn answer(ros: &mut Ros, request: ToRobot, last_seq: &mut Option<u32>, commandin
         ToRobot::Command { seq, velocities } => {
             if let Some(reason) = Refusal::of_command(&velocities, dofs) {
                 ros.zero();
+                *commanding = false;
                 return FromRobot::Refused { seq, reason };
             }
             if *last_seq != Some(seq) {

@@ -36,7 +36,9 @@ pub use bridge::Ros2Robot;
 /// The controller `--robot ros2` drives when none is named (UR's driver
 /// ships it; Franka and Kinova set one up the same way).
 pub const DEFAULT_CONTROLLER: &str = "forward_velocity_controller";
-/// Longest silence of `/joint_states` while the robot is commanded.
+/// Longest silence of `/joint_states` while the robot is commanded,
+/// counted over the time the bridge was running (its own descheduling is
+/// no evidence of the robot's silence).
 pub const SILENCE: Duration = Duration::from_millis(100);
 
 /// What the bridge needs to know.
