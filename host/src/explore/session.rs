@@ -22,10 +22,10 @@ const POSITION_GAIN: f64 = 8.0;
 const DISCOVER_TICKS: usize = 25;
 /// Longest wait after a trace's commanded motion for the DoF to come to rest, s.
 const MAX_SETTLE_S: f64 = 1.0;
-/// A move whose worst DoF has not come a tenth closer to its target for
-/// this long is blocked, s: under [`POSITION_GAIN`] a free joint closes
-/// most of the distance in a fraction of it.
-const STALL_S: f64 = 1.0;
+/// A move whose worst DoF has not come half its tolerance closer to its
+/// target for this long is blocked, s: a free joint, even one creeping
+/// the last millimetres against a coupling, gets closer than that.
+const STALL_S: f64 = 3.0;
 /// A DoF is at rest when it moves less than [`REST_MOTION`] (rad or m)
 /// over [`REST_TICKS`] ticks: 5 mrad/s at 4 ms ticks, well above
 /// encoder noise, well below any commanded motion.
@@ -360,15 +360,15 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
 
     /// Moves to `pose` in joint space at up to `speed` rad/s, then holds
     /// until every DoF is within `tolerance` rad. A DoF that stops short
-    /// (its distance to the pose shrinking by less than a tenth over
-    /// [`STALL_S`]) or is still short after `timeout_s` is
+    /// (its distance to the pose shrinking by less than half the tolerance
+    /// over [`STALL_S`]) or is still short after `timeout_s` is
     /// [`ExploreError::Blocked`]: the robot is left where it stopped.
     pub fn move_to(&mut self, pose: &[f64], speed: f64, tolerance: f64, timeout_s: f64) -> Result<(), ExploreError> {
         if pose.len() != self.dofs {
             return Err(ExploreError::Config(format!("a pose of {} values for {} DoFs", pose.len(), self.dofs)));
         }
         let deadline = self.elapsed_s + timeout_s;
-        // The worst distance to the pose when it last shrank by a tenth, and when.
+        // The worst distance to the pose when it last shrank by half the tolerance, and when.
         let mut progress: Option<(f64, f64)> = None;
         loop {
             let q = self.rig.positions();
@@ -383,7 +383,7 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
                 break;
             }
             match progress {
-                Some((last, _)) if error > 0.9 * last => {}
+                Some((last, _)) if error > last - 0.5 * tolerance => {}
                 _ => progress = Some((error, self.elapsed_s)),
             }
             let stalled = progress.is_some_and(|(_, since)| self.elapsed_s - since >= STALL_S);
