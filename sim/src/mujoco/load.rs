@@ -56,7 +56,7 @@ pub(super) fn load(path: &Path) -> Result<Model, MujocoError> {
 fn keyframe_home(model: &MjModel, tree: &tree::Tree) -> Option<(String, Vec<f64>)> {
     let (qpos0, keys) = (model.qpos0(), model.key_qpos());
     let nq = qpos0.len();
-    let count = if nq == 0 { 0 } else { keys.len() / nq };
+    let count = keys.len().checked_div(nq).unwrap_or(0);
     let key =
         (0..count).find(|&k| model.id_to_name(MjtObjBase::mjOBJ_KEY, k) == Some("home")).or((count > 0).then_some(0))?;
     let qpos = &keys[key * nq..(key + 1) * nq];
