@@ -43,8 +43,11 @@ fn the_built_in_robots_mjcf_is_the_same_robot_in_the_mujoco_world() {
         assert!((mine.axis.into_inner() - theirs.axis.into_inner()).norm() < 1e-12, "{}", mine.name);
         assert!(matches!(mine.drive, Drive::Dof(_)));
     }
-    // Its servos are its own: the world adds none.
-    assert!(model.notes().is_empty(), "{:?}", model.notes());
+    // Its servos are its own: the world adds none. It starts in the home
+    // keyframe the MJCF carries (the built-in robot's home).
+    assert_eq!(model.notes().len(), 1, "{:?}", model.notes());
+    assert!(model.notes()[0].contains("keyframe \"home\""), "{:?}", model.notes());
+    assert_eq!(robot.home(), builtin.home());
 
     // The 74-cell skin, a second at rest: every accelerometer reads 1 g up.
     let skin = Skin::with_counts(robot, &hrp2::SKIN, 5).expect("the built-in skin fits");
@@ -52,8 +55,8 @@ fn the_built_in_robots_mjcf_is_the_same_robot_in_the_mujoco_world() {
     let mut world = model.world(skin, cfg).expect("the robot takes the skin");
     // Nothing added but the controllers' gravity compensation, said once.
     let notes = world.mujoco_engine().expect("a MuJoCo world").notes();
-    assert_eq!(notes.len(), 1, "{notes:?}");
-    assert!(notes[0].contains("compensate the links' weight"), "{notes:?}");
+    assert_eq!(notes.len(), 2, "{notes:?}");
+    assert!(notes[1].contains("compensate the links' weight"), "{notes:?}");
     let home = world.positions().to_vec();
     let mut out = Vec::new();
     for _ in 0..250 {

@@ -159,6 +159,51 @@ fn a_floating_base_is_held_by_a_weld_and_said_so() {
     }
 }
 
+/// A leg whose reference pose lies outside its knee's range, with two
+/// keyframes: the one named "home" is where its makers stand it.
+const LEG: &str = r#"
+<mujoco model="leg">
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="thigh" pos="0 0 1">
+      <joint name="hip" axis="0 1 0" range="-1 1"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.03"/>
+      <body name="shin" pos="0 0 -0.3">
+        <joint name="knee" axis="0 1 0" range="-2.5 -0.2"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.025"/>
+      </body>
+    </body>
+  </worldbody>
+  <keyframe>
+    <key name="crouch" qpos="0.9 -2"/>
+    <key name="home" qpos="0.5 -1"/>
+  </keyframe>
+</mujoco>
+"#;
+
+#[test]
+fn the_robot_starts_in_the_models_home_keyframe_and_says_so() {
+    let model = Model::load(&write_model("leg.xml", LEG)).expect("MuJoCo loads the leg");
+    assert_eq!(model.robot().home(), [0.5, -1.0]);
+    assert!(model.notes().iter().any(|n| n.contains("keyframe \"home\"")), "{:?}", model.notes());
+    let skin = Skin::per_link(model.robot(), 2, 1).expect("the leg has surfaces");
+    let mut world = model.world(skin, rigid(1)).expect("the leg takes the skin");
+    let mut out = Vec::new();
+    for _ in 0..250 {
+        world.command(&[0.0, 0.0]).expect("two DoFs");
+        out.clear();
+        world.step(&mut out);
+    }
+    for (q, home) in world.positions().iter().zip([0.5, -1.0]) {
+        assert!((q - home).abs() < 1e-3, "held at {q}, not the keyframe's {home}");
+    }
+    // Without keyframes, the reference pose held inside the joint's range.
+    let bare = LEG.replace(&LEG[LEG.find("  <keyframe>").expect("keys")..LEG.find("</mujoco>").expect("end")], "");
+    let model = Model::load(&write_model("bare_leg.xml", &bare)).expect("MuJoCo loads the leg");
+    assert_eq!(model.robot().home(), [0.0, -0.2]);
+    assert!(!model.notes().iter().any(|n| n.contains("keyframe")), "{:?}", model.notes());
+}
+
 /// The accelerometers under an excitation of the elbow, against the
 /// kinematics of the positions MuJoCo reports (differentiated), as the
 /// calibration reads them: the dynamic parts agree to the sensor's

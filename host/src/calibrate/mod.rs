@@ -224,7 +224,8 @@ impl CellPose {
 pub struct Calibration {
     /// One entry per cell, in exploration order.
     pub cells: Vec<CellPose>,
-    /// The still postures this calibration moved to (interface DoF order).
+    /// The still postures this calibration reached and measured in
+    /// (interface DoF order).
     pub postures: Vec<Vec<f64>>,
     /// Still windows of the exploration's that the gravity fit reused.
     pub reused_stills: usize,
@@ -238,7 +239,7 @@ pub struct Calibration {
     pub delays_ms: Vec<f64>,
     /// Robot time spent, s.
     pub robot_time_s: f64,
-    /// Cells whose body is in doubt, in words.
+    /// Still postures left out and cells whose body is in doubt, in words.
     pub warnings: Vec<String>,
 }
 
@@ -260,15 +261,35 @@ pub fn calibrate<R: Robot + SampleSource>(
     let fresh = cfg.postures.saturating_sub(found.postures.len());
     let postures = plan::still_postures(model, &matching.urdf_dof, &start, fresh, cfg);
     let excitations = plan::excitations(model, &matching, &start, cfg);
-    let total = postures.len() + excitations.planned.len();
+    let planned = postures.len();
+    let total = planned + excitations.planned.len();
 
-    // 1. Still postures: gravity in many directions.
+    // 1. Still postures: gravity in many directions. The postures are
+    // drawn inside the joint limits, blind to the robot's own shape: one
+    // the robot cannot reach (a limb against another) is left out, and
+    // the robot goes back to the last one it reached, the way it came.
     let mut stills: Vec<(Vec<f64>, Window)> = found.stills.clone();
-    for (k, pose) in postures.iter().enumerate() {
-        session.move_to(pose, cfg.move_speed_rad_s, 2e-3, 60.0)?;
-        session.hold(cfg.settle_s)?;
-        let window = session.window(cfg.window_s)?;
-        stills.push((session.positions(), window));
+    let mut reached = Vec::with_capacity(postures.len());
+    let mut warnings = Vec::new();
+    let mut last = start.clone();
+    for (k, pose) in postures.into_iter().enumerate() {
+        match session.move_to(&pose, cfg.move_speed_rad_s, 2e-3, 60.0) {
+            Ok(()) => {
+                session.hold(cfg.settle_s)?;
+                let window = session.window(cfg.window_s)?;
+                stills.push((session.positions(), window));
+                last.clone_from(&pose);
+                reached.push(pose);
+            }
+            Err(ExploreError::Blocked { dof, short }) => {
+                warnings.push(format!(
+                    "still posture {} left out: {dof} stopped {short:.3} short of it (against another part of the robot, or a load beyond its force?)",
+                    k + 1
+                ));
+                session.move_to(&last, cfg.move_speed_rad_s, 2e-3, 60.0)?;
+            }
+            Err(e) => return Err(e.into()),
+        }
         progress(Progress { done: k + 1, total });
     }
     session.move_to(&start, cfg.move_speed_rad_s, 2e-3, 60.0)?;
@@ -292,7 +313,7 @@ pub fn calibrate<R: Robot + SampleSource>(
         };
         record.add(delay, &mut candidates);
         session.move_to(&here, cfg.move_speed_rad_s, 2e-3, 60.0)?;
-        progress(Progress { done: postures.len() + i + 1, total });
+        progress(Progress { done: planned + i + 1, total });
     }
     session.move_to(&start, cfg.move_speed_rad_s, 2e-3, 60.0)?;
 
@@ -304,7 +325,7 @@ pub fn calibrate<R: Robot + SampleSource>(
         .zip(noise)
         .map(|((&id, c), noise)| pose_of(model, id, c, noise, cfg))
         .collect();
-    let warnings = warnings(&cells);
+    warnings.extend(self::warnings(&cells));
     let mut description_start = model.home().to_vec();
     for (d, &m) in matching.urdf_dof.iter().enumerate() {
         description_start[m] = start[d];
@@ -313,7 +334,7 @@ pub fn calibrate<R: Robot + SampleSource>(
         cells,
         description_start,
         reused_stills: found.stills.len(),
-        postures,
+        postures: reached,
         excited: excitations.planned.iter().map(|e| found.dof_names[e.dof].clone()).collect(),
         skipped: excitations.skipped.into_iter().map(|(d, why)| (found.dof_names[d].clone(), why)).collect(),
         delays_ms,

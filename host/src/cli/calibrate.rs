@@ -115,6 +115,11 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
 
     let truth = check(&calibration, rig.world());
     let mut report = report(&name, &calibration, &neighbours, &truth, &found, wall_time_s);
+    // The exploration's own verdict, as `skin explore` gives it: a table
+    // over many robots then needs one run per robot, not two.
+    let explored = skin_host::explore::check::check(&found, rig.world());
+    report["exploration_truth"] =
+        json!({ "tree_correct": explored.tree_correct, "wrong_entries": explored.wrong_entries });
     report["mujoco"] = super::world::mujoco_json(rig.world());
     if let Some(dir) = &args.out {
         write_files(dir, &description, &model, &calibration, rig.world(), &report)?;
@@ -140,6 +145,7 @@ fn report(
     let exploration_s = found.exploration_time_s();
     json!({
         "robot": name,
+        "dofs": found.dof_names,
         "cells": cells,
         "postures": c.postures,
         "reused_stills": c.reused_stills,

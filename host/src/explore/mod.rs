@@ -67,6 +67,14 @@ pub enum ExploreError {
     /// A DoF did not follow its commands in either direction.
     #[error("DoF {0} does not move when commanded (limits, brakes or wiring?)")]
     Stuck(String),
+    /// A move to a pose stopped short of it.
+    #[error("DoF {dof} stopped {short:.3} short of the pose it was sent to (blocked by a collision, a load beyond its force, or a limit?)")]
+    Blocked {
+        /// The DoF furthest from the pose.
+        dof: String,
+        /// How far it is from the pose, rad (m for a slide).
+        short: f64,
+    },
     /// Entries of the activity matrix that no reachable posture decided
     /// within the robot-time budget, each with the reason.
     #[error("{} activity entries stay undecided: {}", .0.len(), describe(.0))]

@@ -22,6 +22,10 @@ const POSITION_GAIN: f64 = 8.0;
 const DISCOVER_TICKS: usize = 25;
 /// Longest wait after a trace's commanded motion for the DoF to come to rest, s.
 const MAX_SETTLE_S: f64 = 1.0;
+/// A move whose worst DoF has not come half its tolerance closer to its
+/// target for this long is blocked, s: a free joint, even one creeping
+/// the last millimetres against a coupling, gets closer than that.
+const STALL_S: f64 = 3.0;
 /// A DoF is at rest when it moves less than [`REST_MOTION`] (rad or m)
 /// over [`REST_TICKS`] ticks: 5 mrad/s at 4 ms ticks, well above
 /// encoder noise, well below any commanded motion.
@@ -355,23 +359,37 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
     }
 
     /// Moves to `pose` in joint space at up to `speed` rad/s, then holds
-    /// until every DoF is within `tolerance` rad (or `timeout_s` passes).
+    /// until every DoF is within `tolerance` rad. A DoF that stops short
+    /// (its distance to the pose shrinking by less than half the tolerance
+    /// over [`STALL_S`]) or is still short after `timeout_s` is
+    /// [`ExploreError::Blocked`]: the robot is left where it stopped.
     pub fn move_to(&mut self, pose: &[f64], speed: f64, tolerance: f64, timeout_s: f64) -> Result<(), ExploreError> {
         if pose.len() != self.dofs {
             return Err(ExploreError::Config(format!("a pose of {} values for {} DoFs", pose.len(), self.dofs)));
         }
         let deadline = self.elapsed_s + timeout_s;
+        // The worst distance to the pose when it last shrank by half the tolerance, and when.
+        let mut progress: Option<(f64, f64)> = None;
         loop {
             let q = self.rig.positions();
-            let error = pose.iter().zip(&q).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
+            let (dof, error) = pose
+                .iter()
+                .zip(&q)
+                .map(|(p, q)| (p - q).abs())
+                .enumerate()
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .unwrap_or((0, 0.0));
             if error <= tolerance {
                 break;
             }
-            if self.elapsed_s >= deadline {
-                let worst =
-                    pose.iter().zip(&q).map(|(p, q)| (p - q).abs()).enumerate().max_by(|a, b| a.1.total_cmp(&b.1));
-                let dof = worst.map_or(0, |(d, _)| d);
-                return Err(ExploreError::Stuck(self.rig.dof_names()[dof].clone()));
+            match progress {
+                Some((last, _)) if error > last - 0.5 * tolerance => {}
+                _ => progress = Some((error, self.elapsed_s)),
+            }
+            let stalled = progress.is_some_and(|(_, since)| self.elapsed_s - since >= STALL_S);
+            if stalled || self.elapsed_s >= deadline {
+                self.command.fill(0.0);
+                return Err(ExploreError::Blocked { dof: self.rig.dof_names()[dof].clone(), short: error });
             }
             for ((c, p), q) in self.command.iter_mut().zip(pose).zip(&q) {
                 *c = (POSITION_GAIN * (p - q)).clamp(-speed, speed);
@@ -391,13 +409,14 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
 mod tests {
     use super::*;
 
-    /// One DoF moving as commanded and one cell, on a robot clock that
-    /// runs `periods(k)` periods during tick `k` (a host that stalls
-    /// behind a real-time robot).
+    /// One DoF moving as commanded up to `stop` (where something blocks
+    /// it) and one cell, on a robot clock that runs `periods(k)` periods
+    /// during tick `k` (a host that stalls behind a real-time robot).
     struct Stalling {
         k: usize,
         periods: fn(usize) -> u32,
         q: f64,
+        stop: f64,
         command: f64,
         time_s: f64,
     }
@@ -427,7 +446,7 @@ mod tests {
         fn next_tick(&mut self, out: &mut Vec<(Address, Sample)>) -> Result<(), RobotError> {
             let periods = f64::from((self.periods)(self.k));
             self.k += 1;
-            self.q += self.command * TICK_S * periods;
+            self.q = (self.q + self.command * TICK_S * periods).min(self.stop);
             self.time_s += TICK_S * periods;
             out.push((Address(1), Sample::saturating(0, [0; 3], [0, 0, 256], 0, self.k as u8)));
             Ok(())
@@ -439,10 +458,26 @@ mod tests {
     }
 
     fn traced(periods: fn(usize) -> u32) -> Trace {
-        let mut rig = Stalling { k: 0, periods, q: 0.0, command: 0.0, time_s: 0.0 };
+        let mut rig = Stalling { k: 0, periods, q: 0.0, stop: f64::INFINITY, command: 0.0, time_s: 0.0 };
         let mut session = Session::with_cells(&mut rig, vec![Address(1)], AccelRange::G2);
         session.hold(0.04).unwrap();
         session.trace(0, 0.2, |t| 0.1 * t).unwrap()
+    }
+
+    #[test]
+    fn a_move_that_stops_short_is_blocked_within_the_stall_time_and_says_where() {
+        let mut rig = Stalling { k: 0, periods: |_| 1, q: 0.0, stop: 0.3, command: 0.0, time_s: 0.0 };
+        let mut session = Session::with_cells(&mut rig, vec![Address(1)], AccelRange::G2);
+        session.move_to(&[0.25], 0.8, 2e-3, 60.0).expect("a free move arrives");
+        let free_s = session.elapsed_s();
+        let err = session.move_to(&[0.5], 0.8, 2e-3, 60.0).expect_err("the DoF stops at 0.3");
+        let ExploreError::Blocked { dof, short } = err else { panic!("not a blocked move: {err}") };
+        assert_eq!(dof, "j");
+        assert!((short - 0.2).abs() < 1e-9, "0.2 short, not {short}");
+        // It arrived at the stop within a tenth of a second, then made no progress for the stall time.
+        let blocked_s = session.elapsed_s() - free_s;
+        assert!((STALL_S..STALL_S + 0.2).contains(&blocked_s), "blocked after {blocked_s} s, not the 60 s timeout");
+        assert_eq!(session.command, [0.0], "the robot is left commanded still");
     }
 
     #[test]

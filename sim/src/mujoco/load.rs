@@ -39,9 +39,37 @@ pub(super) fn load(path: &Path) -> Result<Model, MujocoError> {
             "{overlapping} pairs of the robot's bodies overlap in the start pose and never collide (their shapes approximate the links; a link would otherwise be stuck against its neighbour)"
         ));
     }
-    let tree = tree::read(&model, &data, &name)?;
+    let mut tree = tree::read(&model, &data, &name)?;
     drop(data);
+    if let Some((key, pose)) = keyframe_home(&model, &tree) {
+        tree.robot.set_home(&pose)?;
+        notes.push(format!(
+            "the robot starts in the model's keyframe \"{key}\" (its DoFs' positions; the model's reference pose is no pose its makers stand it in)"
+        ));
+    }
     Ok(Model { spec, compiled: model, tree, notes })
+}
+
+/// The pose the model's makers start it in: its keyframe named "home",
+/// else its first keyframe, as each DoF's position relative to the
+/// reference pose; `None` for a model without keyframes.
+fn keyframe_home(model: &MjModel, tree: &tree::Tree) -> Option<(String, Vec<f64>)> {
+    let (qpos0, keys) = (model.qpos0(), model.key_qpos());
+    let nq = qpos0.len();
+    let count = keys.len().checked_div(nq).unwrap_or(0);
+    let key =
+        (0..count).find(|&k| model.id_to_name(MjtObjBase::mjOBJ_KEY, k) == Some("home")).or((count > 0).then_some(0))?;
+    let qpos = &keys[key * nq..(key + 1) * nq];
+    let pose = tree
+        .dof_joint
+        .iter()
+        .map(|&j| {
+            let a = model.jnt_qposadr()[j] as usize;
+            qpos[a] - qpos0[a]
+        })
+        .collect();
+    let name = model.id_to_name(MjtObjBase::mjOBJ_KEY, key).map_or_else(|| format!("#{key}"), str::to_owned);
+    Some((name, pose))
 }
 
 /// Excludes from collision every pair of bodies other than the world whose
