@@ -84,10 +84,8 @@ impl Model {
                 // MuJoCo reads a model from a file: the built-in robot's,
                 // written where no other run writes.
                 let path = std::env::temp_dir().join(format!("skin-hrp2-{}-{seed}.xml", std::process::id()));
-                let failed = |e: std::io::Error| MujocoError::Load {
-                    path: path.display().to_string(),
-                    message: e.to_string(),
-                };
+                let failed =
+                    |e: std::io::Error| MujocoError::Load { path: path.display().to_string(), message: e.to_string() };
                 std::fs::write(&path, skin_model::robot::mjcf::write(&built_in)).map_err(failed)?;
                 let loaded = Model::load(&path);
                 let _ = std::fs::remove_file(&path);
