@@ -26,6 +26,20 @@ fn json(out: &Output) -> Value {
     serde_json::from_slice(&out.stdout).expect("one JSON object")
 }
 
+/// `skin ARGS` started, and the first line it printed (an endpoint says
+/// where it serves).
+fn serve(args: &[&str]) -> (std::process::Child, String) {
+    let mut served = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("the skin binary runs");
+    let mut line = String::new();
+    std::io::BufReader::new(served.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    (served, line)
+}
+
 fn free_addr() -> String {
     UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string()
 }
@@ -65,15 +79,20 @@ fn a_model_mujoco_cannot_load_is_a_plain_error() {
 #[test]
 fn skin_run_explores_the_mujoco_endpoint_over_udp() {
     let (robot, host) = (free_addr(), free_addr());
-    let mut served = Command::new(env!("CARGO_BIN_EXE_skin"))
-        .args(["sim-endpoint", "--mujoco", &model("arm.xml"), "--robot", &robot, "--host", &host])
-        .args(["--duration", "300", "--seed", "2"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("the skin binary runs");
-    let mut line = String::new();
-    std::io::BufReader::new(served.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let arm = model("arm.xml");
+    let (mut served, line) = serve(&[
+        "sim-endpoint",
+        "--mujoco",
+        &arm,
+        "--robot",
+        &robot,
+        "--host",
+        &host,
+        "--duration",
+        "300",
+        "--seed",
+        "2",
+    ]);
     assert!(line.starts_with("serving the MuJoCo robot on"), "{line}");
     let dir = std::env::temp_dir().join(format!("skin-mujoco-run-{}", std::process::id()));
     let out_dir = dir.to_str().expect("a UTF-8 path");
@@ -90,14 +109,8 @@ fn skin_run_explores_the_mujoco_endpoint_over_udp() {
 #[test]
 fn the_endpoint_without_a_model_serves_the_built_in_robot_and_its_own_skin() {
     let robot = free_addr();
-    let mut served = Command::new(env!("CARGO_BIN_EXE_skin"))
-        .args(["sim-endpoint", "--mujoco", "--robot", &robot, "--host", &free_addr(), "--duration", "60"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("the skin binary runs");
-    let mut line = String::new();
-    std::io::BufReader::new(served.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let (mut served, line) =
+        serve(&["sim-endpoint", "--mujoco", "--robot", &robot, "--host", &free_addr(), "--duration", "60"]);
     let _ = (served.kill(), served.wait());
     assert!(line.starts_with(&format!("serving the MuJoCo robot on {robot}")), "{line}");
     let ports = line.split("interface ports ").nth(1).unwrap().split(" send to").next().unwrap().split(", ").count();
