@@ -204,6 +204,51 @@ fn the_robot_starts_in_the_models_home_keyframe_and_says_so() {
     assert!(!model.notes().iter().any(|n| n.contains("keyframe")), "{:?}", model.notes());
 }
 
+/// A gripper finger on a slide, closed by its model's own actuator on a
+/// tendon (as Menagerie's Panda drives its fingers), which the skin's world
+/// does not drive: its home keyframe opens the finger with that actuator's
+/// control.
+const GRIPPER: &str = r#"
+<mujoco model="gripper">
+  <worldbody>
+    <body name="palm" pos="0 0 1">
+      <geom type="box" size="0.04 0.04 0.02"/>
+      <body name="finger" pos="0 0 -0.03">
+        <joint name="finger" type="slide" axis="1 0 0" range="0 0.04"/>
+        <geom type="box" size="0.01 0.01 0.02" mass="0.02"/>
+      </body>
+    </body>
+  </worldbody>
+  <tendon>
+    <fixed name="grip"><joint joint="finger" coef="1"/></fixed>
+  </tendon>
+  <actuator>
+    <position name="grip" tendon="grip" kp="100" ctrlrange="0 0.04" forcerange="-20 20"/>
+  </actuator>
+  <keyframe>
+    <key name="home" qpos="0.03" ctrl="0.03"/>
+  </keyframe>
+</mujoco>
+"#;
+
+#[test]
+fn the_start_keyframe_s_controls_hold_what_the_world_does_not_drive() {
+    let model = Model::load(&write_model("gripper.xml", GRIPPER)).expect("MuJoCo loads the gripper");
+    assert_eq!(model.robot().home(), [0.03]);
+    let skin = Skin::per_link(model.robot(), 2, 1).expect("the gripper has surfaces");
+    let mut world = model.world(skin, rigid(1)).expect("the gripper takes the skin");
+    let mut out = Vec::new();
+    for _ in 0..250 {
+        world.command(&[0.0]).expect("one DoF");
+        out.clear();
+        world.step(&mut out);
+    }
+    // Closed by its own actuator at control 0, the finger would be pulled
+    // to 0 against the world's servo.
+    let q = world.positions()[0];
+    assert!((q - 0.03).abs() < 1e-3, "the finger is at {q} m, not the keyframe's 0.03 m");
+}
+
 /// The accelerometers under an excitation of the elbow, against the
 /// kinematics of the positions MuJoCo reports (differentiated), as the
 /// calibration reads them: the dynamic parts agree to the sensor's

@@ -127,7 +127,7 @@ impl Engine {
         cfg: &WorldConfig,
         lab: Option<SharedStage>,
     ) -> Result<Engine, MujocoError> {
-        let Model { mut spec, compiled, tree, mut notes } = model;
+        let Model { mut spec, compiled, tree, mut notes, start_ctrl } = model;
         let robot = &tree.robot;
         let welded = weld_floating_bases(&mut spec, &compiled);
         if !welded.is_empty() {
@@ -249,6 +249,13 @@ impl Engine {
             None => None,
         };
         let mut data = MjData::new(Box::new(model));
+        // The model's own actuators on what the world does not drive (a
+        // gripper's tendon) hold the start keyframe's controls.
+        for (a, &c) in start_ctrl.iter().enumerate() {
+            if !servos.iter().any(|s| s.actuator == a) {
+                data.ctrl_mut()[a] = c;
+            }
+        }
         for s in &servos {
             data.qpos_mut()[s.qpos] = s.goal;
             data.ctrl_mut()[s.actuator] = s.goal.clamp(s.ctrl.0, s.ctrl.1);

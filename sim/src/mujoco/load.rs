@@ -41,19 +41,22 @@ pub(super) fn load(path: &Path) -> Result<Model, MujocoError> {
     }
     let mut tree = tree::read(&model, &data, &name)?;
     drop(data);
-    if let Some((key, pose)) = keyframe_home(&model, &tree) {
+    let mut start_ctrl = Vec::new();
+    if let Some((key, pose, ctrl)) = keyframe_home(&model, &tree) {
         tree.robot.set_home(&pose)?;
+        start_ctrl = ctrl;
         notes.push(format!(
-            "the robot starts in the model's keyframe \"{key}\" (its DoFs' positions; the model's reference pose is no pose its makers stand it in)"
+            "the robot starts in the model's keyframe \"{key}\" (its DoFs' positions, and its controls for the actuators the skin's world does not drive, as a gripper's; the model's reference pose is no pose its makers stand it in)"
         ));
     }
-    Ok(Model { spec, compiled: model, tree, notes })
+    Ok(Model { spec, compiled: model, tree, notes, start_ctrl })
 }
 
 /// The pose the model's makers start it in: its keyframe named "home",
 /// else its first keyframe, as each DoF's position relative to the
-/// reference pose; `None` for a model without keyframes.
-fn keyframe_home(model: &MjModel, tree: &tree::Tree) -> Option<(String, Vec<f64>)> {
+/// reference pose, and the keyframe's controls (one per actuator of the
+/// model); `None` for a model without keyframes.
+fn keyframe_home(model: &MjModel, tree: &tree::Tree) -> Option<(String, Vec<f64>, Vec<f64>)> {
     let (qpos0, keys) = (model.qpos0(), model.key_qpos());
     let nq = qpos0.len();
     let count = keys.len().checked_div(nq).unwrap_or(0);
@@ -69,7 +72,9 @@ fn keyframe_home(model: &MjModel, tree: &tree::Tree) -> Option<(String, Vec<f64>
         })
         .collect();
     let name = model.id_to_name(MjtObjBase::mjOBJ_KEY, key).map_or_else(|| format!("#{key}"), str::to_owned);
-    Some((name, pose))
+    let nu = model.actuator_trntype().len();
+    let ctrl = model.key_ctrl().get(key * nu..(key + 1) * nu).map_or_else(Vec::new, <[f64]>::to_vec);
+    Some((name, pose, ctrl))
 }
 
 /// Excludes from collision every pair of bodies other than the world whose

@@ -63,6 +63,9 @@ pub struct Model {
     compiled: mujoco_rs::prelude::MjModel,
     tree: tree::Tree,
     notes: Vec<String>,
+    /// The start keyframe's controls, one per actuator of the model (none
+    /// without a keyframe): what holds the joints the world does not drive.
+    start_ctrl: Vec<f64>,
 }
 
 impl Model {
