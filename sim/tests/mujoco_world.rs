@@ -79,6 +79,19 @@ fn modelled_poses(robot: &Robot, skin: &Skin, q: &[f64]) -> Vec<Isometry3<f64>> 
     skin.cells().iter().map(|c| states[c.body].pose * c.pose).collect()
 }
 
+/// Commands every DoF still for `ticks` control periods; the samples of
+/// the last.
+fn hold_still(world: &mut World, ticks: usize) -> Vec<(skin_protocol::Address, skin_protocol::Sample)> {
+    let still = vec![0.0; world.robot().dofs().len()];
+    let mut out = Vec::new();
+    for _ in 0..ticks {
+        world.command(&still).expect("a command for every DoF");
+        out.clear();
+        world.step(&mut out);
+    }
+    out
+}
+
 #[test]
 fn the_tree_read_from_mujoco_has_the_models_joints_bodies_and_coupling() {
     let model = Model::load(&write_model("arm.xml", ARM)).expect("MuJoCo loads the arm");
@@ -122,12 +135,7 @@ fn cells_sit_where_the_robots_kinematics_puts_them_as_mujoco_moves() {
 #[test]
 fn at_rest_every_accelerometer_reads_one_g_against_gravity() {
     let mut world = arm_world(2);
-    let mut out = Vec::new();
-    for _ in 0..100 {
-        world.command(&[0.0; 4]).expect("a command of the right length");
-        out.clear();
-        world.step(&mut out);
-    }
+    let out = hold_still(&mut world, 100);
     let up = Vector3::z();
     for ((_, sample), pose) in out.iter().zip(world.cell_poses()) {
         // Counts of the BMA250 at +-2 g: 256 per g, with its offsets and gains.
@@ -147,12 +155,7 @@ fn a_floating_base_is_held_by_a_weld_and_said_so() {
     assert_eq!(engine.welded(), ["pelvis"]);
     assert!(engine.notes().iter().any(|n| n.contains("\"pelvis\" held by a weld")), "{:?}", engine.notes());
     let start: Vec<_> = world.cell_poses().to_vec();
-    let mut out = Vec::new();
-    for _ in 0..250 {
-        world.command(&[0.0]).expect("one DoF");
-        out.clear();
-        world.step(&mut out);
-    }
+    hold_still(&mut world, 250);
     for (before, after) in start.iter().zip(world.cell_poses()) {
         let sag = (before.translation.vector - after.translation.vector).norm();
         assert!(sag < 0.01, "the welded base let a cell fall {sag} m in 1 s");
@@ -188,12 +191,7 @@ fn the_robot_starts_in_the_models_home_keyframe_and_says_so() {
     assert!(model.notes().iter().any(|n| n.contains("keyframe \"home\"")), "{:?}", model.notes());
     let skin = Skin::per_link(model.robot(), 2, 1).expect("the leg has surfaces");
     let mut world = model.world(skin, rigid(1)).expect("the leg takes the skin");
-    let mut out = Vec::new();
-    for _ in 0..250 {
-        world.command(&[0.0, 0.0]).expect("two DoFs");
-        out.clear();
-        world.step(&mut out);
-    }
+    hold_still(&mut world, 250);
     for (q, home) in world.positions().iter().zip([0.5, -1.0]) {
         assert!((q - home).abs() < 1e-3, "held at {q}, not the keyframe's {home}");
     }
@@ -237,12 +235,7 @@ fn the_start_keyframe_s_controls_hold_what_the_world_does_not_drive() {
     assert_eq!(model.robot().home(), [0.03]);
     let skin = Skin::per_link(model.robot(), 2, 1).expect("the gripper has surfaces");
     let mut world = model.world(skin, rigid(1)).expect("the gripper takes the skin");
-    let mut out = Vec::new();
-    for _ in 0..250 {
-        world.command(&[0.0]).expect("one DoF");
-        out.clear();
-        world.step(&mut out);
-    }
+    hold_still(&mut world, 250);
     // Closed by its own actuator at control 0, the finger would be pulled
     // to 0 against the world's servo.
     let q = world.positions()[0];
