@@ -18,7 +18,7 @@ use skin_host::calibrate::export::skin_frames;
 use skin_host::calibrate::export::{picture, skin_toml, urdf_with_skin};
 use skin_host::calibrate::neighbours::{resolve, NeighbourConfig, Resolved};
 use skin_host::calibrate::{calibrate, CalibrateConfig, Calibration};
-use skin_host::explore::{explore_wired, Exploration, ExploreConfig, Progress, StructureConfig};
+use skin_host::explore::{explore, Exploration, ExploreConfig, Progress, StructureConfig};
 use skin_host::report::check_folder;
 use skin_host::report::figures::{skin_views, SkinViews};
 use skin_host::robot::SimRobot;
@@ -106,7 +106,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     // The simulated skin's neighbour tables (IDs and ports, as its
     // self-organization reports them; none unless laid in patches).
     let tables = rig.world().skin().neighbour_tables();
-    let found = explore_wired(&mut rig, &explore_cfg, &tables, &mut show("exploring"))?;
+    let found = explore(&mut rig, &explore_cfg, &mut show("exploring"))?;
     let mut calibration = calibrate(&mut rig, &model, &found, &cfg, &mut show("calibrating"))?;
     let neighbours =
         resolve(&mut calibration.cells, &model, &calibration.description_start, &tables, &NeighbourConfig::default());

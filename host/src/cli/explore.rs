@@ -16,7 +16,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{json, Value};
 use skin_host::explore::check::{check, TruthReport};
 use skin_host::explore::smm::Evaluation;
-use skin_host::explore::{explore_wired, Basis, Exploration, ExploreConfig, ExploreError, SmmConfig, StructureConfig};
+use skin_host::explore::{explore, Basis, Exploration, ExploreConfig, ExploreError, SmmConfig, StructureConfig};
 use skin_host::robot::SimRobot;
 
 /// The exploration the paper timed on HRP-2, for comparison.
@@ -69,9 +69,7 @@ pub fn run(args: Args) -> Result<ExitCode, Box<dyn std::error::Error>> {
     );
     bar.set_message("exploring");
     let wall = Instant::now();
-    // The simulated skin's neighbour tables (none unless laid in patches).
-    let tables = rig.world().skin().neighbour_tables();
-    let result = explore_wired(&mut rig, &cfg, &tables, &mut |p| {
+    let result = explore(&mut rig, &cfg, &mut |p| {
         bar.set_length(p.total as u64);
         bar.set_position(p.done as u64);
     });
@@ -171,7 +169,7 @@ fn report(name: &str, found: &Exploration, truth: &TruthReport, wall_time_s: f64
 
 /// How many activity entries each kind of evidence decided.
 fn evidence(found: &Exploration) -> Value {
-    let (mut by_static, mut dynamic, mut tree, mut clearance, mut wire) = (0, 0, 0, 0, 0);
+    let (mut by_static, mut dynamic, mut tree, mut clearance) = (0, 0, 0, 0);
     for u in 0..found.activity.cells() {
         for d in 0..found.activity.dofs() {
             match found.activity.basis(u, d) {
@@ -179,12 +177,11 @@ fn evidence(found: &Exploration) -> Value {
                 Some(Basis::Dynamic { .. }) => dynamic += 1,
                 Some(Basis::Tree) => tree += 1,
                 Some(Basis::Clearance) => clearance += 1,
-                Some(Basis::Wire) => wire += 1,
                 None => {}
             }
         }
     }
-    json!({"static": by_static, "dynamic": dynamic, "tree": tree, "clearance": clearance, "wire": wire})
+    json!({"static": by_static, "dynamic": dynamic, "tree": tree, "clearance": clearance})
 }
 
 /// What the evidence could see at every entry: the smallest lever it

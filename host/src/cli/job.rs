@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use skin_host::config::PortConfig;
-use skin_host::explore::{explore_wired, Exploration, ExploreConfig};
+use skin_host::explore::{explore, Exploration, ExploreConfig};
 use skin_host::health::{self, Screened, SensorFault};
 use skin_host::pipeline::{organize, silence_bound, write_settings, OrganizeConfig, Organized, PipelineError};
 use skin_host::recording::{ExploreStart, RecordError, Session};
@@ -92,13 +92,11 @@ pub fn run(remote: &mut Remote, steps: &Steps) -> Result<Found, PipelineError> {
     }
     tracing::info!(cells = organized.cells.len(), "the skin organized; exploring the body");
     let exploring = RefCell::new(Progress::new("self-exploration", "DoF measurements"));
-    let tables = neighbour_tables(remote);
     let budget_s = steps.explore.structure.budget_s;
     let mut clock = |robot_s| exploring.borrow_mut().robot_time(robot_s, Some(budget_s));
     let mut rig = Screened::new(remote, &sensor_faults).on_tick(&mut clock);
-    let exploration = explore_wired(&mut rig, &steps.explore, &tables, &mut |p| {
-        exploring.borrow_mut().set(p.done as u64, p.total as u64)
-    })?;
+    let exploration =
+        explore(&mut rig, &steps.explore, &mut |p| exploring.borrow_mut().set(p.done as u64, p.total as u64))?;
     exploring.into_inner().finish();
     if let Some(session) = remote.recording_mut() {
         session.explored(&exploration);

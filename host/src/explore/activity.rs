@@ -80,8 +80,6 @@ pub enum Basis {
     /// coupled joints), and by the mounting clearance (declared, or the
     /// default) no cell sits that close to a moving axis.
     Clearance,
-    /// The entry of a wired neighbour across another joint (see `wires.rs`).
-    Wire,
 }
 
 /// Why an entry is still undecided.

@@ -21,9 +21,8 @@ pub(crate) mod session;
 pub mod smm;
 pub mod structure;
 pub mod tree;
-mod wires;
 
-use skin_protocol::message::{AccelRange, NeighbourReport};
+use skin_protocol::message::AccelRange;
 use skin_protocol::Address;
 
 pub use activity::{Activity, ActivityMatrix, Basis, Doubt};
@@ -147,7 +146,7 @@ pub struct Levers {
     /// Per entry: its DoF's axis stood aligned with gravity, or the DoF
     /// is coupled, and one step showed no lever that decided it: the cell
     /// sits near the axis or is still, and pooled levers, a tilt, the
-    /// wires, the tree or the clearance decided it.
+    /// tree or the clearance decided it.
     near_axis: Vec<bool>,
 }
 
@@ -236,17 +235,6 @@ pub fn explore<R: Robot + SampleSource>(
     cfg: &ExploreConfig,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Exploration, ExploreError> {
-    explore_wired(rig, cfg, &[], progress)
-}
-
-/// [`explore`] with the skin's neighbour tables, whose wires (those both
-/// ends report) settle entries without assumption (see `wires.rs`).
-pub fn explore_wired<R: Robot + SampleSource>(
-    rig: &mut R,
-    cfg: &ExploreConfig,
-    tables: &[(Address, NeighbourReport)],
-    progress: &mut dyn FnMut(Progress),
-) -> Result<Exploration, ExploreError> {
     cfg.structure.check()?;
     cfg.smm.check(rig.tick_s())?;
     let dof_names = rig.dof_names();
@@ -257,8 +245,7 @@ pub fn explore_wired<R: Robot + SampleSource>(
     let start = rig.positions();
     let mut session = Session::discover(rig, cfg.range)?;
     let dofs = session.dofs();
-    let wired = wires::pairs(session.cells(), tables);
-    let outcome = structure::explore(&mut session, &cfg.structure, &dof_kinds, &wired, &mut |done, total| {
+    let outcome = structure::explore(&mut session, &cfg.structure, &dof_kinds, &mut |done, total| {
         progress(Progress { done, total: total + dofs })
     })?;
     session.move_to(&start, cfg.smm.move_speed_rad_s, cfg.smm.pose_tolerance_rad, 30.0)?;

@@ -39,7 +39,6 @@
 use super::activity::{Activity, ActivityMatrix, Basis, Doubt, Evidence, Reading, Step, SURE_LEVER};
 use super::rocking::Sums;
 use super::session::{Session, Window};
-use super::wires;
 use super::ExploreError;
 use crate::robot::{DofKind, Robot, SampleSource};
 
@@ -280,7 +279,6 @@ pub(crate) fn explore<R: Robot + SampleSource>(
     session: &mut Session<'_, R>,
     cfg: &StructureConfig,
     kinds: &[DofKind],
-    wires: &[(usize, usize)],
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Outcome, ExploreError> {
     let (cells, dofs) = (session.cells().len(), session.dofs());
@@ -293,7 +291,6 @@ pub(crate) fn explore<R: Robot + SampleSource>(
         s: session,
         cfg,
         kinds,
-        wires,
         pre,
         pre_s: cfg.average_s,
         deadline_s,
@@ -373,8 +370,6 @@ struct Explorer<'x, 'r, R> {
     s: &'x mut Session<'r, R>,
     cfg: &'x StructureConfig,
     kinds: &'x [DofKind],
-    /// Cells wired to each other, row indices (see `wires.rs`).
-    wires: &'x [(usize, usize)],
     /// The still window before the next motion, and its length, s.
     pre: Window,
     pre_s: f64,
@@ -753,13 +748,10 @@ impl<R: Robot + SampleSource> Explorer<'_, '_, R> {
         self.pooled_lever(i)
     }
 
-    /// Settles what decided entries imply, with the wires, then what the
-    /// mounting clearance (declared, or the default) does.
+    /// Settles what decided entries imply, then what the mounting
+    /// clearance (declared, or the default) does.
     fn settle(&mut self, m: &mut ActivityMatrix) {
         infer(m);
-        while wires::settle(m, self.wires) {
-            infer(m);
-        }
         if self.clear(m) {
             infer(m);
         }
