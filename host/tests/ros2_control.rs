@@ -152,21 +152,25 @@ fn endpoint() -> (String, Child, String) {
 /// loop, and a robot's hardware keeps its time however busy the host's
 /// CPU is. Elsewhere at normal priority, said once.
 fn hardware() -> Command {
-    static PERMITTED: OnceLock<bool> = OnceLock::new();
-    let permitted = *PERMITTED.get_or_init(|| {
-        let ok = Command::new("chrt").args(["-f", "50", "true"]).status().is_ok_and(|s| s.success());
-        if !ok {
-            eprintln!("chrt -f 50 is not permitted here: the simulated robot runs at normal priority");
-        }
-        ok
-    });
-    if permitted {
+    if realtime_permitted() {
         let mut c = Command::new("chrt");
         c.args(["-f", "50"]).arg(env!("CARGO_BIN_EXE_skin"));
         c
     } else {
         Command::new(env!("CARGO_BIN_EXE_skin"))
     }
+}
+
+/// Whether this system lets a process take SCHED_FIFO (said once when not).
+fn realtime_permitted() -> bool {
+    static PERMITTED: OnceLock<bool> = OnceLock::new();
+    *PERMITTED.get_or_init(|| {
+        let ok = Command::new("chrt").args(["-f", "50", "true"]).status().is_ok_and(|s| s.success());
+        if !ok {
+            eprintln!("chrt -f 50 is not permitted here: the simulated robot and the bridge run at normal priority");
+        }
+        ok
+    })
 }
 
 /// The commands the controller got: (wall time, velocities).
@@ -239,6 +243,9 @@ fn sigterm_mid_motion_leaves_a_zero_command_as_the_controllers_last() {
     assert_eq!(status.code(), Some(128 + 15), "{stderr}");
     assert!(stderr.contains("zero command"), "{stderr}");
     assert!(stderr.contains("joint kinds and limits from /robot_description"), "{stderr}");
+    // The bridge hears /joint_states at real-time priority where permitted.
+    let priority = if realtime_permitted() { "the bridge at SCHED_FIFO 40" } else { "the bridge at normal priority" };
+    assert!(stderr.contains(priority), "{stderr}");
     let got = rig.finish();
     let _ = std::fs::remove_file(&urdf);
     let commands = commands(&got);

@@ -16,7 +16,7 @@ use skin_protocol::robot_link::{self, FromRobot, Refusal, ToRobot, MAX_DOFS, MAX
 
 use super::joints::{self, Joint, Source};
 use super::msgs::{Float64MultiArray, JointState, Text};
-use super::{signals, ControlConfig, ControlError, SILENCE};
+use super::{priority, signals, ControlConfig, ControlError, SILENCE};
 use crate::ros::dds::node::{context, ros_node};
 use crate::ros::dds::DdsError;
 
@@ -186,6 +186,8 @@ struct Told {
     period: Duration,
     period_from: &'static str,
     limits_from: Source,
+    /// The bridge's scheduling, in words.
+    priority: String,
 }
 
 /// A ros2_control robot served on the robot link at [`Ros2Robot::addr`],
@@ -208,6 +210,21 @@ impl Ros2Robot {
     /// against `/joint_states`, and serves the robot link. Nothing is
     /// commanded before this returns.
     pub fn start(config: &ControlConfig) -> Result<Ros2Robot, ControlError> {
+        // The DDS threads the context spawns, and the bridge's, inherit
+        // this thread's priority; the host's thread goes back to normal
+        // at the end, however this ends.
+        let realtime = priority::raise();
+        let started = Self::start_raised(config, realtime.as_ref().err());
+        if realtime.is_ok() {
+            if let Err(e) = priority::lower() {
+                tracing::warn!("ros2_control: the host's thread stays at real-time priority: {e}");
+            }
+        }
+        started
+    }
+
+    /// [`Ros2Robot::start`] at the priority raised, or not for `refused`.
+    fn start_raised(config: &ControlConfig, refused: Option<&std::io::Error>) -> Result<Ros2Robot, ControlError> {
         let context = context(config.domain, config.localhost_only)?;
         let mut node = ros_node(&context, "skin_control")?;
         let reliable = QosProfile::publisher_default()
@@ -276,7 +293,17 @@ impl Ros2Robot {
         ros.stamps_advance = measured.by_stamps;
         let (limits, source) = kinds_and_limits(&description, &joints, config)?;
         ros.limits = limits;
-        let told = Told { joints: joints.clone(), period: ros.period, period_from: measured.from, limits_from: source };
+        let priority = match refused {
+            None => format!("SCHED_FIFO {}", priority::PRIORITY),
+            Some(e) => format!("normal priority (SCHED_FIFO {} refused: {e})", priority::PRIORITY),
+        };
+        let told = Told {
+            joints: joints.clone(),
+            period: ros.period,
+            period_from: measured.from,
+            limits_from: source,
+            priority,
+        };
         let socket = UdpSocket::bind((Ipv4Addr::LOCALHOST, 0))?;
         socket.set_read_timeout(Some(Duration::from_millis(1)))?;
         let addr = socket.local_addr()?;
@@ -309,10 +336,11 @@ impl Ros2Robot {
     pub fn summary(&self) -> String {
         let t = &self.told;
         format!(
-            "control period {:.2} ms (measured from {}), joint kinds and limits {}",
+            "control period {:.2} ms (measured from {}), joint kinds and limits {}, the bridge at {}",
             t.period.as_secs_f64() * 1e3,
             t.period_from,
-            t.limits_from
+            t.limits_from,
+            t.priority
         )
     }
 }

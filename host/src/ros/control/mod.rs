@@ -27,6 +27,7 @@
 mod bridge;
 pub mod joints;
 pub mod msgs;
+mod priority;
 mod signals;
 
 use std::time::Duration;
