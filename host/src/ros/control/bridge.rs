@@ -77,10 +77,15 @@ struct Ros {
     first_stamp_s: Option<f64>,
     /// The robot's clock last told the host, µs (never backwards).
     time_us: u64,
-    /// Per new command: how long after the `/joint_states` behind it
-    /// arrived here it was sent, ms (the host's reaction and the link's
-    /// round trip, on this host's clock).
+    /// Per new command while commanding: how long after the
+    /// `/joint_states` behind it arrived here it was sent, ms (the host's
+    /// reaction and the link's round trip, on this host's clock). The
+    /// first command after the robot was stopped starts anew, and is not
+    /// counted: the host may have computed for seconds meanwhile.
     latencies_ms: Vec<f32>,
+    /// How often the host fell silent while commanding, so the robot was
+    /// stopped.
+    host_stops: usize,
     /// When the last `/joint_states` arrived.
     heard: Instant,
     _node: RosNode,
@@ -123,11 +128,13 @@ impl Ros {
         l.sort_by(f32::total_cmp);
         let at = |q: f64| l[((l.len() - 1) as f64 * q).round() as usize];
         eprintln!(
-            "ros2_control: {} commands; from a /joint_states message's arrival to the command it caused: median {:.2} ms, p99 {:.2} ms, max {:.2} ms",
+            "ros2_control: {} commands; from a /joint_states message's arrival to the command it caused: median {:.2} ms, p99 {:.2} ms, max {:.2} ms; the robot stopped {} times for a host silent over {:?}",
             l.len(),
             at(0.5),
             at(0.99),
-            at(1.0)
+            at(1.0),
+            self.host_stops,
+            HOST_SILENCE
         );
     }
 
@@ -284,6 +291,7 @@ impl Ros2Robot {
             first_stamp_s: None,
             time_us: 0,
             latencies_ms: Vec::new(),
+            host_stops: 0,
             heard: Instant::now(),
             _node: node,
         };
@@ -547,6 +555,7 @@ fn serve(ros: &mut Ros, socket: &UdpSocket, stop: &AtomicBool) {
         }
         if commanding && commanded.elapsed().saturating_sub(away_since_command) > HOST_SILENCE {
             ros.zero();
+            ros.host_stops += 1;
             commanding = false;
         }
         if commanding && ros.heard.elapsed().saturating_sub(away_since_state) > SILENCE {
@@ -629,7 +638,7 @@ fn answer(ros: &mut Ros, request: ToRobot, last_seq: &mut Option<u32>, commandin
             }
             if *last_seq != Some(seq) {
                 ros.command_within_limits(&velocities);
-                if let Some(arrived) = ros.answered_arrival {
+                if let Some(arrived) = ros.answered_arrival.filter(|_| *commanding) {
                     ros.latencies_ms.push(arrived.elapsed().as_secs_f32() * 1e3);
                 }
                 *last_seq = Some(seq);
