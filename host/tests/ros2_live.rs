@@ -66,12 +66,17 @@ fn a_zenoh_peer_sees_the_demo_as_rmw_zenoh_publishes() {
             .unwrap_or_else(|| panic!("no publisher token for {topic}: {tokens:?}"));
         let qos = if latched(topic) { ":1:,1:,:,:,," } else { "::,10:,:,:,," };
         assert!(token.ends_with(&format!("/{dds}/{}/{qos}", t["hash"].as_str().unwrap())), "{token}");
-        // Attachments: sequence numbers counting up by one, a recent
-        // source time, and the GID rmw_zenoh derives from the token.
+        // Attachments: sequence numbers counting up, a recent source time,
+        // and the GID rmw_zenoh derives from the token. A keep-last topic
+        // drops rather than blocks under congestion (as rmw_zenoh does),
+        // so a loaded machine may lose messages (one run lost 71 at the
+        // start): the numbers never go back or repeat, and two arrivals in
+        // a row differ by one.
         let attachments = t["attachments"].as_array().unwrap();
         assert!(!attachments.is_empty() && attachments.iter().all(|a| !a.is_null()), "{topic}: {attachments:?}");
         let seqs: Vec<i64> = attachments.iter().map(|a| a["seq"].as_i64().unwrap()).collect();
-        assert!(seqs.windows(2).all(|w| w[1] == w[0] + 1), "{topic}: {seqs:?}");
+        let rising = seqs.windows(2).all(|w| w[1] > w[0]);
+        assert!(rising && seqs.windows(2).any(|w| w[1] == w[0] + 1), "{topic}: {seqs:?}");
         let now_ns = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap().as_nanos() as i64;
         let stamp = attachments[0]["stamp_ns"].as_i64().unwrap();
         assert!((now_ns - 600_000_000_000..=now_ns).contains(&stamp), "{topic}: source time {stamp}");
