@@ -181,8 +181,9 @@ impl Operator {
         let (t, poses) = (world.time_s(), world.cell_poses());
         let skin = self.stage.skin();
         let offset = skin.surface_offset_m;
-        if self.watching && self.truth().is_some_and(|o| o.hugged()) {
-            // The robot has it: the person lets go of what it stood on.
+        if self.watching && self.truth().is_some_and(|o| o.pressed_to_chest()) {
+            // The robot has it against the chest: the person lets go of
+            // what it stood on.
             self.stage.let_go();
         }
         match std::mem::replace(&mut self.act, Act::Idle) {
