@@ -9,8 +9,10 @@
 //! touches the object only). An object put down is a free body with the
 //! object file's mass and friction and a contact softness from its
 //! stiffness; putting one down recompiles the model from the kept spec and
-//! carries the robot's state over. The person ([`crate::scene::operator`])
-//! acts on it through [`SharedStage`], as on the built-in scene.
+//! carries the robot's state over. Taking an object back, the person's
+//! hands carry it where they took it, as forces on its free joint. The
+//! person ([`crate::scene::operator`]) acts on it through [`SharedStage`],
+//! as on the built-in scene.
 
 use std::cell::RefCell;
 use std::rc::Rc;
