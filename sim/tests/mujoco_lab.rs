@@ -1,5 +1,6 @@
 //! The grasping experiment's lab in MuJoCo: an object put down stands on
-//! the person's tray and falls to the floor when they let go, and a pat
+//! the person's tray, falls to the floor when they let go and stays in
+//! their hands when they take it back, and a pat
 //! is felt by the patted cell through MuJoCo's touch sensors alone, as a
 //! light touch, not pain.
 
@@ -50,6 +51,28 @@ fn an_object_stands_on_the_tray_and_falls_when_the_person_lets_go() {
     stage.put(None);
     run(&mut world, 1);
     assert_eq!(stage.look().object, None, "taken away");
+}
+
+/// Patting to release what the robot carries, the person first takes it
+/// into their hands: a falling object stops where they took it.
+#[test]
+fn an_object_taken_back_stays_where_the_person_took_it() {
+    let setup = Setup::new(&hrp2::robot(), 3).unwrap();
+    let (mut world, stage) = experiment_world(None, &setup, 3).unwrap();
+    let bin = Object::by_name("trash_bin").unwrap();
+    let pose = object_pose(&bin, &Placement::default(), stage.skin().surface_offset_m);
+    stage.put(Some((bin, pose)));
+    run(&mut world, 50);
+    stage.let_go();
+    run(&mut world, 25);
+    let falling = stage.look().object.expect("the object is there").pose.translation.z;
+    assert!(falling < pose.translation.z - 0.01, "it falls once let go: {falling}");
+    stage.take_back();
+    run(&mut world, 250);
+    let look = stage.look();
+    let held = look.object.expect("the object is there").pose.translation.z;
+    assert!((held - falling).abs() < 0.02, "in the person's hands near where taken: {held} (taken at {falling})");
+    assert_eq!((look.resting, look.fallen), (Some(false), false), "on nothing but the person's hands");
 }
 
 #[test]

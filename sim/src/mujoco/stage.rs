@@ -9,8 +9,10 @@
 //! touches the object only). An object put down is a free body with the
 //! object file's mass and friction and a contact softness from its
 //! stiffness; putting one down recompiles the model from the kept spec and
-//! carries the robot's state over. The person ([`crate::scene::operator`])
-//! acts on it through [`SharedStage`], as on the built-in scene.
+//! carries the robot's state over. Taking an object back, the person's
+//! hands carry it where they took it, as forces on its free joint. The
+//! person ([`crate::scene::operator`]) acts on it through [`SharedStage`],
+//! as on the built-in scene.
 
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -50,6 +52,23 @@ const ROBOT_AFFINITY: i32 = 1;
 const ROBOT_TYPE: i32 = 2;
 /// Contact bit of what carries objects (floor, tray).
 const SUPPORT_TYPE: i32 = 4;
+/// MuJoCo's impedance of an object's contacts, the same at any depth. A
+/// contact holds still where `d k r = (1 - d) a0` (its depth `r`, the
+/// push `a0` per unit mass): at MuJoCo's default (`d` 0.9 to 0.95) the
+/// cover was 9 to 19 times stiffer than the foam it stands for, and the
+/// arms' force reactions tapped the object (in contact every other control
+/// period) instead of pressing it; at 0.5 the contact gives as the foam in
+/// series with the object does.
+const CONTACT_IMPEDANCE: f64 = 0.5;
+/// How much stiffer friction is than the normal contact (MuJoCo's
+/// `impratio`, with elliptic friction cones, MuJoCo's advice for
+/// grasping): at 1 a hugged trash bin slid down the arms and chest at
+/// about 2.5 cm/s under a grip that could carry it; at 10 it sank 1.9 cm
+/// over a 3 s hold.
+const FRICTION_IMPRATIO: f64 = 10.0;
+/// How briskly the person's hands hold a taken-back object where they
+/// took it: the natural frequency of their grip, Hz (critically damped).
+const HANDS_HZ: f64 = 5.0;
 
 /// The cells' covers in the lab: as thick as the skin stands off the
 /// robot in the built-in world, touching what the robot's geoms touch.
@@ -66,6 +85,8 @@ struct Props {
     put: Option<Option<(Object, Isometry3<f64>)>>,
     /// The person holds the tray up under the object.
     supporting: bool,
+    /// The person takes the object into their hands where it is now.
+    taking_back: bool,
     look: Look,
 }
 
@@ -109,6 +130,10 @@ impl Stage for SharedStage {
         self.0.borrow_mut().supporting = false;
     }
 
+    fn take_back(&self) {
+        self.0.borrow_mut().taking_back = true;
+    }
+
     fn look(&self) -> Look {
         self.0.borrow().look.clone()
     }
@@ -121,6 +146,10 @@ struct Body {
     qpos: usize,
     /// Where the tray stands under it (its centre).
     tray: [f64; 3],
+    /// Where it is in the velocities (its free joint's first DoF).
+    qvel: usize,
+    /// Where the person holds it in their hands, taken back (none: not).
+    in_hands_at: Option<[f64; 3]>,
 }
 
 /// The lab's bodies in the compiled model, and the spec to recompile.
@@ -145,6 +174,9 @@ pub(super) struct Scenery {
 
 /// Adds the floor, the hands and the tray to `spec` (before the first compile).
 pub(super) fn furnish(spec: &mut MjSpec) {
+    let option = spec.option_mut();
+    option.cone = MjtCone::mjCONE_ELLIPTIC as i32;
+    option.impratio = FRICTION_IMPRATIO;
     let world = spec.world_body_mut();
     let floor = world.add_geom();
     let _ = floor.set_name("stage:floor");
@@ -236,6 +268,15 @@ impl Scenery {
                 tracing::error!("MuJoCo cannot take the object: {e}");
             }
         }
+        let taking_back = std::mem::take(&mut self.shared.0.borrow_mut().taking_back);
+        if let Some(body) = &mut self.object {
+            if taking_back {
+                body.in_hands_at = Some(object_pose(data, body.qpos).translation.vector.into());
+            }
+            if let Some(at) = body.in_hands_at {
+                hold_in_hands(data, body, at);
+            }
+        }
         let props = self.shared.0.borrow();
         for (k, &(qpos, qvel)) in self.hand_q.iter().enumerate() {
             let at: [f64; 3] = props.hands.get(k).map_or(PARKED, |h| h.centre.coords.into());
@@ -282,10 +323,11 @@ impl Scenery {
                     .name_to_id(MjtObjBase::mjOBJ_JOINT, "stage:object")
                     .ok_or("the model lacks the object's joint")?;
                 let qpos = model.jnt_qposadr()[joint] as usize;
+                let qvel = model.jnt_dofadr()[joint] as usize;
                 let q = pose.rotation.quaternion();
                 let p = pose.translation.vector;
                 next.qpos_mut()[qpos..qpos + 7].copy_from_slice(&[p.x, p.y, p.z, q.w, q.i, q.j, q.k]);
-                Some(Body { object, geom, qpos, tray })
+                Some(Body { object, geom, qpos, tray, qvel, in_hands_at: None })
             }
             _ => None,
         };
@@ -301,14 +343,8 @@ impl Scenery {
         look.contacts.clear();
         let model = data.model();
         let sites = data.site_xpos();
-        look.object = self.object.as_ref().map(|body| {
-            let q = &data.qpos()[body.qpos..body.qpos + 7];
-            let pose = Isometry3::from_parts(
-                Translation3::new(q[0], q[1], q[2]),
-                nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[3], q[4], q[5], q[6])),
-            );
-            Placed { object: body.object.clone(), pose }
-        });
+        look.object =
+            self.object.as_ref().map(|body| Placed { object: body.object.clone(), pose: object_pose(data, body.qpos) });
         let object_geom = self.object.as_ref().map(|b| b.geom);
         // Per touch zone (cell, zone): the object's force and the hands'.
         let mut zones: Vec<[[f64; 3]; 2]> = vec![[[0.0; 3]; 2]; self.cells.len()];
@@ -377,7 +413,6 @@ impl Scenery {
 fn add_object(spec: &mut MjSpec, object: &Object, pose: &Isometry3<f64>) -> [f64; 3] {
     let body = spec.world_body_mut().add_body();
     let _ = body.set_name("stage:object");
-    let p = pose.translation.vector;
     let joint = body.add_free_joint();
     let _ = joint.set_name("stage:object");
     let geom = body.add_geom();
@@ -399,18 +434,51 @@ fn add_object(spec: &mut MjSpec, object: &Object, pose: &Isometry3<f64>) -> [f64
     // stiffness per unit of its mass, critically damped.
     let foam = crate::scene::force::Foam::default().stiffness_n_per_m;
     let k = 1.0 / (1.0 / foam + 1.0 / object.stiffness_n_per_m);
-    let k_acc = k / object.mass_kg.max(1e-3);
+    let d = CONTACT_IMPEDANCE;
+    let k_acc = k / object.mass_kg.max(1e-3) * (1.0 - d) / d;
     *geom.solref_mut() = [-k_acc, -2.0 * k_acc.sqrt()];
+    *geom.solimp_mut() = [d, d, 0.001, 0.5, 2.0];
     geom.set_solmix(OBJECT_SOLMIX);
     // The free joint's pose is set in the data; the tray goes under the
     // object, as large as most of its footprint.
-    let bottom = object.shape.extent(&(pose.rotation.inverse() * -Vector3::z()));
     let half = |axis: Vector3<f64>| TRAY_FRACTION * object.shape.extent(&(pose.rotation.inverse() * axis));
     let tray_half = [half(Vector3::x()), half(Vector3::y())];
     if let Some(plate) = spec.geom_mut("stage:tray") {
         *plate.size_mut() = [tray_half[0], tray_half[1], TRAY_HALF_M];
     }
+    tray_under(object, pose)
+}
+
+/// The person's hands carry `body`'s weight and hold it near `at`, as
+/// forces on its free joint (they are not bodies MuJoCo collides).
+fn hold_in_hands(data: &mut MjData<Box<MjModel>>, body: &Body, at: [f64; 3]) {
+    let m = body.object.mass_kg;
+    let g = data.model().opt().gravity;
+    let w = std::f64::consts::TAU * HANDS_HZ;
+    let (q, v) = (&data.qpos()[body.qpos..body.qpos + 3], &data.qvel()[body.qvel..body.qvel + 6]);
+    let mut f = [0.0; 6];
+    for k in 0..3 {
+        f[k] = m * (-g[k] + w * w * (at[k] - q[k]) - 2.0 * w * v[k]);
+        // Turning is damped alone, as a hand's grip does.
+        f[k + 3] = -m * 0.01 * 2.0 * w * v[k + 3];
+    }
+    data.qfrc_applied_mut()[body.qvel..body.qvel + 6].copy_from_slice(&f);
+}
+
+/// Where the tray's centre goes to carry `object` standing at `pose`.
+fn tray_under(object: &Object, pose: &Isometry3<f64>) -> [f64; 3] {
+    let p = pose.translation.vector;
+    let bottom = object.shape.extent(&(pose.rotation.inverse() * -Vector3::z()));
     [p.x, p.y, p.z - bottom - TRAY_HALF_M]
+}
+
+/// The pose of the free body whose position starts at `qpos`.
+fn object_pose(data: &MjData<Box<MjModel>>, qpos: usize) -> Isometry3<f64> {
+    let q = &data.qpos()[qpos..qpos + 7];
+    Isometry3::from_parts(
+        Translation3::new(q[0], q[1], q[2]),
+        nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[3], q[4], q[5], q[6])),
+    )
 }
 
 /// The grasping experiment's world in MuJoCo: `model` (an MJCF of the

@@ -123,6 +123,8 @@ pub struct Operator {
     act: Act,
     /// Since the first [`Order::Place`], every period is reported.
     watching: bool,
+    /// The person has let go of what the object stands on.
+    let_go: bool,
     /// The arm of each skin cell.
     arms: Vec<Option<Arm>>,
     /// How far the object reaches behind its centre, m, for the turn it
@@ -137,7 +139,7 @@ impl Operator {
     /// MuJoCo's bodies.
     pub fn new(robot: Robot, setup: Setup, stage: Box<dyn Stage>) -> Operator {
         let arms = setup.skin.cells().iter().map(|c| Arm::of_link(&c.link)).collect();
-        Operator { robot, setup, stage, act: Act::Idle, watching: false, arms, back: Cell::new(None) }
+        Operator { robot, setup, stage, act: Act::Idle, watching: false, let_go: false, arms, back: Cell::new(None) }
     }
 
     /// Takes an order at a period boundary; `ids` are the cells' network
@@ -163,9 +165,15 @@ impl Operator {
                     (object, pose)
                 }));
                 self.watching = true;
+                self.let_go = false;
                 None
             }
             Order::Pat => {
+                // Patting to release what the robot carries, the person
+                // takes it back first, as from a robot that might drop it.
+                if self.let_go {
+                    self.stage.take_back();
+                }
                 self.act = Act::Patting { until_s: world.time_s() + PAT_S };
                 None
             }
@@ -181,9 +189,11 @@ impl Operator {
         let (t, poses) = (world.time_s(), world.cell_poses());
         let skin = self.stage.skin();
         let offset = skin.surface_offset_m;
-        if self.watching && self.truth().is_some_and(|o| o.hugged()) {
-            // The robot has it: the person lets go of what it stood on.
+        if self.watching && !self.let_go && self.truth().is_some_and(|o| o.pressed_to_chest()) {
+            // The robot has it against the chest: the person lets go of
+            // what it stood on.
             self.stage.let_go();
+            self.let_go = true;
         }
         match std::mem::replace(&mut self.act, Act::Idle) {
             Act::Idle => {}

@@ -71,6 +71,8 @@ impl Stage for SharedScene {
 
     fn let_go(&self) {}
 
+    fn take_back(&self) {}
+
     fn look(&self) -> Look {
         let scene = self.get();
         Look {

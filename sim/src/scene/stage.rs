@@ -28,6 +28,10 @@ pub trait Stage {
     /// The person lets go of the support the object stands on, once the
     /// robot holds it (a table that stays does nothing).
     fn let_go(&self);
+    /// The person takes the object into their hands where it is now,
+    /// before patting to release it, so that it does not drop as the arms
+    /// open (an object on a table that stays needs nothing).
+    fn take_back(&self);
     /// What the person sees now.
     fn look(&self) -> Look;
 }
