@@ -242,6 +242,42 @@ fn the_start_keyframe_s_controls_hold_what_the_world_does_not_drive() {
     assert!((q - 0.03).abs() < 1e-3, "the finger is at {q} m, not the keyframe's 0.03 m");
 }
 
+/// A knee whose servo's control range stops 0.1 rad inside the joint's
+/// ends, and no keyframe: the reference pose (0) is no pose the servo
+/// can hold, as on Menagerie's Barkour.
+const KNEE: &str = r#"
+<mujoco model="knee">
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="thigh" pos="0 0 1">
+      <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.03"/>
+      <body name="shin" pos="0 0 -0.3">
+        <joint name="knee" axis="0 1 0" range="0 2.4"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.025" mass="0.5"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <position joint="knee" kp="50" ctrlrange="0.1 2.3"/>
+  </actuator>
+</mujoco>
+"#;
+
+#[test]
+fn a_joint_moves_within_its_servo_s_control_range_and_starts_inside_it() {
+    let model = Model::load(&write_model("knee.xml", KNEE)).expect("MuJoCo loads the knee");
+    let knee = &model.robot().dofs()[0];
+    assert_eq!((knee.lower, knee.upper), (0.1, 2.3), "the servo's control range, not the joint's");
+    assert_eq!(model.robot().home(), [0.1], "the start clamped into it");
+    let skin = Skin::per_link(model.robot(), 2, 1).expect("the knee has surfaces");
+    let mut world = model.world(skin, rigid(1)).expect("the knee takes the skin");
+    let notes = world.mujoco_engine().expect("a MuJoCo world").notes().to_vec();
+    assert!(notes.iter().any(|n| n.contains("control range") && n.contains("knee [0.100, 2.300]")), "{notes:?}");
+    hold_still(&mut world, 250);
+    let q = world.positions()[0];
+    assert!((q - 0.1).abs() < 2e-3, "the knee holds at {q} rad, not at its start 0.1 rad");
+}
+
 /// An arm swinging about a vertical axis into a post, its servo force
 /// limited (5 N m at 50 N m/rad: 0.1 rad of deflection at full force).
 const POST: &str = r#"

@@ -510,18 +510,11 @@ fn servos(
             compiled.actuator_trntype()[a] == MjtTrn::mjTRN_JOINT && compiled.actuator_trnid()[a][0] as usize == j
         })
     };
-    let is_servo = |a: usize| {
-        let (gain, bias) = (compiled.actuator_gainprm()[a][0], compiled.actuator_biasprm()[a][1]);
-        compiled.actuator_gaintype()[a] == MjtGain::mjGAIN_FIXED
-            && compiled.actuator_biastype()[a] == MjtBias::mjBIAS_AFFINE
-            && gain > 0.0
-            && (bias + gain).abs() <= 1e-9 * gain
-    };
     let mut next = compiled.actuator_trntype().len();
     let mut added = Vec::new();
     let mut actuators = Vec::with_capacity(tree.dof_joint.len());
     for &j in &tree.dof_joint {
-        if let Some(a) = on_joint(j).find(|&a| is_servo(a)) {
+        if let Some(a) = tree::position_servo(compiled, j) {
             actuators.push(a);
             continue;
         }
