@@ -146,7 +146,7 @@ impl Engine {
         let servo_of = servos(&mut spec, &compiled, &tree, &mut notes)?;
         compensate_gravity(&mut spec, &compiled, &tree);
         notes.push(format!(
-            "the joint controllers compensate the links' weight within their force limits, and their set points accelerate no faster than {:.0} % of a force limit allows at the start pose's inertia",
+            "the joint controllers compensate the links' weight within their force limits, their set points accelerate no faster than {:.0} % of a force limit allows at the start pose's inertia, and a blocked joint's goal runs no further ahead of it than its servo's deflection at the force limit",
             ACCEL_SHARE * 100.0
         ));
 
