@@ -421,7 +421,9 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
     /// places than they came by, where limbs can hook (a quadruped's
     /// calves, one across the other). Where the blocked DoF was pushed
     /// back on the way, the way back holds it instead of pressing it into
-    /// the obstacle again.
+    /// the obstacle again. A waypoint the robot cannot reach now (a finger
+    /// held by its neighbour) is passed over for the next; only the start
+    /// must be reached.
     pub fn retrace(&mut self, speed: f64, tolerance: f64, timeout_s: f64) -> Result<(), ExploreError> {
         let path = std::mem::take(&mut self.path);
         let Some((start, way)) = path.split_first() else { return Ok(()) };
@@ -433,7 +435,10 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
                 let near = if (q - s).abs() < (*t - s).abs() { q } else { *t };
                 *t = w.clamp(near.min(s), near.max(s));
             }
-            self.move_to(&target.clone(), speed, RETRACE_STEP, timeout_s)?;
+            match self.move_to(&target.clone(), speed, RETRACE_STEP, timeout_s) {
+                Ok(()) | Err(ExploreError::Blocked { .. }) => {}
+                Err(e) => return Err(e),
+            }
         }
         self.move_to(start, speed, tolerance, timeout_s)
     }
