@@ -242,6 +242,96 @@ fn the_start_keyframe_s_controls_hold_what_the_world_does_not_drive() {
     assert!((q - 0.03).abs() < 1e-3, "the finger is at {q} m, not the keyframe's 0.03 m");
 }
 
+/// A knee whose servo's control range stops 0.1 rad inside the joint's
+/// ends, and no keyframe: the reference pose (0) is no pose the servo
+/// can hold, as on Menagerie's Barkour.
+const KNEE: &str = r#"
+<mujoco model="knee">
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="thigh" pos="0 0 1">
+      <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.03"/>
+      <body name="shin" pos="0 0 -0.3">
+        <joint name="knee" axis="0 1 0" range="0 2.4"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.025" mass="0.5"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <position joint="knee" kp="50" ctrlrange="0.1 2.3"/>
+  </actuator>
+</mujoco>
+"#;
+
+#[test]
+fn a_joint_moves_within_its_servo_s_control_range_and_starts_inside_it() {
+    let model = Model::load(&write_model("knee.xml", KNEE)).expect("MuJoCo loads the knee");
+    let knee = &model.robot().dofs()[0];
+    assert_eq!((knee.lower, knee.upper), (0.1, 2.3), "the servo's control range, not the joint's");
+    assert_eq!(model.robot().home(), [0.1], "the start clamped into it");
+    let skin = Skin::per_link(model.robot(), 2, 1).expect("the knee has surfaces");
+    let mut world = model.world(skin, rigid(1)).expect("the knee takes the skin");
+    let notes = world.mujoco_engine().expect("a MuJoCo world").notes().to_vec();
+    assert!(notes.iter().any(|n| n.contains("control range") && n.contains("knee [0.100, 2.300]")), "{notes:?}");
+    hold_still(&mut world, 250);
+    let q = world.positions()[0];
+    assert!((q - 0.1).abs() < 2e-3, "the knee holds at {q} rad, not at its start 0.1 rad");
+}
+
+/// An arm swinging about a vertical axis into a post, its servo force
+/// limited (5 N m at 50 N m/rad: 0.1 rad of deflection at full force).
+const POST: &str = r#"
+<mujoco model="post">
+  <compiler angle="radian"/>
+  <worldbody>
+    <geom name="post" type="box" pos="0.25 0.15 0.3" size="0.03 0.02 0.05"/>
+    <body name="base" pos="0 0 0.3">
+      <geom type="cylinder" size="0.04 0.02"/>
+      <body name="arm">
+        <joint name="swing" axis="0 0 1" range="-3 3"/>
+        <geom type="capsule" fromto="0.05 0 0 0.3 0 0" size="0.02" mass="1"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <position joint="swing" kp="50" dampratio="1" forcerange="-5 5"/>
+  </actuator>
+</mujoco>
+"#;
+
+/// Ticks until the swing's position passes `until`, under the velocity
+/// `command`, at most `limit`.
+fn ticks_until(world: &mut World, command: f64, limit: usize, until: impl Fn(f64) -> bool) -> usize {
+    let mut out = Vec::new();
+    for k in 0..limit {
+        if until(world.positions()[0]) {
+            return k;
+        }
+        world.command(&[command]).expect("a command for the DoF");
+        out.clear();
+        world.step(&mut out);
+    }
+    limit
+}
+
+#[test]
+fn a_joint_held_against_an_obstacle_comes_away_as_soon_as_commanded() {
+    let model = Model::load(&write_model("post.xml", POST)).expect("MuJoCo loads the post");
+    let skin = Skin::per_link(model.robot(), 1, 1).expect("the arm has surfaces");
+    let mut world = model.world(skin, rigid(1)).expect("the arm takes the skin");
+    // Swung at 1 rad/s into the post (about 0.45 rad) and pressed there
+    // for 3 s, as a move that a limb blocks does until it gives up.
+    ticks_until(&mut world, 1.0, 750, |_| false);
+    let stopped = world.positions()[0];
+    assert!((0.3..0.6).contains(&stopped), "the post stops the arm, not at {stopped} rad");
+    // Sent back at 0.5 rad/s it leaves the post at once: the servo's goal
+    // did not run on past what its force can use (with the 3 s of
+    // command wound up it would press on for 4 s).
+    let ticks = ticks_until(&mut world, -0.5, 1000, |q| q < stopped - 0.05);
+    let seconds = ticks as f64 * world.config().tick_s;
+    assert!(seconds < 0.6, "the arm left the post {seconds} s after it was sent back");
+}
+
 /// The accelerometers under an excitation of the elbow, against the
 /// kinematics of the positions MuJoCo reports (differentiated), as the
 /// calibration reads them: the dynamic parts agree to the sensor's

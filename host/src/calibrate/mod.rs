@@ -267,18 +267,17 @@ pub fn calibrate<R: Robot + SampleSource>(
     // 1. Still postures: gravity in many directions. The postures are
     // drawn inside the joint limits, blind to the robot's own shape: one
     // the robot cannot reach (a limb against another) is left out, and
-    // the robot goes back to the last one it reached, the way it came.
+    // the robot goes back to the last one it reached, the way it came
+    // (the path its joints took, not a straight line).
     let mut stills: Vec<(Vec<f64>, Window)> = found.stills.clone();
     let mut reached = Vec::with_capacity(postures.len());
     let mut warnings = Vec::new();
-    let mut last = start.clone();
     for (k, pose) in postures.into_iter().enumerate() {
         match session.move_to(&pose, cfg.move_speed_rad_s, 2e-3, 60.0) {
             Ok(()) => {
                 session.hold(cfg.settle_s)?;
                 let window = session.window(cfg.window_s)?;
                 stills.push((session.positions(), window));
-                last.clone_from(&pose);
                 reached.push(pose);
             }
             Err(ExploreError::Blocked { dof, short }) => {
@@ -286,7 +285,7 @@ pub fn calibrate<R: Robot + SampleSource>(
                     "still posture {} left out: {dof} stopped {short:.3} short of it (against another part of the robot, or a load beyond its force?)",
                     k + 1
                 ));
-                session.move_to(&last, cfg.move_speed_rad_s, 2e-3, 60.0)?;
+                session.retrace(cfg.move_speed_rad_s, 2e-3, 60.0)?;
             }
             Err(e) => return Err(e.into()),
         }

@@ -31,6 +31,10 @@ const STALL_S: f64 = 3.0;
 /// encoder noise, well below any commanded motion.
 const REST_TICKS: usize = 5;
 const REST_MOTION: f64 = 1e-4;
+/// Spacing of the waypoints a move records for [`Session::retrace`], rad
+/// (or m) on the DoF that moved most: fine enough that going back from one
+/// to the one before does not cut a corner the robot's own shape forbids.
+const RETRACE_STEP: f64 = 0.02;
 
 /// Ticks of a trace left out on either side of one that took other than
 /// one period of the robot's clock: the motion's central differences reach
@@ -151,6 +155,9 @@ pub(crate) struct Session<'r, R> {
     regular: bool,
     /// Whether the user was told of irregular ticks.
     warned_irregular: bool,
+    /// The last [`Session::move_to`]'s way, from where it started to where
+    /// it ended, every [`RETRACE_STEP`].
+    path: Vec<Vec<f64>>,
 }
 
 impl<'r, R: Robot + SampleSource> Session<'r, R> {
@@ -196,6 +203,7 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
             robot_s: None,
             regular: true,
             warned_irregular: false,
+            path: Vec::new(),
         }
     }
 
@@ -370,8 +378,13 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
         let deadline = self.elapsed_s + timeout_s;
         // The worst distance to the pose when it last shrank by half the tolerance, and when.
         let mut progress: Option<(f64, f64)> = None;
+        self.path.clear();
         loop {
             let q = self.rig.positions();
+            let apart = |w: &Vec<f64>| w.iter().zip(&q).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            if self.path.last().is_none_or(|w| apart(w) >= RETRACE_STEP) {
+                self.path.push(q.clone());
+            }
             let (dof, error) = pose
                 .iter()
                 .zip(&q)
@@ -398,6 +411,36 @@ impl<'r, R: Robot + SampleSource> Session<'r, R> {
         }
         self.command.fill(0.0);
         Ok(())
+    }
+
+    /// Goes back the way the last [`Session::move_to`] came, waypoint by
+    /// waypoint, to where it started (within `tolerance`), no DoF ever
+    /// turning away from that start. A move that stopped against another
+    /// part of the robot took its other DoFs on to their goals while the
+    /// blocked one stood; going straight back swings them through other
+    /// places than they came by, where limbs can hook (a quadruped's
+    /// calves, one across the other). Where the blocked DoF was pushed
+    /// back on the way, the way back holds it instead of pressing it into
+    /// the obstacle again. A waypoint the robot cannot reach now (a finger
+    /// held by its neighbour) is passed over for the next; only the start
+    /// must be reached.
+    pub fn retrace(&mut self, speed: f64, tolerance: f64, timeout_s: f64) -> Result<(), ExploreError> {
+        let path = std::mem::take(&mut self.path);
+        let Some((start, way)) = path.split_first() else { return Ok(()) };
+        let mut target = self.positions();
+        for waypoint in way.iter().rev() {
+            let q = self.positions();
+            for (((t, &w), &s), &q) in target.iter_mut().zip(waypoint).zip(start).zip(&q) {
+                // Nearer the start of the last target and where the DoF is.
+                let near = if (q - s).abs() < (*t - s).abs() { q } else { *t };
+                *t = w.clamp(near.min(s), near.max(s));
+            }
+            match self.move_to(&target.clone(), speed, RETRACE_STEP, timeout_s) {
+                Ok(()) | Err(ExploreError::Blocked { .. }) => {}
+                Err(e) => return Err(e),
+            }
+        }
+        self.move_to(start, speed, tolerance, timeout_s)
     }
 
     fn ticks(&self, seconds: f64) -> usize {
@@ -478,6 +521,83 @@ mod tests {
         let blocked_s = session.elapsed_s() - free_s;
         assert!((STALL_S..STALL_S + 0.2).contains(&blocked_s), "blocked after {blocked_s} s, not the 60 s timeout");
         assert_eq!(session.command, [0.0], "the robot is left commanded still");
+    }
+
+    /// Two DoFs; the first cannot pass 0.3 while the second is above 0.5
+    /// (a limb behind another), and is pushed back to 0.25 while the
+    /// second is between 0.6 and 0.7 (the other limb pressing on it).
+    struct Hooked {
+        q: [f64; 2],
+        command: [f64; 2],
+        /// Every position the robot went through.
+        visited: Vec<[f64; 2]>,
+    }
+
+    impl Robot for Hooked {
+        fn dof_names(&self) -> Vec<String> {
+            vec!["a".to_owned(), "b".to_owned()]
+        }
+
+        fn command_velocities(&mut self, omega_rad_s: &[f64]) -> Result<(), RobotError> {
+            self.command = [omega_rad_s[0], omega_rad_s[1]];
+            Ok(())
+        }
+
+        fn positions(&self) -> Vec<f64> {
+            self.q.to_vec()
+        }
+    }
+
+    impl SampleSource for Hooked {
+        fn tick_s(&self) -> f64 {
+            TICK_S
+        }
+
+        fn next_tick(&mut self, out: &mut Vec<(Address, Sample)>) -> Result<(), RobotError> {
+            let mut next = [self.q[0] + self.command[0] * TICK_S, self.q[1] + self.command[1] * TICK_S];
+            if next[1] > 0.5 {
+                next[0] = next[0].min(0.3);
+            }
+            if (0.6..0.7).contains(&next[1]) {
+                next[0] = next[0].min(0.25);
+            }
+            self.q = next;
+            self.visited.push(next);
+            out.push((Address(1), Sample::saturating(0, [0; 3], [0, 0, 256], 0, 0)));
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_blocked_move_is_retraced_the_way_it_came_without_pressing_on() {
+        let start = [0.0, 1.0];
+        let mut rig = Hooked { q: start, command: [0.0; 2], visited: Vec::new() };
+        let mut session = Session::with_cells(&mut rig, vec![Address(1)], AccelRange::G2);
+        let err = session.move_to(&[0.8, 0.6], 0.8, 2e-3, 60.0).expect_err("a stops at 0.25");
+        assert!(matches!(err, ExploreError::Blocked { .. }), "not a blocked move: {err}");
+        let turn = rig_len(&session);
+        session.retrace(0.8, 2e-3, 60.0).expect("the way back is free");
+        let q = session.positions();
+        assert!(q.iter().zip(start).all(|(q, s)| (q - s).abs() <= 2e-3), "back at {q:?}, not at the start");
+        let (out, back) = rig.visited.split_at(turn);
+        // Every DoF heads for the start all the way: a, pushed back from
+        // 0.3 to 0.25 on the way out, is not pressed towards 0.3 again.
+        for d in 0..2 {
+            let towards = |w: &[[f64; 2]]| (w[1][d] - w[0][d]) * (start[d] - w[0][d]) >= -1e-9;
+            assert!(back.windows(2).all(towards), "DoF {d} turned away from its start on the way back");
+        }
+        // And it went back near the way it came (a straight line back would
+        // bring a to 0 while b is still at 0.85, 0.15 off the way out).
+        let off = back
+            .iter()
+            .map(|p| out.iter().map(|o| (o[0] - p[0]).abs().max((o[1] - p[1]).abs())).fold(f64::INFINITY, f64::min))
+            .fold(0.0, f64::max);
+        assert!(off < 0.06, "the way back strays {off} from the way out");
+    }
+
+    /// Ticks the session's robot has run.
+    fn rig_len(session: &Session<'_, Hooked>) -> usize {
+        session.rig.visited.len()
     }
 
     #[test]

@@ -67,14 +67,21 @@ struct Servo {
     /// (1 / stiffness), rad per N m: the inertia feed-forward's factors.
     dof: usize,
     compliance: f64,
+    /// How far the goal may lead the joint: the servo's deflection at its
+    /// force limit (infinite where the force is not limited). Further
+    /// buys no force; it only winds up while the joint is blocked (a limb
+    /// against another), and throws the joint that far on the moment it
+    /// slips free, as a joint controller with anti-windup does not.
+    lead_limit: f64,
 }
 
 impl Servo {
     /// Moves the goal by the command `w` over `dt` and the set point after
     /// it: the goal's own velocity, plus the fastest approach that can still
     /// stop at the goal at the acceleration limit.
-    fn follow(&mut self, w: f64, dt: f64, inertia: f64) -> f64 {
-        self.goal = (self.goal + w * dt).clamp(self.range.0, self.range.1);
+    fn follow(&mut self, w: f64, dt: f64, inertia: f64, q: f64) -> f64 {
+        let (low, high) = (q - self.lead_limit, q + self.lead_limit);
+        self.goal = (self.goal + w * dt).clamp(low.max(self.range.0), high.min(self.range.1));
         let error = self.goal - self.setpoint;
         // Braking distance v^2 / 2a; near the goal, half the gap per tick.
         let approach =
@@ -139,7 +146,7 @@ impl Engine {
         let servo_of = servos(&mut spec, &compiled, &tree, &mut notes)?;
         compensate_gravity(&mut spec, &compiled, &tree);
         notes.push(format!(
-            "the joint controllers compensate the links' weight within their force limits, and their set points accelerate no faster than {:.0} % of a force limit allows at the start pose's inertia",
+            "the joint controllers compensate the links' weight within their force limits, their set points accelerate no faster than {:.0} % of a force limit allows at the start pose's inertia, and a blocked joint's goal runs no further ahead of it than its servo's deflection at the force limit",
             ACCEL_SHARE * 100.0
         ));
 
@@ -236,6 +243,7 @@ impl Engine {
                 feedforward_s: if kp > 0.0 { kv.max(0.0) / kp } else { 0.0 },
                 dof: model.jnt_dofadr()[joint] as usize,
                 compliance: if kp > 0.0 { 1.0 / kp } else { 0.0 },
+                lead_limit: if kp > 0.0 { force / kp } else { f64::INFINITY },
             });
         }
         let stage = match lab {
@@ -334,7 +342,8 @@ impl Engine {
         }
         for (s, &w) in self.servos.iter_mut().zip(command) {
             let inertia = inertia_of(&self.data, s.dof);
-            self.data.ctrl_mut()[s.actuator] = s.follow(w, self.tick_s, inertia);
+            let q = self.data.qpos()[s.qpos];
+            self.data.ctrl_mut()[s.actuator] = s.follow(w, self.tick_s, inertia, q);
         }
         // No step's sensors are read: only those of the state the steps reach.
         let sensors_off = MjtDisableBit::mjDSBL_SENSOR as i32;
@@ -501,18 +510,11 @@ fn servos(
             compiled.actuator_trntype()[a] == MjtTrn::mjTRN_JOINT && compiled.actuator_trnid()[a][0] as usize == j
         })
     };
-    let is_servo = |a: usize| {
-        let (gain, bias) = (compiled.actuator_gainprm()[a][0], compiled.actuator_biasprm()[a][1]);
-        compiled.actuator_gaintype()[a] == MjtGain::mjGAIN_FIXED
-            && compiled.actuator_biastype()[a] == MjtBias::mjBIAS_AFFINE
-            && gain > 0.0
-            && (bias + gain).abs() <= 1e-9 * gain
-    };
     let mut next = compiled.actuator_trntype().len();
     let mut added = Vec::new();
     let mut actuators = Vec::with_capacity(tree.dof_joint.len());
     for &j in &tree.dof_joint {
-        if let Some(a) = on_joint(j).find(|&a| is_servo(a)) {
+        if let Some(a) = tree::position_servo(compiled, j) {
             actuators.push(a);
             continue;
         }

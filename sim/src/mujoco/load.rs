@@ -41,6 +41,13 @@ pub(super) fn load(path: &Path) -> Result<Model, MujocoError> {
     }
     let mut tree = tree::read(&model, &data, &name)?;
     drop(data);
+    if !tree.narrowed.is_empty() {
+        notes.push(format!(
+            "{} joints move only within their position servo's control range, narrower than the joint's (a start pose outside it starts at its nearest end): {}",
+            tree.narrowed.len(),
+            tree.narrowed.join(", ")
+        ));
+    }
     let mut start_ctrl = Vec::new();
     if let Some((key, pose, ctrl)) = keyframe_home(&model, &tree) {
         tree.robot.set_home(&pose)?;

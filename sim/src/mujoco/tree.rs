@@ -22,12 +22,32 @@ use super::MujocoError;
 
 /// Velocity limit of a DoF: MuJoCo joints have none.
 const NO_VELOCITY_LIMIT: f64 = f64::INFINITY;
+/// A servo's control range narrows its joint's when it ends further
+/// inside than this, rad or m (the UR5e's are its joint range rounded).
+const NARROWER: f64 = 1e-3;
 
 /// The robot of a compiled model and where its parts are in MuJoCo.
 pub(super) struct Tree {
     pub(super) robot: Robot,
     /// Per DoF, its MuJoCo joint. Link `i` is MuJoCo body `i`.
     pub(super) dof_joint: Vec<usize>,
+    /// The DoFs whose range is their position servo's control range,
+    /// narrower than the joint's, in words.
+    pub(super) narrowed: Vec<String>,
+}
+
+/// The model's own position servo on `joint` (its control is the joint's
+/// position: a fixed gain and an affine bias cancelling it), if any.
+pub(super) fn position_servo(model: &MjModel, joint: usize) -> Option<usize> {
+    (0..model.actuator_trntype().len()).find(|&a| {
+        let (gain, bias) = (model.actuator_gainprm()[a][0], model.actuator_biasprm()[a][1]);
+        model.actuator_trntype()[a] == MjtTrn::mjTRN_JOINT
+            && model.actuator_trnid()[a][0] as usize == joint
+            && model.actuator_gaintype()[a] == MjtGain::mjGAIN_FIXED
+            && model.actuator_biastype()[a] == MjtBias::mjBIAS_AFFINE
+            && gain > 0.0
+            && (bias + gain).abs() <= 1e-9 * gain
+    })
 }
 
 /// A MuJoCo pose as an isometry.
@@ -137,14 +157,24 @@ pub(super) fn read(model: &MjModel, data: &MjData<&MjModel>, name_of_robot: &str
 
     let qpos0 = model.qpos0();
     let mut dofs = Vec::new();
+    let mut narrowed = Vec::new();
     for &j in &dof_joint {
         let joint = robot_joint[j].expect("hinge and slide joints are robot joints");
         let zero = qpos0[model.jnt_qposadr()[j] as usize];
-        let (lower, upper) = if model.jnt_limited()[j] {
+        let (mut lower, mut upper) = if model.jnt_limited()[j] {
             (model.jnt_range()[j][0] - zero, model.jnt_range()[j][1] - zero)
         } else {
             (f64::NEG_INFINITY, f64::INFINITY)
         };
+        // A position servo reaches only its control range (Barkour's knees:
+        // 0.1 rad inside the joint's ends): that is where the DoF can go.
+        if let Some(a) = position_servo(model, j).filter(|&a| model.actuator_ctrllimited()[a]) {
+            let [low, high] = model.actuator_ctrlrange()[a];
+            if low - zero > lower + NARROWER || high - zero < upper - NARROWER {
+                (lower, upper) = (lower.max(low - zero), upper.min(high - zero));
+                narrowed.push(format!("{} [{low:.3}, {high:.3}]", joints[joint].name));
+            }
+        }
         if lower >= upper {
             return Err(MujocoError::Unsupported(format!(
                 "joint \"{}\" has the range [{lower}, {upper}]: nothing to move",
@@ -190,7 +220,7 @@ pub(super) fn read(model: &MjModel, data: &MjData<&MjModel>, name_of_robot: &str
         })
         .collect();
     let robot = Robot::from_tree(name_of_robot.to_owned(), bodies, joints, dofs, links)?;
-    Ok(Tree { robot, dof_joint })
+    Ok(Tree { robot, dof_joint, narrowed })
 }
 
 /// Mesh `id`'s triangles as MuJoCo compiled them, in the frame of the
