@@ -67,8 +67,9 @@ struct Servo {
     /// (1 / stiffness), rad per N m: the inertia feed-forward's factors.
     dof: usize,
     compliance: f64,
-    /// How far the goal may lead the joint: the servo's deflection at its
-    /// force limit (infinite where the force is not limited). Further
+    /// How far the goal may lead the joint beyond the set point's trail:
+    /// the servo's deflection at its force limit (infinite where the
+    /// force is not limited). Further
     /// buys no force; it only winds up while the joint is blocked (a limb
     /// against another), and throws the joint that far on the moment it
     /// slips free, as a joint controller with anti-windup does not.
@@ -80,7 +81,12 @@ impl Servo {
     /// it: the goal's own velocity, plus the fastest approach that can still
     /// stop at the goal at the acceleration limit.
     fn follow(&mut self, w: f64, dt: f64, inertia: f64, q: f64) -> f64 {
-        let (low, high) = (q - self.lead_limit, q + self.lead_limit);
+        // Plus how far the set point trails the goal at the commanded
+        // speed (its braking distance, or two ticks): within that the
+        // goal is not ahead of what the servo can follow.
+        let trail = (w * w / (2.0 * self.accel)).max(2.0 * w.abs() * dt);
+        let lead = self.lead_limit + trail;
+        let (low, high) = (q - lead, q + lead);
         self.goal = (self.goal + w * dt).clamp(low.max(self.range.0), high.min(self.range.1));
         let error = self.goal - self.setpoint;
         // Braking distance v^2 / 2a; near the goal, half the gap per tick.
@@ -146,7 +152,7 @@ impl Engine {
         let servo_of = servos(&mut spec, &compiled, &tree, &mut notes)?;
         compensate_gravity(&mut spec, &compiled, &tree);
         notes.push(format!(
-            "the joint controllers compensate the links' weight within their force limits, their set points accelerate no faster than {:.0} % of a force limit allows at the start pose's inertia, and a blocked joint's goal runs no further ahead of it than its servo's deflection at the force limit",
+            "the joint controllers compensate the links' weight within their force limits, their set points accelerate no faster than {:.0} % of a force limit allows at the start pose's inertia, and a blocked joint's goal runs no further ahead of it than its servo's deflection at the force limit plus the set point's trail at the commanded speed",
             ACCEL_SHARE * 100.0
         ));
 
