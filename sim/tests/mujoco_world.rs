@@ -64,6 +64,12 @@ fn rigid(seed: u64) -> WorldConfig {
     WorldConfig { base: BaseConfig::rigid(), seed, ..WorldConfig::default() }
 }
 
+/// `model` wearing `cells_per_link` cells on each link (seed 1), rigidly based.
+fn skinned(model: Model, cells_per_link: usize) -> World {
+    let skin = Skin::per_link(model.robot(), cells_per_link, 1).expect("the model has surfaces");
+    model.world(skin, rigid(1)).expect("the model takes the skin")
+}
+
 fn arm_world(cells_per_link: usize) -> World {
     let model = Model::load(&write_model("arm.xml", ARM)).expect("MuJoCo loads the arm");
     let skin = Skin::per_link(model.robot(), cells_per_link, 3).expect("the arm has surfaces");
@@ -149,8 +155,7 @@ fn at_rest_every_accelerometer_reads_one_g_against_gravity() {
 fn a_floating_base_is_held_by_a_weld_and_said_so() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/models/floater.xml");
     let model = Model::load(&path).expect("MuJoCo loads the floater");
-    let skin = Skin::per_link(model.robot(), 2, 1).expect("the floater has surfaces");
-    let mut world = model.world(skin, rigid(1)).expect("the floater takes the skin");
+    let mut world = skinned(model, 2);
     let engine = world.mujoco_engine().expect("a MuJoCo world");
     assert_eq!(engine.welded(), ["pelvis"]);
     assert!(engine.notes().iter().any(|n| n.contains("\"pelvis\" held by a weld")), "{:?}", engine.notes());
@@ -189,8 +194,7 @@ fn the_robot_starts_in_the_models_home_keyframe_and_says_so() {
     let model = Model::load(&write_model("leg.xml", LEG)).expect("MuJoCo loads the leg");
     assert_eq!(model.robot().home(), [0.5, -1.0]);
     assert!(model.notes().iter().any(|n| n.contains("keyframe \"home\"")), "{:?}", model.notes());
-    let skin = Skin::per_link(model.robot(), 2, 1).expect("the leg has surfaces");
-    let mut world = model.world(skin, rigid(1)).expect("the leg takes the skin");
+    let mut world = skinned(model, 2);
     hold_still(&mut world, 250);
     for (q, home) in world.positions().iter().zip([0.5, -1.0]) {
         assert!((q - home).abs() < 1e-3, "held at {q}, not the keyframe's {home}");
@@ -233,8 +237,7 @@ const GRIPPER: &str = r#"
 fn the_start_keyframe_s_controls_hold_what_the_world_does_not_drive() {
     let model = Model::load(&write_model("gripper.xml", GRIPPER)).expect("MuJoCo loads the gripper");
     assert_eq!(model.robot().home(), [0.03]);
-    let skin = Skin::per_link(model.robot(), 2, 1).expect("the gripper has surfaces");
-    let mut world = model.world(skin, rigid(1)).expect("the gripper takes the skin");
+    let mut world = skinned(model, 2);
     hold_still(&mut world, 250);
     // Closed by its own actuator at control 0, the finger would be pulled
     // to 0 against the world's servo.
@@ -269,8 +272,7 @@ fn a_joint_moves_within_its_servo_s_control_range_and_starts_inside_it() {
     let knee = &model.robot().dofs()[0];
     assert_eq!((knee.lower, knee.upper), (0.1, 2.3), "the servo's control range, not the joint's");
     assert_eq!(model.robot().home(), [0.1], "the start clamped into it");
-    let skin = Skin::per_link(model.robot(), 2, 1).expect("the knee has surfaces");
-    let mut world = model.world(skin, rigid(1)).expect("the knee takes the skin");
+    let mut world = skinned(model, 2);
     let notes = world.mujoco_engine().expect("a MuJoCo world").notes().to_vec();
     assert!(notes.iter().any(|n| n.contains("control range") && n.contains("knee [0.100, 2.300]")), "{notes:?}");
     hold_still(&mut world, 250);
@@ -317,8 +319,7 @@ fn ticks_until(world: &mut World, command: f64, limit: usize, until: impl Fn(f64
 #[test]
 fn a_joint_held_against_an_obstacle_comes_away_as_soon_as_commanded() {
     let model = Model::load(&write_model("post.xml", POST)).expect("MuJoCo loads the post");
-    let skin = Skin::per_link(model.robot(), 1, 1).expect("the arm has surfaces");
-    let mut world = model.world(skin, rigid(1)).expect("the arm takes the skin");
+    let mut world = skinned(model, 1);
     // Swung at 1 rad/s into the post (about 0.45 rad) and pressed there
     // for 3 s, as a move that a limb blocks does until it gives up.
     ticks_until(&mut world, 1.0, 750, |_| false);
@@ -357,8 +358,7 @@ const SWING: &str = r#"
 #[test]
 fn a_stiff_servo_with_little_force_follows_the_commanded_speed() {
     let model = Model::load(&write_model("swing.xml", SWING)).expect("MuJoCo loads the swing");
-    let skin = Skin::per_link(model.robot(), 1, 1).expect("the arm has surfaces");
-    let mut world = model.world(skin, rigid(1)).expect("the arm takes the skin");
+    let mut world = skinned(model, 1);
     // 1.5 rad/s for 0.5 s, then held: the goal's lead limit must not hold
     // the joint back while the set point trails the goal.
     let start = world.positions()[0];
