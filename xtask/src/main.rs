@@ -105,7 +105,7 @@ fn ci_steps() -> Vec<Step> {
             // welded base, sim-endpoint over UDP, robot_with_skin.xml read by
             // MuJoCo's Python package.
             "tests (ROS 2 on DDS and Zenoh, ros2_control, Foxglove; MuJoCo through the skin program)",
-            "test -p skin-host --features ros2,mujoco --lib --test ros2_dds --test ros2_control --test ros2_live --test foxglove_live --test mujoco_cli --test mujoco_calibrate",
+            "test -p skin-host --features ros2,mujoco --lib --test ros2_dds --test ros2_control --test ros2_live --test foxglove_live --test mujoco_cli --test mujoco_calibrate --test grasp_mujoco",
         ),
         cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
         cargo(

@@ -86,8 +86,11 @@ impl Servo {
         // goal is not ahead of what the servo can follow.
         let trail = (w * w / (2.0 * self.accel)).max(2.0 * w.abs() * dt);
         let lead = self.lead_limit + trail;
-        let (low, high) = (q - lead, q + lead);
-        self.goal = (self.goal + w * dt).clamp(low.max(self.range.0), high.min(self.range.1));
+        let (low, high) = ((q - lead).max(self.range.0), (q + lead).min(self.range.1));
+        let goal = self.goal + w * dt;
+        // A joint pushed further out of its range than the lead (by a
+        // contact, or a limit's give) has its goal at the range's end.
+        self.goal = if low <= high { goal.clamp(low, high) } else { goal.clamp(self.range.0, self.range.1) };
         let error = self.goal - self.setpoint;
         // Braking distance v^2 / 2a; near the goal, half the gap per tick.
         let approach =
@@ -109,7 +112,9 @@ struct CellSensors {
     body: usize,
     /// The site's linear velocity in the world (`framelinvel`).
     velocity: usize,
-    touch: [usize; 3],
+    /// Its force cells' `touch` sensors; none under a cover, whose plate
+    /// the lab reads ([`Scenery::felt`]).
+    touch: Option<[usize; 3]>,
 }
 
 /// MuJoCo running the robot and its skin.
@@ -213,11 +218,14 @@ impl Engine {
                 site,
                 body: model.site_bodyid()[site] as usize,
                 velocity: sensor(format!("skin{i}:vel"))?,
-                touch: [
-                    sensor(format!("skin{i}:touch0"))?,
-                    sensor(format!("skin{i}:touch1"))?,
-                    sensor(format!("skin{i}:touch2"))?,
-                ],
+                touch: match cover {
+                    Some(_) => None,
+                    None => Some([
+                        sensor(format!("skin{i}:touch0"))?,
+                        sensor(format!("skin{i}:touch1"))?,
+                        sensor(format!("skin{i}:touch2"))?,
+                    ]),
+                },
             });
         }
         let mut servos = Vec::with_capacity(servo_of.len());
@@ -254,11 +262,8 @@ impl Engine {
         }
         let stage = match lab {
             Some(lab) => {
-                let cells = cells_sensors_sites(&model, skin.cells().len())?
-                    .into_iter()
-                    .map(|(site, zones)| (site, model.site_bodyid()[site] as usize, zones))
-                    .collect();
-                Some(Scenery::bind(lab, spec, &model, cells, cells::TOUCH_ZONE_M).map_err(MujocoError::Compile)?)
+                let plates = cells_plates(&model, &cells)?;
+                Some(Scenery::bind(lab, spec, &model, plates, force_positions).map_err(MujocoError::Compile)?)
             }
             None => None,
         };
@@ -309,16 +314,8 @@ impl Engine {
 
     /// Every cell's pose in the world, skin order.
     pub(crate) fn cell_poses(&self, poses: &mut [Isometry3<f64>]) {
-        let (xpos, xmat) = (self.data.site_xpos(), self.data.site_xmat());
         for (pose, cell) in poses.iter_mut().zip(&self.cells) {
-            let m = xmat[cell.site];
-            let rotation =
-                Rotation3::from_matrix_unchecked(Matrix3::new(m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8]));
-            let p = xpos[cell.site];
-            *pose = Isometry3::from_parts(
-                Translation3::new(p[0], p[1], p[2]),
-                UnitQuaternion::from_rotation_matrix(&rotation),
-            );
+            *pose = site_pose(&self.data, cell.site);
         }
     }
 
@@ -403,12 +400,19 @@ impl Engine {
         let m = &self.skin_model;
         // Beyond this the proximity sensor reads nothing.
         let reach = m.proximity.range_m + m.surface_offset_m;
-        for (t, cell) in out.iter_mut().zip(&self.cells) {
+        for (i, (t, cell)) in out.iter_mut().zip(&self.cells).enumerate() {
             let proximity = match rangefinder::distance(&mut self.data, cell.site, cell.body, reach) {
-                Some(distance) => m.proximity.intensity((distance - m.surface_offset_m).max(0.0), 1.0, 1.0),
+                Some((geom, distance)) => {
+                    let reflectance = self.stage.as_ref().map_or(1.0, |lab| lab.reflectance(&self.data, geom));
+                    m.proximity.intensity((distance - m.surface_offset_m).max(0.0), 1.0, reflectance)
+                }
                 None => 0.0,
             };
-            let force_n = if self.touching { cell.touch.map(|a| self.data.sensordata()[a]) } else { [0.0; 3] };
+            let force_n = match (cell.touch, &self.stage) {
+                _ if !self.touching => [0.0; 3],
+                (Some(touch), _) => touch.map(|a| self.data.sensordata()[a]),
+                (None, lab) => lab.as_ref().map_or([0.0; 3], |lab| lab.felt(i)),
+            };
             let sense = CellSense { force_n, proximity };
             let (proximity, force) = m.counts(&sense, rng);
             *t = Touch { proximity, force };
@@ -429,19 +433,21 @@ fn inertia_of(data: &MjData<Box<MjModel>>, dof: usize) -> f64 {
     }
 }
 
-/// Each cell's site and its three touch zones' sites in `model`.
-fn cells_sensors_sites(model: &MjModel, cells: usize) -> Result<Vec<(usize, [usize; 3])>, MujocoError> {
-    let site = |name: String| {
-        model
-            .name_to_id(MjtObjBase::mjOBJ_SITE, &name)
-            .ok_or_else(|| MujocoError::Compile(format!("the compiled model lacks site {name}")))
-    };
-    (0..cells)
+/// The pose of site `site` in the world.
+pub(super) fn site_pose(data: &MjData<Box<MjModel>>, site: usize) -> Isometry3<f64> {
+    let (p, m) = (data.site_xpos()[site], data.site_xmat()[site]);
+    let rotation = Rotation3::from_matrix_unchecked(Matrix3::new(m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8]));
+    Isometry3::from_parts(Translation3::new(p[0], p[1], p[2]), UnitQuaternion::from_rotation_matrix(&rotation))
+}
+
+/// Each cell's site and its cover plate's geom in `model`.
+fn cells_plates(model: &MjModel, cells: &[CellSensors]) -> Result<Vec<(usize, usize)>, MujocoError> {
+    (0..cells.len())
         .map(|i| {
-            Ok((
-                site(format!("skin{i}"))?,
-                [site(format!("skin{i}:f0"))?, site(format!("skin{i}:f1"))?, site(format!("skin{i}:f2"))?],
-            ))
+            let plate = model
+                .name_to_id(MjtObjBase::mjOBJ_GEOM, &format!("skin{i}:plate"))
+                .ok_or_else(|| MujocoError::Compile(format!("the compiled model lacks geom skin{i}:plate")))?;
+            Ok((cells[i].site, plate))
         })
         .collect()
 }
@@ -562,4 +568,38 @@ fn servos(
         ));
     }
     Ok(actuators)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_joint_pressed_far_past_its_range_gets_a_goal_at_the_range_s_end() {
+        // Range -0.2..0, its servo's deflection at full force 0.2 mrad.
+        let mut servo = Servo {
+            qpos: 0,
+            zero: 0.0,
+            range: (-0.2, 0.0),
+            actuator: 0,
+            ctrl: (f64::NEG_INFINITY, f64::INFINITY),
+            goal: 0.0,
+            setpoint: 0.0,
+            velocity: 0.0,
+            accel: 10.0,
+            feedforward_s: 0.0,
+            dof: 0,
+            compliance: 1.0 / 5000.0,
+            lead_limit: 0.0002,
+        };
+        // Pressed 0.3 rad past the limit by a contact: pressed on, the goal
+        // stays at the limit; sent back, it moves back from there.
+        servo.follow(0.5, 0.004, 1.0, 0.3);
+        assert_eq!(servo.goal, 0.0);
+        servo.follow(-0.5, 0.004, 1.0, 0.3);
+        assert!((servo.goal + 0.002).abs() < 1e-12, "{}", servo.goal);
+        // Back inside, the goal follows the joint again.
+        servo.follow(-0.5, 0.004, 1.0, -0.1);
+        assert!(servo.goal < 0.0 && servo.goal >= -0.1 - 0.0002 - 0.004, "{}", servo.goal);
+    }
 }

@@ -9,18 +9,18 @@
 use mujoco_rs::prelude::*;
 use nalgebra::{Point3, Vector3};
 
-/// Distance from the site `site` on `body` along its z axis to the first
-/// geom MuJoCo's rangefinder sees, m, in the state MuJoCo last computed
-/// (the last step's); `None` when nothing lies within `reach`, where a
-/// rangefinder may read a farther hit or none.
-pub(super) fn distance(data: &mut MjData<Box<MjModel>>, site: usize, body: usize, reach: f64) -> Option<f64> {
+/// The first geom MuJoCo's rangefinder at the site `site` on `body` sees
+/// along its z axis, and its distance, m, in the state MuJoCo last
+/// computed (the last step's); `None` when nothing lies within `reach`,
+/// where a rangefinder may read a farther hit or none.
+pub(super) fn distance(data: &mut MjData<Box<MjModel>>, site: usize, body: usize, reach: f64) -> Option<(usize, f64)> {
     let (p, m) = (data.site_xpos()[site], data.site_xmat()[site]);
     let (from, along) = (Point3::from(p), Vector3::new(m[2], m[5], m[8]));
     if !sees_anything(data, &from, &along, body, reach) {
         return None;
     }
-    let (_, dist) = data.ray(&p, &along.into(), None, true, Some(body), None);
-    (dist >= 0.0).then_some(dist)
+    let (geom, dist) = data.ray(&p, &along.into(), None, true, Some(body), None);
+    geom.filter(|_| dist >= 0.0).map(|g| (g, dist))
 }
 
 /// Whether the segment from `from` along the unit `along` for `reach`
@@ -87,7 +87,8 @@ mod tests {
         let body = data.model().name_to_id(MjtObjBase::mjOBJ_BODY, "arm").expect("the arm");
         let sensed: Vec<f64> = data.sensordata().to_vec();
         let reach = 0.25;
-        let ours: Vec<Option<f64>> = (0..4).map(|site| distance(&mut data, site, body, reach)).collect();
+        let ours: Vec<Option<f64>> =
+            (0..4).map(|site| distance(&mut data, site, body, reach).map(|(_, d)| d)).collect();
         // In reach: MuJoCo's own reading, to the bit; the site's own body
         // is not seen, as MuJoCo's rangefinder does not see it.
         assert_eq!(ours[0], Some(sensed[0]));
@@ -98,6 +99,7 @@ mod tests {
         assert!((sensed[1] - 0.46).abs() < 1e-12 && ours[1].is_none(), "{sensed:?} {ours:?}");
         assert!(sensed[2] < 0.0 && ours[2].is_none(), "{sensed:?} {ours:?}");
         // A reach past the ball casts, and reads what MuJoCo reads.
-        assert_eq!(distance(&mut data, 1, body, 0.5), Some(sensed[1]));
+        let ball = data.model().name_to_id(MjtObjBase::mjOBJ_GEOM, "ball");
+        assert_eq!(distance(&mut data, 1, body, 0.5), ball.map(|g| (g, sensed[1])));
     }
 }

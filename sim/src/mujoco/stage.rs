@@ -38,8 +38,9 @@ const TRAY_HALF_M: f64 = 0.01;
 /// The tray's half extent as a fraction of the object's, so the arms
 /// closing around the object's sides do not meet the person's hands.
 const TRAY_FRACTION: f64 = 0.7;
-/// Contact stiffness of a hand on the robot's surface, N/m: the palm
-/// (3000 N/m) in series with the skin's foam (1500 N/m).
+/// Contact stiffness of a hand on a cell's cover plate over one of its
+/// force cells, N/m: the palm (3000 N/m) in series with the skin's foam
+/// under that force cell (1500 N/m), which alone bears a load there.
 const HAND_N_PER_M: f64 = 1000.0;
 /// Mass of a palm, kg (its contact stiffness is referred to it: MuJoCo's
 /// direct stiffness is an acceleration per metre).
@@ -106,8 +107,8 @@ impl Stage for SharedStage {
         self.0.borrow().skin.clone()
     }
 
-    /// The hand presses the cell's cover over its first force cell (its
-    /// pad; a sphere on the cell's centre would fall between the pads).
+    /// The hand presses the cell's cover plate over its first force cell,
+    /// where the palm's contact stiffness is referred to.
     fn pat(&self, cell: &Isometry3<f64>, depth_m: f64) -> Hand {
         let props = self.0.borrow();
         let [x, y] = props.skin.force.positions()[0];
@@ -166,10 +167,16 @@ pub(super) struct Scenery {
     /// Positions and DoFs of the robot and the hands, which come before the object's.
     kept_nq: usize,
     kept_nv: usize,
-    /// Per skin cell: its site, its body, its three touch zones' sites.
-    cells: Vec<(usize, usize, [usize; 3])>,
-    /// Radius of a touch zone, m.
-    zone_m: f64,
+    /// Per skin cell: its site and its cover plate's geom.
+    cells: Vec<(usize, usize)>,
+    /// Per geom: the cell whose plate it is.
+    plate_of: Vec<Option<usize>>,
+    /// The robot's root body (the cells' bodies' root).
+    robot_root: i32,
+    /// Where a cell's force cells are under its plate (cell frame, x y).
+    forces: [[f64; 2]; 3],
+    /// Per cell: its force cells' normal forces at the end of the last tick, N.
+    felt: Vec<[f64; 3]>,
 }
 
 /// Adds the floor, the hands and the tray to `spec` (before the first compile).
@@ -231,8 +238,8 @@ impl Scenery {
         shared: SharedStage,
         spec: MjSpec,
         model: &MjModel,
-        cells: Vec<(usize, usize, [usize; 3])>,
-        zone_m: f64,
+        cells: Vec<(usize, usize)>,
+        forces: [[f64; 2]; 3],
     ) -> Result<Scenery, String> {
         let id = |kind, name: &str| model.name_to_id(kind, name).ok_or_else(|| format!("the model lacks {name}"));
         let mocap_of = |name: &str| -> Result<usize, String> {
@@ -254,8 +261,11 @@ impl Scenery {
             kept_nv: model.ffi().nv as usize,
             shared,
             spec,
+            plate_of: plates_by_geom(model.ffi().ngeom as usize, &cells),
+            robot_root: cells.first().map_or(-1, |&(site, _)| model.body_rootid()[model.site_bodyid()[site] as usize]),
+            felt: vec![[0.0; 3]; cells.len()],
             cells,
-            zone_m,
+            forces,
         })
     }
 
@@ -336,17 +346,53 @@ impl Scenery {
         Ok(())
     }
 
+    /// Cell `cell`'s force cells' normal forces at the end of the last
+    /// tick, N: what its plate bears, shared as the plate rests on them.
+    pub(super) fn felt(&self, cell: usize) -> [f64; 3] {
+        self.felt[cell]
+    }
+
+    /// How well geom `geom` reflects the proximity sensors' light, relative
+    /// to skin (the curve's calibration): the object as its file says, the
+    /// person's hands and tray as skin, the robot's own surface not at all.
+    /// A real skin sees its own body; the host does not tell it from an
+    /// object, and the forearm cells facing the chest in the pulled pose
+    /// evaded it: the person could not teach that pose (the arms ended 41
+    /// cm from it after a minute). The built-in world's skin does not see
+    /// the robot either.
+    pub(super) fn reflectance(&self, data: &MjData<Box<MjModel>>, geom: usize) -> f64 {
+        let model = data.model();
+        let root = |g: usize| model.body_rootid()[model.geom_bodyid()[g] as usize];
+        match &self.object {
+            Some(body) if body.geom == geom => body.object.reflectance,
+            _ if root(geom) == self.robot_root => 0.0,
+            _ => 1.0,
+        }
+    }
+
+    /// The cell nearest `point` on robot body `body` (any cell, if it has none).
+    fn nearest_cell(&self, data: &MjData<Box<MjModel>>, body: usize, point: &Point3<f64>) -> usize {
+        let model = data.model();
+        let sites = data.site_xpos();
+        let distance = |&(site, _): &(usize, usize)| {
+            let away = if model.site_bodyid()[site] as usize == body { 0.0 } else { 1e3 };
+            (Vector3::from(sites[site]) - point.coords).norm() + away
+        };
+        (0..self.cells.len())
+            .min_by(|&a, &b| distance(&self.cells[a]).total_cmp(&distance(&self.cells[b])))
+            .unwrap_or(0)
+    }
+
     /// After a tick: what the person sees, from MuJoCo's contacts.
     pub(super) fn after(&mut self, data: &MjData<Box<MjModel>>) {
         let mut props = self.shared.0.borrow_mut();
         let look = &mut props.look;
         look.contacts.clear();
         let model = data.model();
-        let sites = data.site_xpos();
         look.object =
             self.object.as_ref().map(|body| Placed { object: body.object.clone(), pose: object_pose(data, body.qpos) });
         let object_geom = self.object.as_ref().map(|b| b.geom);
-        // Per touch zone (cell, zone): the object's force and the hands'.
+        // Per force cell (cell, force cell): the object's force and the hands'.
         let mut zones: Vec<[[f64; 3]; 2]> = vec![[[0.0; 3]; 2]; self.cells.len()];
         let (mut resting, mut fallen) = (false, false);
         let hand_geoms = self.hand_geom;
@@ -366,35 +412,30 @@ impl Scenery {
             }
             let force_n = data.contact_force(i)[0].max(0.0);
             let point = Point3::from(Vector3::from(c.pos));
-            let robot_body = model.geom_bodyid()[other] as usize;
-            let mut felt = false;
-            // The nearest cell on the touched body (any cell, if it has none).
-            let mut nearest = (f64::INFINITY, 0);
-            for (u, (site, cell_body, zone)) in self.cells.iter().enumerate() {
-                let same = *cell_body == robot_body;
-                let d = (Vector3::from(sites[*site]) - point.coords).norm() + if same { 0.0 } else { 1e3 };
-                if d < nearest.0 {
-                    nearest = (d, u);
-                }
-                if !same {
-                    continue;
-                }
-                for (k, z) in zone.iter().enumerate() {
-                    if (Vector3::from(sites[*z]) - point.coords).norm() <= self.zone_m {
-                        zones[u][usize::from(by_hand)][k] += force_n;
-                        felt = true;
-                    }
+            let plate = self.plate_of.get(other).copied().flatten();
+            if let Some(u) = plate {
+                let cell = super::engine::site_pose(data, self.cells[u].0);
+                let local = cell.inverse_transform_point(&point);
+                // The force cells measure the part along the cell's normal.
+                let normal = Vector3::new(c.frame[0], c.frame[1], c.frame[2]);
+                let along = force_n * normal.dot(&(cell.rotation * Vector3::z())).abs();
+                let shares = super::cells::shares(&self.forces, local.x, local.y);
+                for (k, share) in shares.iter().enumerate() {
+                    zones[u][usize::from(by_hand)][k] += along * share;
                 }
             }
             if !by_hand {
-                look.contacts.push(Contact { cell: nearest.1, point, force_n, felt });
-                if !felt {
+                let cell =
+                    plate.unwrap_or_else(|| self.nearest_cell(data, model.geom_bodyid()[other] as usize, &point));
+                look.contacts.push(Contact { cell, point, force_n, felt: plate.is_some() });
+                if plate.is_none() {
                     let bare = look.bare_force_max_n.get_or_insert(0.0);
                     *bare = bare.max(force_n);
                 }
             }
         }
-        for [object, hand] in zones {
+        for (felt, [object, hand]) in self.felt.iter_mut().zip(zones) {
+            *felt = [0, 1, 2].map(|k| object[k] + hand[k]);
             for k in 0..3 {
                 look.max_force_n = look.max_force_n.max(object[k] + hand[k]);
                 look.grip_force_max_n = look.grip_force_max_n.max(object[k]);
@@ -406,6 +447,16 @@ impl Scenery {
             look.fallen = fallen;
         }
     }
+}
+
+/// Per geom of a model with `ngeom` geoms: the cell whose plate it is, of
+/// `cells` (site, plate geom).
+fn plates_by_geom(ngeom: usize, cells: &[(usize, usize)]) -> Vec<Option<usize>> {
+    let mut plate_of = vec![None; ngeom];
+    for (u, &(_, plate)) in cells.iter().enumerate() {
+        plate_of[plate] = Some(u);
+    }
+    plate_of
 }
 
 /// Adds `object` at `pose` as a free body; returns where the tray goes
@@ -430,9 +481,12 @@ fn add_object(spec: &mut MjSpec, object: &Object, pose: &Isometry3<f64>) -> [f64
     geom.set_contype(ROBOT_AFFINITY);
     geom.set_conaffinity(ROBOT_TYPE | SUPPORT_TYPE);
     *geom.friction_mut() = [object.friction, 0.005, 0.0001];
-    // The object's give in series with the skin's foam, as a direct
-    // stiffness per unit of its mass, critically damped.
-    let foam = crate::scene::force::Foam::default().stiffness_n_per_m;
+    // The object's give in series with the skin's foam under one force
+    // cell (as the built-in world presses each), the foam under a cover
+    // plate as stiff as on average over its face, as a direct stiffness
+    // per unit of the object's mass, critically damped.
+    let skin = crate::scene::SkinModel::default();
+    let foam = skin.foam.stiffness_n_per_m * super::cells::plate_stiffness_factor(&skin.force.positions());
     let k = 1.0 / (1.0 / foam + 1.0 / object.stiffness_n_per_m);
     let d = CONTACT_IMPEDANCE;
     let k_acc = k / object.mass_kg.max(1e-3) * (1.0 - d) / d;
