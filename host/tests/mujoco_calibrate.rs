@@ -2,7 +2,9 @@
 //! the user's model wearing every calibrated cell, which MuJoCo (its Python
 //! package, a reader we did not write) loads and reads each cell's
 //! accelerometer, rangefinder and touch sensors from, at the calibrated
-//! pose on the calibrated body.
+//! pose on the calibrated body. And an excitation that runs into another
+//! part of the robot (a finger into its neighbour) is left out and made
+//! the other way, so the cells are still placed.
 
 mod common;
 
@@ -85,4 +87,77 @@ fn calibrating_on_a_mujoco_model_writes_it_wearing_the_skin_and_mujoco_reads_the
         assert!(cell["range"].as_f64().unwrap() >= -1.0);
     }
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Two fingers hanging side by side from a fixed palm, each spreading
+/// (about x) and flexing (about y), with LEAP-hand-like weak servos and
+/// stiff contacts: spreading towards the other finger, one hits it.
+const FINGERS: &str = r#"<mujoco model="fingers">
+  <compiler angle="radian"/>
+  <option timestep="0.002" integrator="implicitfast"/>
+  <default>
+    <geom solimp="0.999 0.999 0.001 0.0001 1" solref="0.0001 1" friction="0.2"/>
+    <joint damping="0.03" range="-1 1"/>
+    <position kp="3" kv="0.01" ctrlrange="-1 1"/>
+  </default>
+  <worldbody>
+    <body name="palm" pos="0 0 0.3">
+      <geom type="box" size="0.03 0.03 0.01" mass="0.3"/>
+      <body name="a_base" pos="0 0.011 -0.015">
+        <joint name="a_spread" axis="1 0 0"/>
+        <geom type="box" size="0.01 0.009 0.025" pos="0 0 -0.025" mass="0.04"/>
+        <body name="a_tip" pos="0 0 -0.05">
+          <joint name="a_flex" axis="0 1 0"/>
+          <geom type="box" size="0.01 0.009 0.02" pos="0 0 -0.02" mass="0.02"/>
+        </body>
+      </body>
+      <body name="b_base" pos="0 -0.011 -0.015">
+        <joint name="b_spread" axis="1 0 0"/>
+        <geom type="box" size="0.01 0.009 0.025" pos="0 0 -0.025" mass="0.04"/>
+        <body name="b_tip" pos="0 0 -0.05">
+          <joint name="b_flex" axis="0 1 0"/>
+          <geom type="box" size="0.01 0.009 0.02" pos="0 0 -0.02" mass="0.02"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <contact>
+    <exclude body1="palm" body2="a_base"/>
+    <exclude body1="palm" body2="b_base"/>
+  </contact>
+  <actuator>
+    <position joint="a_spread"/>
+    <position joint="a_flex"/>
+    <position joint="b_spread"/>
+    <position joint="b_flex"/>
+  </actuator>
+</mujoco>
+"#;
+
+#[test]
+fn an_excitation_that_runs_into_another_finger_is_left_out_and_made_the_other_way() {
+    let dir = std::env::temp_dir().join(format!("skin-mujoco-fingers-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let model = dir.join("fingers.xml");
+    std::fs::write(&model, FINGERS).unwrap();
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(["calibrate", "--seed", "2", "--json", "--mujoco"])
+        .arg(&model)
+        .output()
+        .unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!(report["exploration_truth"]["tree_correct"], true, "{report:#}");
+    let warnings = report["warnings"].to_string();
+    assert!(warnings.contains("ran into something") && warnings.contains("made the other way"), "{warnings}");
+    assert_eq!(report["skipped"].as_array().unwrap().len(), 0, "every DoF is excited: {}", report["skipped"]);
+    // Through the impact every finger cell moved as no joint feedback
+    // explains: all 16 were left unknown. Without it they are placed.
+    let truth = &report["truth"];
+    let mm = |what: &str| truth["position_m"][what].as_f64().unwrap() * 1e3;
+    assert_eq!(truth["position_m"]["cells"], 16, "the fingers' cells are placed: {warnings}");
+    assert!(mm("mean") < 5.0 && mm("p95") < 10.0, "{truth:#}");
+    assert_eq!(truth["overconfident"], 0, "{truth:#}");
+    assert_eq!(truth["wrong_link"], 0, "{truth:#}");
 }

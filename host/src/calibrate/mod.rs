@@ -295,23 +295,48 @@ pub fn calibrate<R: Robot + SampleSource>(
     session.hold(cfg.settle_s)?;
     let mut candidates = fit_stills(model, &matching, &stills, cfg);
 
-    // 2. Excitations: positions from the motion, and which body moves as the cell does.
+    // 2. Excitations: positions from the motion, and which body moves as
+    // the cell does. One that runs into another part of the robot is left
+    // out and made the other way, where there is room.
     let mut delays_ms = Vec::with_capacity(excitations.planned.len());
+    let mut excited = Vec::with_capacity(excitations.planned.len());
+    let mut skipped = excitations.skipped;
     let here = session.positions();
     for (i, e) in excitations.planned.iter().enumerate() {
         let seconds = f64::from(cfg.excitation_periods) / cfg.excitation_hz;
         let w = std::f64::consts::TAU * cfg.excitation_hz;
-        let trace = session.trace(e.dof, seconds, |t| e.amplitude * (1.0 - (w * t).cos()).powi(2) / 4.0)?;
-        let record = motion::Record::new(model, &matching.urdf_dof, &trace, session.tick_s(), session.lsb_mps2());
-        let delay = if e.levers {
-            let delay = record.delay_ticks(&candidates, cfg.max_delay_ticks);
-            delays_ms.push(delay * session.tick_s() * 1e3);
-            delay
-        } else {
-            median(&delays_ms) / (session.tick_s() * 1e3)
-        };
-        record.add(delay, &mut candidates);
-        session.move_to(&here, cfg.move_speed_rad_s, 2e-3, 60.0)?;
+        let (mut left_out, mut made) = (Vec::new(), false);
+        for amplitude in std::iter::once(e.amplitude).chain(e.reverse) {
+            let trace = session.trace(e.dof, seconds, |t| amplitude * (1.0 - (w * t).cos()).powi(2) / 4.0)?;
+            session.move_to(&here, cfg.move_speed_rad_s, 2e-3, 60.0)?;
+            if let Some(why) = motion::departure(&trace, e.dof, amplitude, &found.dof_names) {
+                left_out.push(format!("{amplitude:+.3}: {why}"));
+                continue;
+            }
+            let record = motion::Record::new(model, &matching.urdf_dof, &trace, session.tick_s(), session.lsb_mps2());
+            let delay = if e.levers {
+                let delay = record.delay_ticks(&candidates, cfg.max_delay_ticks);
+                delays_ms.push(delay * session.tick_s() * 1e3);
+                delay
+            } else {
+                median(&delays_ms) / (session.tick_s() * 1e3)
+            };
+            record.add(delay, &mut candidates);
+            excited.push(e.dof);
+            made = true;
+            break;
+        }
+        if !left_out.is_empty() {
+            let name = &found.dof_names[e.dof];
+            let why =
+                format!("its excitation ran into something (another part of the robot?): {}", left_out.join("; "));
+            if made {
+                warnings.push(format!("{name}: {why}; made the other way instead"));
+            } else {
+                warnings.push(format!("{name} not excited: {why}"));
+                skipped.push((e.dof, why));
+            }
+        }
         progress(Progress { done: planned + i + 1, total });
     }
     session.move_to(&start, cfg.move_speed_rad_s, 2e-3, 60.0)?;
@@ -334,8 +359,8 @@ pub fn calibrate<R: Robot + SampleSource>(
         description_start,
         reused_stills: found.stills.len(),
         postures: reached,
-        excited: excitations.planned.iter().map(|e| found.dof_names[e.dof].clone()).collect(),
-        skipped: excitations.skipped.into_iter().map(|(d, why)| (found.dof_names[d].clone(), why)).collect(),
+        excited: excited.iter().map(|&d| found.dof_names[d].clone()).collect(),
+        skipped: skipped.into_iter().map(|(d, why)| (found.dof_names[d].clone(), why)).collect(),
         delays_ms,
         robot_time_s: session.elapsed_s(),
         warnings,

@@ -21,6 +21,13 @@ use crate::explore::session::Trace;
 
 /// Cells the delay is judged on.
 const DELAY_CELLS: usize = 8;
+/// An excitation whose DoF turned less than this share of its amplitude,
+/// or that moved another DoF by more than [`PUSHED_SHARE`] of it, ran into
+/// something (a finger into its neighbour). Measured: the LEAP hand's
+/// index finger spreading into the middle one stopped at 60 %; free
+/// joints reach 100 %, the Panda's gripper slide 89 % (its servo).
+const REACHED_SHARE: f64 = 0.75;
+const PUSHED_SHARE: f64 = 0.1;
 /// Steps of the delay search, ticks.
 const DELAY_STEP_TICKS: f64 = 0.25;
 
@@ -130,6 +137,28 @@ impl<'a> Record<'a> {
     }
 }
 
+/// Why the excitation of DoF `dof` by `amplitude` is not the motion that
+/// was planned, if it is not: the DoF fell short of the amplitude, or
+/// another DoF was shoved. Such a record is left out whole: the impact
+/// jolts the cells (readings on the rail, spikes between two joint
+/// readings) in ways no joint feedback shows, and a fit through it puts
+/// cells centimetres off with confidence.
+pub fn departure(trace: &Trace, dof: usize, amplitude: f64, names: &[String]) -> Option<String> {
+    let reached = trace.q.iter().map(|q| (q - trace.q0) / amplitude).fold(0.0, f64::max);
+    if reached < REACHED_SHARE {
+        return Some(format!("it stopped at {:.0} % of its {:.3} amplitude", reached * 100.0, amplitude));
+    }
+    let dofs = trace.start.len();
+    let (pushed, by) = (0..dofs)
+        .filter(|&d| d != dof)
+        .map(|d| {
+            let moved = trace.positions.iter().skip(d).step_by(dofs).map(|q| (q - trace.start[d]).abs());
+            (d, moved.fold(0.0, f64::max))
+        })
+        .fold((dof, 0.0), |best, m| if m.1 > best.1 { m } else { best });
+    (by > PUSHED_SHARE * amplitude.abs()).then(|| format!("it moved {} by {by:.3}", names[pushed]))
+}
+
 /// `values` read at the fractional index `at`; before the start, `before`;
 /// past the end, the last value.
 fn lerp(values: &[f64], at: f64, before: f64) -> f64 {
@@ -140,4 +169,36 @@ fn lerp(values: &[f64], at: f64, before: f64) -> f64 {
     let i = at.floor();
     let f = at - i;
     value(i as i64) * (1.0 - f) + value(i as i64 + 1) * f
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// DoF 0 traced along `q0`, DoF 1 along `q1`, from rest at zero.
+    fn trace(q0: &[f64], q1: &[f64]) -> Trace {
+        Trace {
+            accel: Vec::new(),
+            q0: 0.0,
+            q: q0.to_vec(),
+            start: vec![0.0, 0.0],
+            positions: q0.iter().zip(q1).flat_map(|(&a, &b)| [a, b]).collect(),
+            saturated: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn an_excitation_is_the_planned_motion_only_if_it_reached_its_amplitude_and_shoved_nothing() {
+        let names = ["a".to_owned(), "b".to_owned()];
+        let free = trace(&[0.0, 0.2, 0.5, 0.2, 0.0], &[0.0, 0.001, 0.002, 0.001, 0.0]);
+        assert_eq!(departure(&free, 0, 0.5, &names), None);
+        // Stopped against something at 0.3 of 0.5.
+        let stopped = trace(&[0.0, 0.2, 0.3, 0.3, 0.0], &[0.0; 5]);
+        assert!(departure(&stopped, 0, 0.5, &names).is_some_and(|why| why.contains("60 %")));
+        // Went the other way than planned: that reaches nothing.
+        assert!(departure(&free, 0, -0.5, &names).is_some());
+        // Reached, but pushed b by 0.15 on the way.
+        let shoving = trace(&[0.0, 0.2, 0.5, 0.2, 0.0], &[0.0, 0.05, 0.15, 0.1, 0.0]);
+        assert!(departure(&shoving, 0, 0.5, &names).is_some_and(|why| why.contains("moved b by 0.150")));
+    }
 }

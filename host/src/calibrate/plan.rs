@@ -25,6 +25,10 @@ pub struct Excitation {
     pub dof: usize,
     /// Signed amplitude, rad (towards the side with more room).
     pub amplitude: f64,
+    /// The signed amplitude towards the other side, where there is room
+    /// for one: the way to go when the first is blocked (a finger that
+    /// spreads into its neighbour spreads away from it).
+    pub reverse: Option<f64>,
     /// It turns cells, so their levers show (and the skin's delay with them).
     pub levers: bool,
 }
@@ -96,22 +100,25 @@ pub fn excitations(model: &Model, matching: &Matching, start: &[f64], cfg: &Cali
         let reach = if dof.kind == DofKind::Prismatic { 1.0 } else { reach };
         let room_up = dof.upper - cfg.limit_margin_rad * scale - start[d];
         let room_down = start[d] - (dof.lower + cfg.limit_margin_rad * scale);
-        let (room, sign) = if room_up >= room_down { (room_up, 1.0) } else { (room_down, -1.0) };
+        let (room, other, sign) =
+            if room_up >= room_down { (room_up, room_down, 1.0) } else { (room_down, room_up, -1.0) };
         // Peak acceleration A w^2, peak velocity 0.65 A w.
-        let amplitude = (cfg.excitation_amplitude_rad * scale)
+        let largest = (cfg.excitation_amplitude_rad * scale)
             .min(cfg.excitation_accel_mps2 / (w * w * reach))
-            .min(0.8 * dof.max_velocity / (0.65 * w))
-            .min(room);
-        if amplitude.is_nan() || amplitude < SMALLEST_AMPLITUDE_RAD * scale {
-            let smallest = SMALLEST_AMPLITUDE_RAD * scale;
+            .min(0.8 * dof.max_velocity / (0.65 * w));
+        let smallest = SMALLEST_AMPLITUDE_RAD * scale;
+        let amplitude = largest.min(room);
+        if amplitude.is_nan() || amplitude < smallest {
             let unit = if dof.kind == DofKind::Prismatic { "m" } else { "rad" };
             out.skipped
                 .push((d, format!("no room to move it by {smallest} {unit} inside its limits and velocity limit")));
             continue;
         }
+        let reverse = largest.min(other);
         out.planned.push(Excitation {
             dof: d,
             amplitude: sign * amplitude,
+            reverse: (reverse >= smallest).then_some(-sign * reverse),
             levers: carries && dof.kind == DofKind::Revolute,
         });
     }
