@@ -280,6 +280,53 @@ fn a_joint_moves_within_its_servo_s_control_range_and_starts_inside_it() {
     assert!((q - 0.1).abs() < 2e-3, "the knee holds at {q} rad, not at its start 0.1 rad");
 }
 
+/// A knee whose servo (1 N m/rad) is as stiff as its dry friction (1 N m)
+/// is strong, as Menagerie's Berkeley Humanoid's knees are: it overcomes
+/// the friction only 1 rad from its set point.
+const STICKY: &str = r#"
+<mujoco model="sticky">
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="thigh" pos="0 0 0.5">
+      <geom type="capsule" fromto="0 0 0 0 0 -0.2" size="0.03"/>
+      <body name="shin" pos="0 0 -0.2">
+        <joint name="knee" axis="0 1 0" range="0 2" frictionloss="1" armature="0.005"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.2" size="0.025" mass="0.5"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <position joint="knee" kp="1" kv="0.1" ctrlrange="0 2"/>
+  </actuator>
+  <keyframe>
+    <key qpos="1" ctrl="1"/>
+  </keyframe>
+</mujoco>
+"#;
+
+#[test]
+fn a_servo_weaker_than_its_joint_s_friction_is_named_and_a_step_leaves_the_joint() {
+    let model = Model::load(&write_model("sticky.xml", STICKY)).expect("MuJoCo loads the knee");
+    let mut world = skinned(model, 2);
+    let notes = world.mujoco_engine().expect("a MuJoCo world").notes().to_vec();
+    assert!(notes.iter().any(|n| n.contains("dry friction") && n.contains("knee 1.000")), "{notes:?}");
+    // The exploration's 0.1 rad step, and time to settle: the knee stays.
+    let start = world.positions()[0];
+    ticks_until(&mut world, 0.5, 50, |_| false);
+    ticks_until(&mut world, 0.0, 250, |_| false);
+    let moved = world.positions()[0] - start;
+    assert!(moved.abs() < 0.01, "the knee moved {moved} rad under a servo weaker than its friction");
+}
+
+#[test]
+fn a_servo_stronger_than_its_joint_s_friction_is_not_named() {
+    let stiff = STICKY.replace(r#"kp="1" kv="0.1""#, r#"kp="200" kv="4""#);
+    let model = Model::load(&write_model("stiff.xml", &stiff)).expect("MuJoCo loads the knee");
+    let world = skinned(model, 2);
+    let notes = world.mujoco_engine().expect("a MuJoCo world").notes().to_vec();
+    assert!(!notes.iter().any(|n| n.contains("dry friction")), "{notes:?}");
+}
+
 /// An arm swinging about a vertical axis into a post, its servo force
 /// limited (5 N m at 50 N m/rad: 0.1 rad of deflection at full force).
 const POST: &str = r#"

@@ -21,9 +21,16 @@ use super::merge::Merged;
 #[non_exhaustive]
 pub enum TreeError {
     /// No cell stays still under every DoF: the static reference body part
-    /// carries no cells (or the base moved during the exploration).
-    #[error("no cell stayed still under every DoF: put cells on the static reference body part (torso, base)")]
-    NoRoot,
+    /// carries no cells (or the base moved during the exploration). Named:
+    /// the stillest cells (moved by the fewest joints) and those joints'
+    /// DoFs, which moved what should have been the base.
+    #[error("no cell stayed still under every DoF (the stillest, cells {cells:?}, moved with DoF(s) {dofs:?}): put cells on the static reference body part (torso, base)")]
+    NoRoot {
+        /// The cells moved by the fewest joints.
+        cells: Vec<u16>,
+        /// The DoFs of the joints that moved them.
+        dofs: Vec<String>,
+    },
     /// DoFs that move no cell: the body part after them carries no skin.
     #[error("DoF(s) {0:?} move no cell: the body part after them needs at least one cell")]
     IdleDofs(Vec<String>),
@@ -94,7 +101,15 @@ impl KinematicTree {
         let m = &merged.moves;
         let s_count = m.len();
         let j_count = merged.joints.len();
-        let root = (0..s_count).find(|&s| !m[s].contains(&true)).ok_or(TreeError::NoRoot)?;
+        let root = (0..s_count).find(|&s| !m[s].contains(&true)).ok_or_else(|| {
+            let moved_by = |s: usize| m[s].iter().filter(|&&x| x).count();
+            let stillest = (0..s_count).min_by_key(|&s| moved_by(s)).unwrap_or(0);
+            let joints = (0..m[stillest].len()).filter(|&j| m[stillest][j]);
+            TreeError::NoRoot {
+                cells: merged.body_parts[stillest].iter().map(|&u| cells[u].0).collect(),
+                dofs: joints.flat_map(|j| names(&merged.joints[j])).collect(),
+            }
+        })?;
         let moved: Vec<Vec<usize>> = (0..j_count).map(|j| (0..s_count).filter(|&s| m[s][j]).collect()).collect();
 
         // Laminar: nested or disjoint.
@@ -316,7 +331,10 @@ mod tests {
         let n = names(3);
         // No still cell.
         let rows = vec![vec![true, false, false], vec![true, true, false], vec![true, true, true]];
-        assert_eq!(KinematicTree::new(&merge(&rows), &cells(3), &n), Err(TreeError::NoRoot));
+        assert_eq!(
+            KinematicTree::new(&merge(&rows), &cells(3), &n),
+            Err(TreeError::NoRoot { cells: vec![1], dofs: vec!["d0".into()] })
+        );
         // DoF 2 moves nothing.
         let rows = vec![vec![false, false, false], vec![true, false, false], vec![true, true, false]];
         assert_eq!(KinematicTree::new(&merge(&rows), &cells(3), &n), Err(TreeError::IdleDofs(vec!["d2".into()])));

@@ -32,6 +32,11 @@ const ARMATURE_RATIO: f64 = 1.0;
 const ACCEL_SHARE: f64 = 0.5;
 /// Time constant of the welds holding floating bases, s.
 const WELD_TIME_CONSTANT_S: f64 = 0.004;
+/// A servo that leaves its joint further than this from its set point
+/// against the joint's dry friction is named in the notes, rad (m for a
+/// slide): a tenth of the paper's 0.1 rad structural step, the share of
+/// a step's gravity change its static test takes for noise.
+const FRICTION_BAND_NOTED: f64 = 0.01;
 
 /// How a DoF is driven, as a velocity-controlled robot's joint controller
 /// does it: the velocity command integrates into a goal; a set point runs
@@ -229,6 +234,7 @@ impl Engine {
             });
         }
         let mut servos = Vec::with_capacity(servo_of.len());
+        let mut sticking = Vec::new();
         for (d, (&joint, actuator)) in tree.dof_joint.iter().zip(servo_of).enumerate() {
             let qpos = model.jnt_qposadr()[joint] as usize;
             let zero = model.qpos0()[qpos];
@@ -244,6 +250,9 @@ impl Engine {
             let kv = -model.actuator_biasprm()[actuator][2];
             let force = force_limit(&model, actuator, joint);
             let inertia = model.dof_m0()[model.jnt_dofadr()[joint] as usize].max(1e-9);
+            if let Some(band) = friction_band(&model, joint, kp).filter(|&b| b > FRICTION_BAND_NOTED) {
+                sticking.push(format!("{} {band:.3}", dof.name));
+            }
             servos.push(Servo {
                 qpos,
                 zero,
@@ -259,6 +268,12 @@ impl Engine {
                 compliance: if kp > 0.0 { 1.0 / kp } else { 0.0 },
                 lead_limit: if kp > 0.0 { force / kp } else { f64::INFINITY },
             });
+        }
+        if !sticking.is_empty() {
+            notes.push(format!(
+                "servos that hold their joint only within this of their set point against its dry friction (friction loss over stiffness, rad or m: a smaller commanded move may leave the joint where it is): {}",
+                sticking.join(", ")
+            ));
         }
         let stage = match lab {
             Some(lab) => {
@@ -491,6 +506,14 @@ fn compensate_gravity(spec: &mut MjSpec, compiled: &MjModel, tree: &tree::Tree) 
             joint.set_actgravcomp(true);
         }
     }
+}
+
+/// How far from its set point a servo of stiffness `kp` leaves `joint`
+/// at rest against the joint's dry friction (MuJoCo's friction loss):
+/// within it, the servo's force does not exceed the friction.
+fn friction_band(model: &MjModel, joint: usize, kp: f64) -> Option<f64> {
+    let friction = model.dof_frictionloss()[model.jnt_dofadr()[joint] as usize];
+    (kp > 0.0 && friction > 0.0).then(|| friction / kp)
 }
 
 /// The largest force `actuator` can put on `joint`: its own force range
