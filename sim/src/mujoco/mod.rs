@@ -85,8 +85,11 @@ impl Model {
             Some(path) => Model::load(path)?,
             None => {
                 // MuJoCo reads a model from a file: the built-in robot's,
-                // written where no other run writes.
-                let path = std::env::temp_dir().join(format!("skin-hrp2-{}-{seed}.xml", std::process::id()));
+                // written where no other run writes (nor another call of
+                // this process: two worlds of one seed may be built at once).
+                static CALLS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+                let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let path = std::env::temp_dir().join(format!("skin-hrp2-{}-{seed}-{call}.xml", std::process::id()));
                 let failed =
                     |e: std::io::Error| MujocoError::Load { path: path.display().to_string(), message: e.to_string() };
                 std::fs::write(&path, skin_model::robot::mjcf::write(&built_in)).map_err(failed)?;
