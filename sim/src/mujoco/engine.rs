@@ -457,12 +457,14 @@ pub(super) fn site_pose(data: &MjData<Box<MjModel>>, site: usize) -> Isometry3<f
 
 /// Each cell's site and its cover plate's geom in `model`.
 fn cells_plates(model: &MjModel, cells: &[CellSensors]) -> Result<Vec<(usize, usize)>, MujocoError> {
-    (0..cells.len())
-        .map(|i| {
+    cells
+        .iter()
+        .enumerate()
+        .map(|(i, cell)| {
             let plate = model
                 .name_to_id(MjtObjBase::mjOBJ_GEOM, &format!("skin{i}:plate"))
                 .ok_or_else(|| MujocoError::Compile(format!("the compiled model lacks geom skin{i}:plate")))?;
-            Ok((cells[i].site, plate))
+            Ok((cell.site, plate))
         })
         .collect()
 }

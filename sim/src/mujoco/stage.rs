@@ -167,8 +167,8 @@ pub(super) struct Scenery {
     /// Positions and DoFs of the robot and the hands, which come before the object's.
     kept_nq: usize,
     kept_nv: usize,
-    /// Per skin cell: its site and its cover plate's geom.
-    cells: Vec<(usize, usize)>,
+    /// Per skin cell: its site.
+    cells: Vec<usize>,
     /// Per geom: the cell whose plate it is.
     plate_of: Vec<Option<usize>>,
     /// The robot's root body (the cells' bodies' root).
@@ -264,7 +264,7 @@ impl Scenery {
             plate_of: plates_by_geom(model.ffi().ngeom as usize, &cells),
             robot_root: cells.first().map_or(-1, |&(site, _)| model.body_rootid()[model.site_bodyid()[site] as usize]),
             felt: vec![[0.0; 3]; cells.len()],
-            cells,
+            cells: cells.iter().map(|&(site, _)| site).collect(),
             forces,
         })
     }
@@ -374,7 +374,7 @@ impl Scenery {
     fn nearest_cell(&self, data: &MjData<Box<MjModel>>, body: usize, point: &Point3<f64>) -> usize {
         let model = data.model();
         let sites = data.site_xpos();
-        let distance = |&(site, _): &(usize, usize)| {
+        let distance = |&site: &usize| {
             let away = if model.site_bodyid()[site] as usize == body { 0.0 } else { 1e3 };
             (Vector3::from(sites[site]) - point.coords).norm() + away
         };
@@ -414,7 +414,7 @@ impl Scenery {
             let point = Point3::from(Vector3::from(c.pos));
             let plate = self.plate_of.get(other).copied().flatten();
             if let Some(u) = plate {
-                let cell = super::engine::site_pose(data, self.cells[u].0);
+                let cell = super::engine::site_pose(data, self.cells[u]);
                 let local = cell.inverse_transform_point(&point);
                 // The force cells measure the part along the cell's normal.
                 let normal = Vector3::new(c.frame[0], c.frame[1], c.frame[2]);
