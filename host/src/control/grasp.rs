@@ -3,8 +3,11 @@
 //! A pat on the shoulder launches the grasp: open the arms, approach the
 //! object between them fast until a contact area senses it, close slowly
 //! into pre-contact, load it with force, pull it to the chest and hold it;
-//! another pat releases it. The pull ends only when the chest is close
-//! *and* every contact area feels force (or the arms stall against the
+//! another pat releases it. Closing slowly stalls where the proximity
+//! reactions hold an arm back: if either arm sees the object then, the
+//! grasp presses on (an object nearer one arm is pushed towards the
+//! other), and only one seen by neither is missed. The pull ends only
+//! when the chest is close *and* every contact area feels force (or the arms stall against the
 //! object while one feels it: the object is what holds them back), so the
 //! arms hold the object, not the chest alone; loading that reaches the
 //! closed pose with the object still near both arms (narrow or soft: the
@@ -282,7 +285,11 @@ impl Grasp {
                     Some((Load, Cause::Chest))
                 } else if every(Contact, Proximity, t.contact_proximity) {
                     Some((Load, Cause::Proximity))
-                } else if trajectory == Some(Stalled) && every(Contact, Proximity, 1) {
+                } else if trajectory == Some(Stalled) && any(Contact, Proximity, 1) {
+                    // Held back by its own evasion, an arm hovers at an
+                    // object that stands nearer to it than to the other
+                    // arm, which has closed without seeing it: pressing
+                    // pushes the object towards the other arm.
                     Some((Load, Cause::Stalled))
                 } else {
                     fail(trajectory)
@@ -466,6 +473,28 @@ mod tests {
         assert_eq!(r.pat(), State::Open);
         set(&mut r.ev, 5, 0.0, 0.15);
         assert_eq!(r.step(None), State::Cancel, "force on the non-contact area cancels");
+    }
+
+    #[test]
+    fn an_arm_held_back_by_an_object_nearer_it_presses_it_towards_the_other() {
+        use TrajectoryEvent::*;
+        let contact = |right: f32| {
+            let mut r = Run::new();
+            r.pat();
+            r.step(Some(Reached));
+            set(&mut r.ev, 2, 0.03, 0.0);
+            assert_eq!(r.step(None), State::Contact);
+            set(&mut r.ev, 2, 0.05, 0.0);
+            set(&mut r.ev, 3, right, 0.0);
+            r
+        };
+        let mut r = contact(0.0);
+        assert_eq!(r.step(Some(Stalled)), State::Load, "one arm hovers at it, the other sees nothing: press");
+        let mut r = contact(0.0);
+        set(&mut r.ev, 2, 0.0, 0.0);
+        assert_eq!(r.step(Some(Stalled)), State::Cancel, "stalled with nothing seen: missed");
+        let mut r = contact(0.0);
+        assert_eq!(r.step(Some(Reached)), State::Cancel, "closed without touching it: missed");
     }
 
     #[test]

@@ -189,14 +189,21 @@ impl Setup {
                 let near = move |a: f64| if (a - a0).cos() > 0.0 { Role::Contact } else { Role::Other };
                 ring(&mut plan, link(i), side, radius, &zs, &angles, near);
             }
-            // The wrist's cells sit above and below it, off the object's way.
-            let a4 = inward(4) + quarter;
-            ring(&mut plan, link(4), side, 0.04, &[-0.035], &[a4, a4 + 2.0 * quarter], |_| Role::Other);
-            // The hand (a box) has three cells and the finger one, none on
-            // the side facing the object.
+            // The wrist's two cells face the midline side by side, in the
+            // contact area: big objects press on the wrist (the paper's
+            // wrist cover bore no force and cancelled such grasps; a bare
+            // wrist squeezed large boxes with 15-50 N unfelt).
+            let a4 = inward(4);
+            ring(&mut plan, link(4), side, 0.04, &[-0.035], &[a4 - spread, a4 + spread], |_| Role::Contact);
+            // The hand (a box) has three cells and the finger one. Big
+            // objects touch the hand's side facing them ("big objects are
+            // likely to touch the wrist", section 6.5): a cell there is in
+            // the contact area, so the grasp feels the hand's squeeze (a
+            // bare hand pressed large boxes with 20-60 N unfelt); the other
+            // two sit above and below, off the object's way.
             let a5 = inward(5);
-            for a in [a5 + quarter, a5 + 2.0 * quarter, a5 - quarter] {
-                plan.push(on_box(link(5), side, [0.04, 0.025], -0.08, a));
+            for (a, role) in [(a5 + quarter, Role::Other), (a5, Role::Contact), (a5 - quarter, Role::Other)] {
+                plan.push(Planned { role, ..on_box(link(5), side, [0.04, 0.025], -0.08, a) });
             }
             plan.push(on_box(link(6), side, [0.01, 0.015], -0.04, inward(6) + 2.0 * quarter));
         }
@@ -454,7 +461,7 @@ mod tests {
         let bodies = body_poses(&robot, &intended_pose(&robot, "closed").unwrap());
         let contact: Vec<usize> =
             s.areas.iter().filter(|a| a.kind == "contact").flat_map(|a| a.cells.iter().copied()).collect();
-        assert_eq!(contact.len(), 20);
+        assert_eq!(contact.len(), 26, "per arm 4 on the upper arm, 6 on the forearm, 2 on the wrist, 1 on the hand");
         for (u, c) in
             s.skin.cells().iter().enumerate().filter(|(_, c)| c.link.ends_with("LINK2") || c.link.ends_with("LINK3"))
         {
