@@ -70,6 +70,11 @@ const FRICTION_IMPRATIO: f64 = 10.0;
 /// How briskly the person's hands hold a taken-back object where they
 /// took it: the natural frequency of their grip, Hz (critically damped).
 const HANDS_HZ: f64 = 5.0;
+/// How briskly the person's hands under an object keep it from tipping
+/// over on the tray, Hz (critically damped, about the object's stiffest
+/// axis): an egg-shaped blob stood on end tipped off the tray within 3 s
+/// of being put down, before the arms reached it.
+const STEADY_HZ: f64 = 2.0;
 
 /// The cells' covers in the lab: as thick as the skin stands off the
 /// robot in the built-in world, touching what the robot's geoms touch.
@@ -149,6 +154,13 @@ struct Body {
     tray: [f64; 3],
     /// Where it is in the velocities (its free joint's first DoF).
     qvel: usize,
+    /// How it was turned when put down, which the person's hands keep
+    /// its tilt to while they hold the tray up.
+    upright: nalgebra::UnitQuaternion<f64>,
+    /// Its largest principal moment of inertia, kg m^2.
+    inertia: f64,
+    /// Its contacts' stiffness against a cell's cover plate, N/m.
+    stiffness: f64,
     /// Where the person holds it in their hands, taken back (none: not).
     in_hands_at: Option<[f64; 3]>,
 }
@@ -283,8 +295,11 @@ impl Scenery {
             if taking_back {
                 body.in_hands_at = Some(object_pose(data, body.qpos).translation.vector.into());
             }
-            if let Some(at) = body.in_hands_at {
-                hold_in_hands(data, body, at);
+            let supporting = self.shared.0.borrow().supporting;
+            match body.in_hands_at {
+                Some(at) => hold_in_hands(data, body, at),
+                None if supporting => steady(data, body),
+                None => data.qfrc_applied_mut()[body.qvel..body.qvel + 6].fill(0.0),
             }
         }
         let props = self.shared.0.borrow();
@@ -334,10 +349,22 @@ impl Scenery {
                     .ok_or("the model lacks the object's joint")?;
                 let qpos = model.jnt_qposadr()[joint] as usize;
                 let qvel = model.jnt_dofadr()[joint] as usize;
+                let inertia = model.body_inertia()[model.geom_bodyid()[geom] as usize].into_iter().fold(0.0, f64::max);
                 let q = pose.rotation.quaternion();
                 let p = pose.translation.vector;
                 next.qpos_mut()[qpos..qpos + 7].copy_from_slice(&[p.x, p.y, p.z, q.w, q.i, q.j, q.k]);
-                Some(Body { object, geom, qpos, tray, qvel, in_hands_at: None })
+                let stiffness = plate_contact_stiffness(&object);
+                Some(Body {
+                    object,
+                    geom,
+                    qpos,
+                    tray,
+                    qvel,
+                    upright: pose.rotation,
+                    inertia,
+                    stiffness,
+                    in_hands_at: None,
+                })
             }
             _ => None,
         };
@@ -410,9 +437,23 @@ impl Scenery {
                 fallen |= other == self.floor_geom;
                 continue;
             }
-            let force_n = data.contact_force(i)[0].max(0.0);
             let point = Point3::from(Vector3::from(c.pos));
             let plate = self.plate_of.get(other).copied().flatten();
+            // A plate's force is what compresses the foam under it: its
+            // depth times the contact's stiffness, as a spring has it. The
+            // solver's constraint force also carries, within the step, any
+            // push the arm's servo gives (MuJoCo blends a soft contact's
+            // acceleration with the unconstrained one): read as the foam's
+            // force, a servo's tick-to-tick change came back as 0.5-6 N
+            // swings every other tick, and the force reactions fed them.
+            let force_n = match plate {
+                Some(_) => {
+                    let stiffness =
+                        if by_hand { HAND_N_PER_M } else { self.object.as_ref().map_or(0.0, |b| b.stiffness) };
+                    stiffness * (-c.dist).max(0.0)
+                }
+                None => data.contact_force(i)[0].max(0.0),
+            };
             if let Some(u) = plate {
                 let cell = super::engine::site_pose(data, self.cells[u]);
                 let local = cell.inverse_transform_point(&point);
@@ -459,6 +500,15 @@ fn plates_by_geom(ngeom: usize, cells: &[(usize, usize)]) -> Vec<Option<usize>> 
     plate_of
 }
 
+/// The stiffness of `object` pressed on a cell's cover plate, N/m: its
+/// own give in series with the foam under the plate, as stiff as on
+/// average over the plate's face.
+fn plate_contact_stiffness(object: &Object) -> f64 {
+    let skin = crate::scene::SkinModel::default();
+    let foam = skin.foam.stiffness_n_per_m * super::cells::plate_stiffness_factor(&skin.force.positions());
+    1.0 / (1.0 / foam + 1.0 / object.stiffness_n_per_m)
+}
+
 /// Adds `object` at `pose` as a free body; returns where the tray goes
 /// under it (centre).
 fn add_object(spec: &mut MjSpec, object: &Object, pose: &Isometry3<f64>) -> [f64; 3] {
@@ -485,9 +535,7 @@ fn add_object(spec: &mut MjSpec, object: &Object, pose: &Isometry3<f64>) -> [f64
     // cell (as the built-in world presses each), the foam under a cover
     // plate as stiff as on average over its face, as a direct stiffness
     // per unit of the object's mass, critically damped.
-    let skin = crate::scene::SkinModel::default();
-    let foam = skin.foam.stiffness_n_per_m * super::cells::plate_stiffness_factor(&skin.force.positions());
-    let k = 1.0 / (1.0 / foam + 1.0 / object.stiffness_n_per_m);
+    let k = plate_contact_stiffness(object);
     let d = CONTACT_IMPEDANCE;
     let k_acc = k / object.mass_kg.max(1e-3) * (1.0 - d) / d;
     *geom.solref_mut() = [-k_acc, -2.0 * k_acc.sqrt()];
@@ -517,6 +565,25 @@ fn hold_in_hands(data: &mut MjData<Box<MjModel>>, body: &Body, at: [f64; 3]) {
         f[k + 3] = -m * 0.01 * 2.0 * w * v[k + 3];
     }
     data.qfrc_applied_mut()[body.qvel..body.qvel + 6].copy_from_slice(&f);
+}
+
+/// The person's hands under the tray keep `body` from tipping over: a
+/// torque about the horizontal axes back to the tilt it was put down
+/// with; turning it about the vertical and pushing it over the tray is
+/// left to the arms.
+fn steady(data: &mut MjData<Box<MjModel>>, body: &Body) {
+    let turn = object_pose(data, body.qpos).rotation;
+    let tilt = (turn * body.upright.inverse()).scaled_axis();
+    // A free joint's angular velocity and torque are in the body's frame.
+    let v = &data.qvel()[body.qvel + 3..body.qvel + 6];
+    let spin = turn * Vector3::new(v[0], v[1], v[2]);
+    let w = std::f64::consts::TAU * STEADY_HZ;
+    let mut torque = -body.inertia * (w * w * tilt + 2.0 * w * spin);
+    torque.z = 0.0;
+    let local = turn.inverse() * torque;
+    let f = &mut data.qfrc_applied_mut()[body.qvel..body.qvel + 6];
+    f[..3].fill(0.0);
+    f[3..].copy_from_slice(local.as_slice());
 }
 
 /// Where the tray's centre goes to carry `object` standing at `pose`.

@@ -38,6 +38,10 @@ const LOG_EVERY_S: f64 = 2.0;
 const PAT_S: f64 = 0.3;
 /// How deep a pat presses, m.
 const PAT_DEPTH_M: f64 = 0.0015;
+/// How long the person waits, the object hugged at the chest but not
+/// pressed on it, before letting go of what it stands on, s: the robot
+/// has stopped pulling and holds it as it will.
+const HUG_WAIT_S: f64 = 1.0;
 
 /// What the experimenter asks of the person.
 #[derive(Clone, Debug, PartialEq)]
@@ -125,6 +129,8 @@ pub struct Operator {
     watching: bool,
     /// The person has let go of what the object stands on.
     let_go: bool,
+    /// Since when the arms have hugged the object at the chest, s.
+    hugged_since_s: Option<f64>,
     /// The arm of each skin cell.
     arms: Vec<Option<Arm>>,
     /// How far the object reaches behind its centre, m, for the turn it
@@ -139,7 +145,17 @@ impl Operator {
     /// MuJoCo's bodies.
     pub fn new(robot: Robot, setup: Setup, stage: Box<dyn Stage>) -> Operator {
         let arms = setup.skin.cells().iter().map(|c| Arm::of_link(&c.link)).collect();
-        Operator { robot, setup, stage, act: Act::Idle, watching: false, let_go: false, arms, back: Cell::new(None) }
+        Operator {
+            robot,
+            setup,
+            stage,
+            act: Act::Idle,
+            watching: false,
+            let_go: false,
+            hugged_since_s: None,
+            arms,
+            back: Cell::new(None),
+        }
     }
 
     /// Takes an order at a period boundary; `ids` are the cells' network
@@ -166,6 +182,7 @@ impl Operator {
                 }));
                 self.watching = true;
                 self.let_go = false;
+                self.hugged_since_s = None;
                 None
             }
             Order::Pat => {
@@ -189,11 +206,21 @@ impl Operator {
         let (t, poses) = (world.time_s(), world.cell_poses());
         let skin = self.stage.skin();
         let offset = skin.surface_offset_m;
-        if self.watching && !self.let_go && self.truth().is_some_and(|o| o.pressed_to_chest()) {
-            // The robot has it against the chest: the person lets go of
-            // what it stood on.
-            self.stage.let_go();
-            self.let_go = true;
+        if self.watching && !self.let_go {
+            // The robot has it against the chest, or has hugged it there
+            // for a while: the person lets go of what it stood on
+            // (whether the arms can carry it is the test).
+            let truth = self.truth();
+            self.hugged_since_s = match self.hugged_since_s {
+                _ if !truth.is_some_and(|o| o.hugged()) => None,
+                None => Some(t),
+                since => since,
+            };
+            let waited = self.hugged_since_s.is_some_and(|since| t - since >= HUG_WAIT_S);
+            if waited || truth.is_some_and(|o| o.pressed_to_chest()) {
+                self.stage.let_go();
+                self.let_go = true;
+            }
         }
         match std::mem::replace(&mut self.act, Act::Idle) {
             Act::Idle => {}
