@@ -2,8 +2,9 @@
 //!
 //! Everything here is the experimenters' knowledge, not the robot's: where
 //! the skin was glued (74 cells as in the paper: the chest front, patches
-//! on the inner side of each upper arm and forearm where objects are held,
-//! and cells on their outer sides so a hand can guide the arm inwards),
+//! on the inner side of each upper arm, forearm, wrist and hand where
+//! objects are held, and cells on the arms' outer sides so a hand can
+//! guide them inwards),
 //! which cells the operator assigned to which touch area (written as the
 //! host's area file, by cell ID), the key poses the person means to teach,
 //! and where an object is put between the arms.
