@@ -171,6 +171,12 @@ impl Watched {
             };
         }
     }
+
+    /// The object stands on the person's hands or tray (resting, not
+    /// fallen): the robot does not hold it alone yet.
+    fn on_support(&self) -> bool {
+        self.object.is_some_and(|o| o.resting == Some(true) && !o.fallen)
+    }
 }
 
 /// Where an object was put, from the default spot.
@@ -389,7 +395,7 @@ pub fn grasp<R: Robot + SampleSource>(
     let areas = traced_areas(c.areas());
     let start = lab.time_s;
     let launch = start + LAUNCH_AT_S;
-    let (mut launched, mut held_s, mut released) = (false, 0.0, false);
+    let (mut launched, mut held_s, mut supported_s, mut released) = (false, 0.0, 0.0, false);
     let mut watched = Watched::default();
     let mut at_release = None;
     let mut seen = verdict::Seen::default();
@@ -399,12 +405,16 @@ pub fn grasp<R: Robot + SampleSource>(
     let end = loop {
         let t = lab.time_s;
         // Released once held for HOLD_S in all (an arm that lets go pulls
-        // again meanwhile), at a moment it holds.
+        // again meanwhile), at a moment it holds. The hold phase starts
+        // when the person has let go: until then the robot does not hold
+        // the object alone (the person waits for the arms to stop). A
+        // person who has not let go after HOLD_S of holding never will:
+        // released then, it is judged standing on their hands.
         let holding = c.state() == Some(State::Hold);
         if holding {
-            held_s += lab.robot.tick_s();
+            *if watched.on_support() { &mut supported_s } else { &mut held_s } += lab.robot.tick_s();
         }
-        let release = holding && held_s >= HOLD_S && !std::mem::replace(&mut released, true);
+        let release = holding && (held_s >= HOLD_S || supported_s >= HOLD_S) && !std::mem::replace(&mut released, true);
         if release {
             at_release = Some(watched.object);
             let truth = watched.object.map_or(Err(verdict::Why::NoObject), |o| match o.not_held() {
@@ -502,7 +512,8 @@ fn watch_for_failure(
     let holding = state == Some(State::Hold);
     seen.reached_hold |= holding;
     if !released {
-        if !holding {
+        // The hold phase: the last stay in Hold, from when the person let go.
+        if !holding || watched.on_support() {
             seen.lost_in_hold = None;
         } else if seen.lost_in_hold.is_none() {
             seen.lost_in_hold = watched.object.and_then(|o| o.not_held()).map(|why| (t, why));

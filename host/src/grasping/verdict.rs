@@ -2,9 +2,10 @@
 //!
 //! The controller reaching Hold is its own belief; what counts is what the
 //! person at the robot sees: through the whole hold phase, the controller's
-//! last stay in Hold before the pat that releases, is the object between
-//! the arms, against the chest, both arms on it and (where objects can be
-//! lifted) carried by the robot alone (see [`skin_sim::scene::held`])?
+//! last stay in Hold before the pat that releases (where the person held
+//! the object up, from when they let go), is the object between the arms,
+//! against the chest, both arms on it and (where objects can be lifted)
+//! carried by the robot alone (see [`skin_sim::scene::held`])?
 //! Anything else is a failure with a reason, the robot time it was decided
 //! and what decided it.
 
@@ -110,8 +111,9 @@ pub struct Seen {
     /// The controller reached Hold.
     pub reached_hold: bool,
     /// The first moment of the hold phase (the controller's last stay in
-    /// Hold before the pat that releases) the truth did not call the
-    /// object held, and why.
+    /// Hold before the pat that releases, from when the person let go of
+    /// the object's support) the truth did not call the object held, and
+    /// why.
     pub lost_in_hold: Option<(f64, NotHeld)>,
     /// The truth when the person patted to release: held (none) or why
     /// not; no object at all is [`Why::NoObject`]. None: never released.

@@ -15,7 +15,7 @@
 
 use std::cell::Cell;
 
-use nalgebra::UnitQuaternion;
+use nalgebra::{Point3, UnitQuaternion};
 use skin_protocol::Address;
 
 use super::experiment::{back_extent, intended_pose, object_pose, Setup};
@@ -39,9 +39,11 @@ const PAT_S: f64 = 0.3;
 /// How deep a pat presses, m.
 const PAT_DEPTH_M: f64 = 0.0015;
 /// How long the person waits, the object hugged at the chest but not
-/// pressed on it, before letting go of what it stands on, s: the robot
-/// has stopped pulling and holds it as it will.
+/// pressed on it and the arms still, before letting go of what it stands
+/// on, s: the robot has stopped pulling and holds it as it will.
 const HUG_WAIT_S: f64 = 1.0;
+/// The arms are still while none of their cells has moved this far, m.
+const STILL_M: f64 = 0.003;
 
 /// What the experimenter asks of the person.
 #[derive(Clone, Debug, PartialEq)]
@@ -129,8 +131,9 @@ pub struct Operator {
     watching: bool,
     /// The person has let go of what the object stands on.
     let_go: bool,
-    /// Since when the arms have hugged the object at the chest, s.
-    hugged_since_s: Option<f64>,
+    /// Since when the arms have hugged the object at the chest and held
+    /// still, s, and where their cells were then.
+    hugged_since: Option<(f64, Vec<Point3<f64>>)>,
     /// The arm of each skin cell.
     arms: Vec<Option<Arm>>,
     /// How far the object reaches behind its centre, m, for the turn it
@@ -152,7 +155,7 @@ impl Operator {
             act: Act::Idle,
             watching: false,
             let_go: false,
-            hugged_since_s: None,
+            hugged_since: None,
             arms,
             back: Cell::new(None),
         }
@@ -182,7 +185,7 @@ impl Operator {
                 }));
                 self.watching = true;
                 self.let_go = false;
-                self.hugged_since_s = None;
+                self.hugged_since = None;
                 None
             }
             Order::Pat => {
@@ -208,15 +211,17 @@ impl Operator {
         let offset = skin.surface_offset_m;
         if self.watching && !self.let_go {
             // The robot has it against the chest, or has hugged it there
-            // for a while: the person lets go of what it stood on
-            // (whether the arms can carry it is the test).
+            // and held still for a while: the person lets go of what it
+            // stood on (whether the arms can carry it is the test).
+            // Letting go while the arms still pull drops it mid-pull.
             let truth = self.truth();
-            self.hugged_since_s = match self.hugged_since_s {
+            let arms: Vec<_> = self.setup.guided_cells.iter().flatten().map(|&u| poses[u] * Point3::origin()).collect();
+            self.hugged_since = match self.hugged_since.take() {
                 _ if !truth.is_some_and(|o| o.hugged()) => None,
-                None => Some(t),
-                since => since,
+                Some((since, at)) if at.iter().zip(&arms).all(|(a, b)| (a - b).norm() < STILL_M) => Some((since, at)),
+                _ => Some((t, arms)),
             };
-            let waited = self.hugged_since_s.is_some_and(|since| t - since >= HUG_WAIT_S);
+            let waited = self.hugged_since.as_ref().is_some_and(|(since, _)| t - since >= HUG_WAIT_S);
             if waited || truth.is_some_and(|o| o.pressed_to_chest()) {
                 self.stage.let_go();
                 self.let_go = true;
