@@ -404,6 +404,15 @@ mod tests {
             self.g.step(&self.ev, e, self.time);
             self.g.state()
         }
+        /// Launched, opened, and closing slowly: the left arm saw the object.
+        fn in_contact() -> Run {
+            let mut r = Run::new();
+            r.pat();
+            r.step(Some(TrajectoryEvent::Reached));
+            set(&mut r.ev, 2, 0.03, 0.0);
+            assert_eq!(r.step(None), State::Contact);
+            r
+        }
         fn pat(&mut self) -> State {
             set(&mut self.ev, 1, 0.0, 0.2);
             let s = self.step(None);
@@ -479,11 +488,7 @@ mod tests {
     fn an_arm_held_back_by_an_object_nearer_it_presses_it_towards_the_other() {
         use TrajectoryEvent::*;
         let contact = |right: f32| {
-            let mut r = Run::new();
-            r.pat();
-            r.step(Some(Reached));
-            set(&mut r.ev, 2, 0.03, 0.0);
-            assert_eq!(r.step(None), State::Contact);
+            let mut r = Run::in_contact();
             set(&mut r.ev, 2, 0.05, 0.0);
             set(&mut r.ev, 3, right, 0.0);
             r
@@ -535,11 +540,7 @@ mod tests {
         set(&mut r.ev, 4, 0.9, 0.35);
         assert_eq!(r.step(None), State::Pull, "high force on the chest ends the loading");
 
-        let mut r = Run::new();
-        r.pat();
-        r.step(Some(Reached));
-        set(&mut r.ev, 2, 0.03, 0.0);
-        assert_eq!(r.step(None), State::Contact);
+        let mut r = Run::in_contact();
         set(&mut r.ev, 4, 0.9, 0.05);
         assert_eq!(r.step(None), State::Load, "pushed against the chest by an arm no cell of which feels it");
         assert_eq!(r.step(None), State::Load, "a low force on the chest does not end the loading");
