@@ -110,14 +110,6 @@ impl ObjectTruth {
         self.between_arms && self.gripped() && self.gap_m <= AGAINST_CHEST_M
     }
 
-    /// Hugged and pressing on the chest too: held between the arms and
-    /// the chest, where friction can carry it. A person holding it up lets
-    /// go then, not before: an object between arms that only hover at the
-    /// chest falls.
-    pub fn pressed_to_chest(&self) -> bool {
-        self.hugged() && self.body_force_n >= ARM_CONTACT_N
-    }
-
     /// Held: hugged, and carried by the robot alone where it could rest
     /// on something else.
     pub fn held(&self) -> bool {
@@ -216,9 +208,8 @@ mod tests {
         assert_eq!(far.not_held(), Some(NotHeld::OffChest));
         assert_eq!(one_arm.not_held(), Some(NotHeld::LeftArmOff));
         assert_eq!(truth.not_held(), None);
-        assert!(truth.pressed_to_chest(), "3 N on the chest");
         let hovering = ObjectTruth::observe(&placed(0.0), 0.06, 0.008, &arms, &press[..3]);
-        assert!(hovering.hugged() && !hovering.pressed_to_chest(), "2 mm from the chest, not on it");
+        assert!(hovering.hugged() && hovering.body_force_n == 0.0, "2 mm from the chest, not on it: hugged");
         let lifted = ObjectTruth { resting: Some(false), ..truth };
         assert!(lifted.held(), "carried by the robot alone");
         assert_eq!(ObjectTruth { resting: Some(true), ..truth }.not_held(), Some(NotHeld::Resting));

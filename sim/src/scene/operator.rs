@@ -38,9 +38,9 @@ const LOG_EVERY_S: f64 = 2.0;
 const PAT_S: f64 = 0.3;
 /// How deep a pat presses, m.
 const PAT_DEPTH_M: f64 = 0.0015;
-/// How long the person waits, the object hugged at the chest but not
-/// pressed on it and the arms still, before letting go of what it stands
-/// on, s: the robot has stopped pulling and holds it as it will.
+/// How long the person waits, the object hugged at the chest and the arms
+/// still, before letting go of what it stands on, s: the robot has
+/// stopped pulling and holds it as it will.
 const HUG_WAIT_S: f64 = 1.0;
 /// The arms are still while none of their cells has moved this far, m.
 const STILL_M: f64 = 0.003;
@@ -210,10 +210,11 @@ impl Operator {
         let skin = self.stage.skin();
         let offset = skin.surface_offset_m;
         if self.watching && !self.let_go {
-            // The robot has it against the chest, or has hugged it there
-            // and held still for a while: the person lets go of what it
-            // stood on (whether the arms can carry it is the test).
-            // Letting go while the arms still pull drops it mid-pull.
+            // The robot has hugged it at the chest and held still for a
+            // while: the person lets go of what it stood on (whether the
+            // arms can carry it is the test). Letting go while the arms
+            // still pull (as soon as it presses on the chest) drops it
+            // mid-pull.
             let truth = self.truth();
             let arms: Vec<_> = self.setup.guided_cells.iter().flatten().map(|&u| poses[u] * Point3::origin()).collect();
             self.hugged_since = match self.hugged_since.take() {
@@ -222,7 +223,7 @@ impl Operator {
                 _ => Some((t, arms)),
             };
             let waited = self.hugged_since.as_ref().is_some_and(|(since, _)| t - since >= HUG_WAIT_S);
-            if waited || truth.is_some_and(|o| o.pressed_to_chest()) {
+            if waited {
                 self.stage.let_go();
                 self.let_go = true;
             }
