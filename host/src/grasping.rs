@@ -411,8 +411,10 @@ pub fn grasp<R: Robot + SampleSource>(
         // person who has not let go after HOLD_S of holding never will:
         // released then, it is judged standing on their hands.
         let holding = c.state() == Some(State::Hold);
-        if holding {
-            *if watched.on_support() { &mut supported_s } else { &mut held_s } += lab.robot.tick_s();
+        if holding && watched.on_support() {
+            supported_s += lab.robot.tick_s();
+        } else if holding {
+            held_s += lab.robot.tick_s();
         }
         let release = holding && (held_s >= HOLD_S || supported_s >= HOLD_S) && !std::mem::replace(&mut released, true);
         if release {

@@ -215,12 +215,17 @@ impl Operator {
             // arms can carry it is the test). Letting go while the arms
             // still pull (as soon as it presses on the chest) drops it
             // mid-pull.
-            let truth = self.truth();
-            let arms: Vec<_> = self.setup.guided_cells.iter().flatten().map(|&u| poses[u] * Point3::origin()).collect();
-            self.hugged_since = match self.hugged_since.take() {
-                _ if !truth.is_some_and(|o| o.hugged()) => None,
-                Some((since, at)) if at.iter().zip(&arms).all(|(a, b)| (a - b).norm() < STILL_M) => Some((since, at)),
-                _ => Some((t, arms)),
+            self.hugged_since = if self.truth().is_some_and(|o| o.hugged()) {
+                let arms: Vec<_> =
+                    self.setup.guided_cells.iter().flatten().map(|&u| poses[u] * Point3::origin()).collect();
+                match self.hugged_since.take() {
+                    Some((since, at)) if at.iter().zip(&arms).all(|(a, b)| (a - b).norm() < STILL_M) => {
+                        Some((since, at))
+                    }
+                    _ => Some((t, arms)),
+                }
+            } else {
+                None
             };
             let waited = self.hugged_since.as_ref().is_some_and(|(since, _)| t - since >= HUG_WAIT_S);
             if waited {
