@@ -42,7 +42,7 @@ fn the_five_objects_are_held_in_mujoco_on_seed_0_without_pain() {
     let runs = runs(&["--object", "all", "--traces", traces.to_str().unwrap()]);
     assert_eq!(runs.len(), 5);
     runs.iter().for_each(check_held);
-    // The arms' force readings while pulling and holding change smoothly:
+    // The arms' force readings while pulling, squeezing and holding change smoothly:
     // read from MuJoCo's constraint force, they swung between about 0.08
     // and 0.34 every other sample (in 97% of them), and the force
     // reactions fed the swing.
@@ -53,14 +53,14 @@ fn the_five_objects_are_held_in_mujoco_on_seed_0_without_pain() {
     let (state, arms) = (column("state"), [column("force_right"), column("force_left")]);
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     let (mut samples, mut swings) = (0, 0);
-    for w in rows.windows(3).filter(|w| ["pull", "hold"].contains(&w[1][state])) {
+    for w in rows.windows(3).filter(|w| ["pull", "squeeze", "hold"].contains(&w[1][state])) {
         for &k in &arms {
             let [a, b, c] = [0, 1, 2].map(|i| w[i][k].parse::<f64>().unwrap());
             samples += 1;
             swings += usize::from((b - a) * (c - b) < 0.0 && (b - a).abs() > 0.1 && (c - b).abs() > 0.1);
         }
     }
-    assert!(samples > 100, "{samples} samples while pulling and holding");
+    assert!(samples > 100, "{samples} samples while pulling, squeezing and holding");
     assert!(swings * 50 <= samples, "{swings} of {samples} force samples swing back and forth");
     std::fs::remove_dir_all(&traces).unwrap();
 }

@@ -387,6 +387,11 @@ mod tests {
                 return r;
             }
             r.touch(4, 0.9, 0.0);
+            r.until(State::Squeeze, 0.1);
+            if state == State::Squeeze {
+                return r;
+            }
+            r.touch(4, 0.9, 0.35);
             r.until(State::Hold, 0.1);
             if state == State::Hold {
                 return r;

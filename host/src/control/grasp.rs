@@ -9,7 +9,12 @@
 //! other), and only one seen by neither is missed. The pull ends only
 //! when the chest is close *and* every contact area feels force (or the arms stall against the
 //! object while one feels it: the object is what holds them back), so the
-//! arms hold the object, not the chest alone; loading that reaches the
+//! arms hold the object, not the chest alone; then the arms squeeze it
+//! until a cell feels the high force level (a chest cell the medium one,
+//! or they can close no further) and hold that pose, so the grip can
+//! carry the object's weight once the person lets go, and an object
+//! pressed ever harder on the chest while held is given up before pain;
+//! loading that reaches the
 //! closed pose with the object still near both arms (narrow or soft: the
 //! taught pose is no tighter than the teacher made it) pulls it in too,
 //! and a touch on the chest ends the contact phase like one on an arm (an
@@ -53,6 +58,8 @@ pub enum State {
     Load,
     /// Pulling the object to the chest.
     Pull,
+    /// Squeezing it against the chest until a cell feels a high force.
+    Squeeze,
     /// Holding the object against the chest.
     Hold,
     /// Letting the object go.
@@ -69,13 +76,14 @@ pub enum State {
 
 impl State {
     /// Every state.
-    pub const ALL: [State; 12] = [
+    pub const ALL: [State; 13] = [
         State::Home,
         State::Open,
         State::Approach,
         State::Contact,
         State::Load,
         State::Pull,
+        State::Squeeze,
         State::Hold,
         State::Release,
         State::Cancel,
@@ -93,6 +101,7 @@ impl State {
             State::Contact => "contact",
             State::Load => "load",
             State::Pull => "pull",
+            State::Squeeze => "squeeze",
             State::Hold => "hold",
             State::Release => "release",
             State::Cancel => "cancel",
@@ -109,7 +118,10 @@ impl State {
 
     /// Part of a running grasp, from opening to holding.
     pub fn is_grasping(self) -> bool {
-        matches!(self, State::Open | State::Approach | State::Contact | State::Load | State::Pull | State::Hold)
+        matches!(
+            self,
+            State::Open | State::Approach | State::Contact | State::Load | State::Pull | State::Squeeze | State::Hold
+        )
     }
 
     /// The entry directive of the state.
@@ -121,6 +133,7 @@ impl State {
             State::Contact => &states.contact,
             State::Load => &states.load,
             State::Pull => &states.pull,
+            State::Squeeze => &states.squeeze,
             State::Hold => &states.hold,
             State::Release => &states.release,
             State::Cancel => &states.cancel,
@@ -155,6 +168,18 @@ pub enum Cause {
     Slipped,
     /// Every contact is gone.
     Clear,
+    /// A cell felt the force the squeeze ends at.
+    Squeezed,
+}
+
+impl Cause {
+    /// The cause a trajectory event gives.
+    fn of(e: TrajectoryEvent) -> Cause {
+        match e {
+            TrajectoryEvent::Reached => Cause::Reached,
+            TrajectoryEvent::Stalled => Cause::Stalled,
+        }
+    }
 }
 
 /// One change of state.
@@ -181,6 +206,9 @@ pub struct Grasp {
     held_by: usize,
     /// Since when fewer contact areas feel it than held it, s.
     slipping_since_s: Option<f64>,
+    /// The chest felt a high force when Hold was entered (the pull
+    /// pinned the object there, and it bears that).
+    chest_high_on_hold: bool,
 }
 
 impl Grasp {
@@ -193,6 +221,7 @@ impl Grasp {
             evaded_from: State::Home,
             held_by: 0,
             slipping_since_s: None,
+            chest_high_on_hold: false,
         }
     }
 
@@ -218,7 +247,10 @@ impl Grasp {
         let (next, cause) = self.next(touch, trajectory, pat, slipped)?;
         match next {
             State::Evade => self.evaded_from = self.state,
-            State::Hold => self.held_by = feeling,
+            State::Hold => {
+                self.held_by = feeling;
+                self.chest_high_on_hold = touch.any(AreaKind::Chest, Modality::Force, level::HIGH);
+            }
             _ => {}
         }
         let tr = Transition { from: self.state, to: next, time_s, cause };
@@ -249,17 +281,13 @@ impl Grasp {
         }
         if s.is_grasping() {
             if pat {
-                return Some((if s == Hold { Release } else { Cancel }, Cause::Pat));
+                return Some((if matches!(s, Squeeze | Hold) { Release } else { Cancel }, Cause::Pat));
             }
             if any(NonContact, Force, t.cancel_force) {
                 return Some((Cancel, Cause::NonContactForce));
             }
         }
-        let fail = |e: Option<TrajectoryEvent>| match e {
-            Some(Reached) => Some((Cancel, Cause::Reached)),
-            Some(Stalled) => Some((Cancel, Cause::Stalled)),
-            None => None,
-        };
+        let fail = |e: Option<TrajectoryEvent>| e.map(|e| (Cancel, Cause::of(e)));
         match s {
             Open => match trajectory {
                 Some(Reached) => Some((Approach, Cause::Reached)),
@@ -335,7 +363,7 @@ impl Grasp {
                 // chest, else give up before the force reaches pain.
                 let straining = touch.highest(Force) >= level::HIGH;
                 if (chest_close && both_arms) || ((stalled || straining) && chest_near && one_arm) {
-                    Some((Hold, Cause::Chest))
+                    Some((Squeeze, Cause::Chest))
                 } else if straining {
                     Some((Cancel, Cause::Force))
                 } else if !any(Contact, Proximity, t.approach_proximity) {
@@ -344,18 +372,38 @@ impl Grasp {
                     fail(trajectory)
                 }
             }
+            // The pull's force reaction leaves a light grip (Table 4's
+            // threshold, about 0.8 N a force cell) that carries little
+            // more than the object's own friction on its support: the
+            // arms close on until a cell anywhere, the chest's too (whose
+            // cells cannot move away), feels the squeeze level, then hold
+            // that pose. Arms that can close no further hold where they are.
+            Squeeze => {
+                if !any(Contact, Proximity, t.approach_proximity) {
+                    Some((Cancel, Cause::ContactLost))
+                } else if touch.highest(Force) >= t.squeeze_force || any(Chest, Force, t.squeeze_chest_force) {
+                    Some((Hold, Cause::Squeezed))
+                } else {
+                    trajectory.map(|e| (Hold, Cause::of(e)))
+                }
+            }
             // The object is lost when the contact areas no longer see it;
-            // when an arm that held it no longer feels it, pull again.
+            // when an arm that held it no longer feels it, pull again. The
+            // chest's cells cannot move away: an object pressed on them
+            // ever harder while held (by an arm's bare surface, which no
+            // cell feels) is given up before they reach pain.
             Hold => {
                 if !any(Contact, Proximity, t.approach_proximity) {
                     Some((Cancel, Cause::ContactLost))
+                } else if any(Chest, Force, level::HIGH) && !self.chest_high_on_hold {
+                    Some((Cancel, Cause::Force))
                 } else {
                     slipped.then_some((Pull, Cause::Slipped))
                 }
             }
             Release => (!any(Contact, Force, 1) && !any(Contact, Proximity, t.release_proximity))
                 .then_some((Done, Cause::Clear)),
-            Cancel => trajectory.map(|e| (Cancelled, if e == Reached { Cause::Reached } else { Cause::Stalled })),
+            Cancel => trajectory.map(|e| (Cancelled, Cause::of(e))),
             Evade => (touch.highest(Force) == 0)
                 .then_some((if self.evaded_from.is_rest() { self.evaded_from } else { Cancelled }, Cause::Clear)),
             Home | Cancelled | Done => None,
@@ -450,14 +498,21 @@ mod tests {
         set(&mut r.ev, 4, 0.85, 0.0);
         assert_eq!(r.step(None), State::Pull, "the chest is close, but only one arm feels the object");
         set(&mut r.ev, 2, 0.9, 0.08);
-        assert_eq!(r.step(None), State::Hold, "both arms and the chest");
+        assert_eq!(r.step(None), State::Squeeze, "both arms and the chest");
+        set(&mut r.ev, 4, 0.85, 0.05);
+        set(&mut r.ev, 3, 0.9, 0.25);
+        assert_eq!(r.step(None), State::Squeeze, "a low force on the chest, a medium one on an arm");
+        set(&mut r.ev, 3, 0.9, 0.31);
+        assert_eq!(r.step(None), State::Hold, "a high force on an arm");
+        set(&mut r.ev, 3, 0.9, 0.15);
         set(&mut r.ev, 2, 0.9, 0.0);
         for _ in 0..=(SLIP_S / 0.004) as usize {
             assert_eq!(r.step(None), State::Hold, "an arm may flicker");
         }
         assert_eq!(r.step(None), State::Pull, "an arm lost it for {SLIP_S} s: pull again");
         set(&mut r.ev, 2, 0.9, 0.08);
-        assert_eq!(r.step(None), State::Hold);
+        assert_eq!(r.step(None), State::Squeeze);
+        assert_eq!(r.step(Some(TrajectoryEvent::Stalled)), State::Hold, "the arms close no further: hold there");
         set(&mut r.ev, 2, 0.9, 0.0);
         assert_eq!(r.step(Some(TrajectoryEvent::Stalled)), State::Hold, "no trajectory in Hold");
         assert_eq!(r.pat(), State::Release);
@@ -466,6 +521,40 @@ mod tests {
         }
         assert_eq!(r.step(None), State::Done);
         assert_eq!(r.pat(), State::Open, "a new grasp can start");
+    }
+
+    #[test]
+    fn the_chest_ends_the_squeeze_early_and_hold_gives_up_before_its_pain() {
+        let mut r = Run::in_contact();
+        set(&mut r.ev, 2, 0.9, 0.15);
+        set(&mut r.ev, 3, 0.9, 0.15);
+        assert_eq!(r.step(None), State::Load);
+        assert_eq!(r.step(None), State::Pull);
+        set(&mut r.ev, 4, 0.9, 0.05);
+        assert_eq!(r.step(None), State::Squeeze);
+        set(&mut r.ev, 4, 0.9, 0.11);
+        assert_eq!(r.step(None), State::Hold, "a medium force on the chest, whose cells cannot move away");
+        set(&mut r.ev, 4, 0.9, 0.25);
+        assert_eq!(r.step(None), State::Hold, "the chest may bear more");
+        set(&mut r.ev, 4, 0.9, 0.31);
+        assert_eq!(r.step(None), State::Cancel, "the chest's force grew high while held: given up before pain");
+        let mut r = Run::in_contact();
+        set(&mut r.ev, 2, 0.9, 0.15);
+        set(&mut r.ev, 3, 0.9, 0.15);
+        r.step(None);
+        r.step(None);
+        set(&mut r.ev, 4, 0.9, 0.05);
+        assert_eq!(r.step(None), State::Squeeze);
+        assert_eq!(r.pat(), State::Release, "a pat while squeezing releases");
+        let mut r = Run::in_contact();
+        set(&mut r.ev, 2, 0.9, 0.15);
+        set(&mut r.ev, 3, 0.9, 0.15);
+        r.step(None);
+        r.step(None);
+        set(&mut r.ev, 4, 0.9, 0.35);
+        assert_eq!(r.step(None), State::Squeeze, "pulled until the chest felt a high force");
+        assert_eq!(r.step(None), State::Hold);
+        assert_eq!(r.step(None), State::Hold, "pinned there by the pull, as it was on entering Hold");
     }
 
     #[test]
@@ -548,7 +637,8 @@ mod tests {
 
     proptest! {
         /// Under any inputs: pain always means Evade; holding is reached
-        /// only from pulling; releasing only from holding; and the machine
+        /// only from pulling through the squeeze; releasing only from
+        /// squeezing or holding; and the machine
         /// never enters a grasp state from rest except through Open.
         #[test]
         fn the_machine_keeps_its_invariants(
@@ -565,9 +655,10 @@ mod tests {
                 }
                 if after != before {
                     match after {
-                        State::Hold => prop_assert_eq!(before, State::Pull),
+                        State::Squeeze => prop_assert_eq!(before, State::Pull),
+                        State::Hold => prop_assert_eq!(before, State::Squeeze),
                         State::Pull => prop_assert!(matches!(before, State::Load | State::Hold)),
-                        State::Release => prop_assert_eq!(before, State::Hold),
+                        State::Release => prop_assert!(matches!(before, State::Squeeze | State::Hold)),
                         State::Done => prop_assert_eq!(before, State::Release),
                         s if s.is_grasping() && before.is_rest() => prop_assert_eq!(s, State::Open),
                         _ => {}

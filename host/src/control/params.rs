@@ -56,6 +56,12 @@ pub struct Transitions {
     pub load_force: u8,
     /// Proximity on the chest that ends the pull.
     pub chest_proximity: u8,
+    /// Force on any cell that ends the squeeze (below pain).
+    pub squeeze_force: u8,
+    /// Force on the chest that ends the squeeze: its cells cannot move
+    /// away, and arms that back off in Hold may press the object harder
+    /// against it.
+    pub squeeze_chest_force: u8,
     /// Force on a non-contact area that cancels a grasp.
     pub cancel_force: u8,
     /// The release ends when every contact area is below this proximity.
@@ -88,6 +94,8 @@ pub struct States {
     pub load: StateParams,
     /// Pulling the object to the chest.
     pub pull: StateParams,
+    /// Squeezing it against the chest.
+    pub squeeze: StateParams,
     /// Holding it.
     pub hold: StateParams,
     /// Letting it go.
@@ -222,12 +230,17 @@ impl Params {
             ("chest_proximity", t.chest_proximity),
             ("cancel_force", t.cancel_force),
             ("release_proximity", t.release_proximity),
+            ("squeeze_force", t.squeeze_force),
+            ("squeeze_chest_force", t.squeeze_chest_force),
         ] {
-            if !(1..=4).contains(&level) {
+            // Squeezing to the pain level would end every grasp in evasion.
+            let (top, expected) =
+                if what.starts_with("squeeze") { (3, "a level from 1 to 3") } else { (4, "a level from 1 to 4") };
+            if !(1..=top).contains(&level) {
                 return Err(ControlError::Range {
                     what: format!("transitions.{what}"),
                     value: f64::from(level),
-                    expected: "a level from 1 to 4",
+                    expected,
                 });
             }
         }
@@ -241,6 +254,7 @@ impl Params {
             ("contact", &s.contact),
             ("load", &s.load),
             ("pull", &s.pull),
+            ("squeeze", &s.squeeze),
             ("hold", &s.hold),
             ("release", &s.release),
             ("cancel", &s.cancel),
@@ -274,6 +288,8 @@ mod tests {
         assert_eq!(s.pull.gains(AreaKind::Contact).force, Primitive::new(0.10, 0.8));
         assert_eq!(s.pull.motion().map(|(n, m)| (n.to_owned(), m.max_velocity)), Some(("pulled".into(), 0.05)));
         assert!(s.hold.motion().is_none());
+        assert_eq!(s.squeeze.motion().map(|(n, _)| n.to_owned()), Some("pulled".into()));
+        assert_eq!(s.hold.gains(AreaKind::Contact).force, Primitive::new(0.20, 2.0), "Table 4: 0.10, 0.8");
         assert_eq!(s.release.gains(AreaKind::Contact).proximity, Primitive::new(0.01, 0.2));
     }
 
@@ -362,13 +378,16 @@ mod tests {
         let half = DEFAULT_TOML.replace("pose = \"pulled\"", "");
         assert!(Params::from_toml_str(&half).unwrap_err().to_string().contains("state.pull"));
         let floor = DEFAULT_TOML.replace(
-            "threshold = 0.10, gain = 0.8 } }\n\n[state.hold]",
-            "threshold = 0.0, gain = 0.8 } }\n\n[state.hold]",
+            "threshold = 0.10, gain = 0.8 } }\n\n[state.squeeze]",
+            "threshold = 0.0, gain = 0.8 } }\n\n[state.squeeze]",
         );
         let e = Params::from_toml_str(&floor).unwrap_err().to_string();
         assert!(e.contains("state.pull"), "{e}");
         let level = DEFAULT_TOML.replace("load_force = 2", "load_force = 7");
         assert!(Params::from_toml_str(&level).is_err());
+        let pain = DEFAULT_TOML.replace("squeeze_force = 3", "squeeze_force = 4");
+        let e = Params::from_toml_str(&pain).unwrap_err().to_string();
+        assert!(e.contains("transitions.squeeze_force") && e.contains("1 to 3"), "{e}");
         assert!(Params::from_toml_str("not toml [").is_err());
     }
 }
