@@ -461,6 +461,15 @@ mod tests {
             assert_eq!(r.step(None), State::Contact);
             r
         }
+        /// Closing slowly, then both arms press it: loaded and pulling.
+        fn pulling() -> Run {
+            let mut r = Run::in_contact();
+            set(&mut r.ev, 2, 0.9, 0.15);
+            set(&mut r.ev, 3, 0.9, 0.15);
+            assert_eq!(r.step(None), State::Load);
+            assert_eq!(r.step(None), State::Pull);
+            r
+        }
         fn pat(&mut self) -> State {
             set(&mut self.ev, 1, 0.0, 0.2);
             let s = self.step(None);
@@ -525,11 +534,7 @@ mod tests {
 
     #[test]
     fn the_chest_ends_the_squeeze_early_and_hold_gives_up_before_its_pain() {
-        let mut r = Run::in_contact();
-        set(&mut r.ev, 2, 0.9, 0.15);
-        set(&mut r.ev, 3, 0.9, 0.15);
-        assert_eq!(r.step(None), State::Load);
-        assert_eq!(r.step(None), State::Pull);
+        let mut r = Run::pulling();
         set(&mut r.ev, 4, 0.9, 0.05);
         assert_eq!(r.step(None), State::Squeeze);
         set(&mut r.ev, 4, 0.9, 0.11);
@@ -538,19 +543,11 @@ mod tests {
         assert_eq!(r.step(None), State::Hold, "the chest may bear more");
         set(&mut r.ev, 4, 0.9, 0.31);
         assert_eq!(r.step(None), State::Cancel, "the chest's force grew high while held: given up before pain");
-        let mut r = Run::in_contact();
-        set(&mut r.ev, 2, 0.9, 0.15);
-        set(&mut r.ev, 3, 0.9, 0.15);
-        r.step(None);
-        r.step(None);
+        let mut r = Run::pulling();
         set(&mut r.ev, 4, 0.9, 0.05);
         assert_eq!(r.step(None), State::Squeeze);
         assert_eq!(r.pat(), State::Release, "a pat while squeezing releases");
-        let mut r = Run::in_contact();
-        set(&mut r.ev, 2, 0.9, 0.15);
-        set(&mut r.ev, 3, 0.9, 0.15);
-        r.step(None);
-        r.step(None);
+        let mut r = Run::pulling();
         set(&mut r.ev, 4, 0.9, 0.35);
         assert_eq!(r.step(None), State::Squeeze, "pulled until the chest felt a high force");
         assert_eq!(r.step(None), State::Hold);
