@@ -288,6 +288,8 @@ impl Grasp {
             }
         }
         let fail = |e: Option<TrajectoryEvent>| e.map(|e| (Cancel, Cause::of(e)));
+        // The contact areas no longer see the object.
+        let lost = !any(Contact, Proximity, t.approach_proximity);
         match s {
             Open => match trajectory {
                 Some(Reached) => Some((Approach, Cause::Reached)),
@@ -366,7 +368,7 @@ impl Grasp {
                     Some((Squeeze, Cause::Chest))
                 } else if straining {
                     Some((Cancel, Cause::Force))
-                } else if !any(Contact, Proximity, t.approach_proximity) {
+                } else if lost {
                     Some((Cancel, Cause::ContactLost))
                 } else {
                     fail(trajectory)
@@ -379,7 +381,7 @@ impl Grasp {
             // cells cannot move away), feels the squeeze level, then hold
             // that pose. Arms that can close no further hold where they are.
             Squeeze => {
-                if !any(Contact, Proximity, t.approach_proximity) {
+                if lost {
                     Some((Cancel, Cause::ContactLost))
                 } else if touch.highest(Force) >= t.squeeze_force || any(Chest, Force, t.squeeze_chest_force) {
                     Some((Hold, Cause::Squeezed))
@@ -393,7 +395,7 @@ impl Grasp {
             // ever harder while held (by an arm's bare surface, which no
             // cell feels) is given up before they reach pain.
             Hold => {
-                if !any(Contact, Proximity, t.approach_proximity) {
+                if lost {
                     Some((Cancel, Cause::ContactLost))
                 } else if any(Chest, Force, level::HIGH) && !self.chest_high_on_hold {
                     Some((Cancel, Cause::Force))

@@ -222,20 +222,21 @@ impl Params {
         self.levels.check()?;
         self.timing.check()?;
         let t = &self.transitions;
-        for (what, level) in [
-            ("pat_force", t.pat_force),
-            ("approach_proximity", t.approach_proximity),
-            ("contact_proximity", t.contact_proximity),
-            ("load_force", t.load_force),
-            ("chest_proximity", t.chest_proximity),
-            ("cancel_force", t.cancel_force),
-            ("release_proximity", t.release_proximity),
-            ("squeeze_force", t.squeeze_force),
-            ("squeeze_chest_force", t.squeeze_chest_force),
+        // Any level, but a squeeze must end below pain, or every grasp
+        // would end in evasion.
+        const ANY: (u8, &str) = (4, "a level from 1 to 4");
+        const BELOW_PAIN: (u8, &str) = (3, "a level from 1 to 3");
+        for (what, level, (top, expected)) in [
+            ("pat_force", t.pat_force, ANY),
+            ("approach_proximity", t.approach_proximity, ANY),
+            ("contact_proximity", t.contact_proximity, ANY),
+            ("load_force", t.load_force, ANY),
+            ("chest_proximity", t.chest_proximity, ANY),
+            ("cancel_force", t.cancel_force, ANY),
+            ("release_proximity", t.release_proximity, ANY),
+            ("squeeze_force", t.squeeze_force, BELOW_PAIN),
+            ("squeeze_chest_force", t.squeeze_chest_force, BELOW_PAIN),
         ] {
-            // Squeezing to the pain level would end every grasp in evasion.
-            let (top, expected) =
-                if what.starts_with("squeeze") { (3, "a level from 1 to 3") } else { (4, "a level from 1 to 4") };
             if !(1..=top).contains(&level) {
                 return Err(ControlError::Range {
                     what: format!("transitions.{what}"),
