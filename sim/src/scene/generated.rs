@@ -88,12 +88,16 @@ pub struct Reach {
 
 impl Reach {
     /// The reach of `robot` wearing `setup`'s skin, `skin_offset_m` thick.
+    /// An arm reaches around an object where its contact area on the links
+    /// the person guides it by (upper arm and forearm) meets it: an object
+    /// only the hands meet is at the arms' fingertips, not in a hug.
     pub fn new(robot: &Robot, setup: &Setup, skin_offset_m: f64) -> Reach {
+        let guided = |u: &usize| setup.guided_cells.iter().any(|arm| arm.contains(u));
         let contact_links: Vec<&str> = setup
             .areas
             .iter()
             .filter(|a| a.kind == "contact")
-            .flat_map(|a| a.cells.iter().map(|&u| setup.skin.cells()[u].link.as_str()))
+            .flat_map(|a| a.cells.iter().filter(|u| guided(u)).map(|&u| setup.skin.cells()[u].link.as_str()))
             .collect();
         let links = robot
             .links()
@@ -178,5 +182,36 @@ mod tests {
         assert!(!reach.reaches(&bin, &far), "beyond the hands");
         let aside = Placement { offset_m: Vector3::new(0.0, 0.4, 0.0), yaw_rad: 0.0 };
         assert!(!reach.reaches(&bin, &aside), "in the left arm's way");
+    }
+
+    #[test]
+    fn an_object_only_the_hands_meet_is_not_reached() {
+        let robot = hrp2::robot();
+        let setup = Setup::new(&robot, 0).unwrap();
+        let offset = SkinModel::default().surface_offset_m;
+        let reach = Reach::new(&robot, &setup, offset);
+        let ball = parse(
+            "name = \"ball\"\nshape = { sphere = { radius = 0.10 } }\nmass_kg = 0.3\n\
+             stiffness_n_per_m = 3000\nreflectance = 0.7\nfriction = 0.4\n",
+        )
+        .unwrap()
+        .object;
+        let closed = body_poses(&robot, &intended_pose(&robot, "closed").unwrap());
+        // Whether both hands are inside the ball at `placement` in the closed pose.
+        let hands_meet = |placement: &Placement| {
+            let pose = object_pose(&ball, placement, offset);
+            ["RARM_LINK5", "LARM_LINK5"].iter().all(|name| {
+                let link = robot.link(name).unwrap();
+                let to_ball = pose.inverse() * closed[link.body] * link.in_body;
+                surface_points(&link.surface).iter().any(|p| ball.shape.distance(&(to_ball * p)) < 0.0)
+            })
+        };
+        let at = |x: f64| Placement { offset_m: Vector3::new(x, 0.0, 0.0), yaw_rad: 0.0 };
+        assert!(reach.reaches(&ball, &at(0.0)), "the default spot: the forearms meet it");
+        let fingertips: Vec<f64> = (0..40)
+            .map(|k| f64::from(k) * 0.01)
+            .filter(|&x| hands_meet(&at(x)) && !reach.reaches(&ball, &at(x)))
+            .collect();
+        assert!(!fingertips.is_empty(), "some spot forward is met by the hands alone, and not reached");
     }
 }
