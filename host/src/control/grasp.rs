@@ -19,8 +19,8 @@
 //! taught pose is no tighter than the teacher made it) pulls it in too,
 //! and a touch on the chest ends the contact phase like one on an arm (an
 //! arm's bare surface pushed the object there); when a contact area that
-//! felt it on holding has not felt it for [`SLIP_S`], the grasp pulls
-//! again. Transitions are driven by tactile events (as
+//! felt it on squeezing or holding has not felt it for [`SLIP_S`], the
+//! grasp pulls again. Transitions are driven by tactile events (as
 //! per-area levels) and trajectory events only. A state whose goal is
 //! contact fails when its key pose is reached, or its motion stalls, before
 //! the touch it waits for: then the grasp is cancelled and the robot backs
@@ -202,7 +202,7 @@ pub struct Grasp {
     levels: Transitions,
     pat_down: bool,
     evaded_from: State,
-    /// Contact areas feeling force when Hold was entered.
+    /// Most contact areas feeling force at once since the squeeze began.
     held_by: usize,
     /// Since when fewer contact areas feel it than held it, s.
     slipping_since_s: Option<f64>,
@@ -238,8 +238,10 @@ impl Grasp {
         let pat = pat_now && !self.pat_down;
         self.pat_down = pat_now;
         let feeling = touch.count(AreaKind::Contact, Modality::Force, 1);
+        let gripping = matches!(self.state, State::Squeeze | State::Hold);
+        self.held_by = if gripping { self.held_by.max(feeling) } else { 0 };
         self.slipping_since_s = match self.slipping_since_s {
-            _ if self.state != State::Hold || feeling >= self.held_by => None,
+            _ if !gripping || feeling >= self.held_by => None,
             None => Some(time_s),
             since => since,
         };
@@ -248,7 +250,6 @@ impl Grasp {
         match next {
             State::Evade => self.evaded_from = self.state,
             State::Hold => {
-                self.held_by = feeling;
                 self.chest_high_on_hold = touch.any(AreaKind::Chest, Modality::Force, level::HIGH);
             }
             _ => {}
@@ -380,9 +381,13 @@ impl Grasp {
             // arms close on until a cell anywhere, the chest's too (whose
             // cells cannot move away), feels the squeeze level, then hold
             // that pose. Arms that can close no further hold where they are.
+            // An arm that lost the object while the other pressed on is
+            // pulled in again, as in Hold (it would hold with one arm).
             Squeeze => {
                 if lost {
                     Some((Cancel, Cause::ContactLost))
+                } else if slipped {
+                    Some((Pull, Cause::Slipped))
                 } else if touch.highest(Force) >= t.squeeze_force || any(Chest, Force, t.squeeze_chest_force) {
                     Some((Hold, Cause::Squeezed))
                 } else {
@@ -554,6 +559,29 @@ mod tests {
         assert_eq!(r.step(None), State::Squeeze, "pulled until the chest felt a high force");
         assert_eq!(r.step(None), State::Hold);
         assert_eq!(r.step(None), State::Hold, "pinned there by the pull, as it was on entering Hold");
+    }
+
+    #[test]
+    fn an_arm_that_loses_the_object_while_squeezing_pulls_again() {
+        let mut r = Run::pulling();
+        set(&mut r.ev, 4, 0.9, 0.05);
+        assert_eq!(r.step(None), State::Squeeze);
+        assert_eq!(r.step(None), State::Squeeze, "both arms feel it");
+        set(&mut r.ev, 2, 0.9, 0.0);
+        for _ in 0..=(SLIP_S / 0.004) as usize {
+            assert_eq!(r.step(None), State::Squeeze, "an arm may flicker");
+        }
+        assert_eq!(r.step(None), State::Pull, "an arm lost it for {SLIP_S} s: pull again, not hold with one");
+        set(&mut r.ev, 2, 0.9, 0.15);
+        assert_eq!(r.step(None), State::Squeeze);
+        assert_eq!(r.step(None), State::Squeeze, "both arms feel it again");
+        set(&mut r.ev, 4, 0.9, 0.11);
+        set(&mut r.ev, 2, 0.9, 0.0);
+        assert_eq!(r.step(None), State::Hold, "squeezed");
+        for _ in 0..=(SLIP_S / 0.004) as usize {
+            r.step(None);
+        }
+        assert_eq!(r.g.state(), State::Pull, "the arm that felt it while squeezing counts in Hold too");
     }
 
     #[test]
