@@ -477,6 +477,14 @@ mod tests {
             assert_eq!(r.step(None), State::Pull);
             r
         }
+        /// Steps through [`SLIP_S`] in `state` (an arm may flicker), then
+        /// once more: the state after the slip.
+        fn after_a_slip(&mut self, state: State) -> State {
+            for _ in 0..=(SLIP_S / 0.004) as usize {
+                assert_eq!(self.step(None), state, "an arm may flicker");
+            }
+            self.step(None)
+        }
         fn pat(&mut self) -> State {
             set(&mut self.ev, 1, 0.0, 0.2);
             let s = self.step(None);
@@ -522,10 +530,7 @@ mod tests {
         assert_eq!(r.step(None), State::Hold, "a high force on an arm");
         set(&mut r.ev, 3, 0.9, 0.15);
         set(&mut r.ev, 2, 0.9, 0.0);
-        for _ in 0..=(SLIP_S / 0.004) as usize {
-            assert_eq!(r.step(None), State::Hold, "an arm may flicker");
-        }
-        assert_eq!(r.step(None), State::Pull, "an arm lost it for {SLIP_S} s: pull again");
+        assert_eq!(r.after_a_slip(State::Hold), State::Pull, "an arm lost it for {SLIP_S} s: pull again");
         set(&mut r.ev, 2, 0.9, 0.08);
         assert_eq!(r.step(None), State::Squeeze);
         assert_eq!(r.step(Some(TrajectoryEvent::Stalled)), State::Hold, "the arms close no further: hold there");
@@ -568,10 +573,7 @@ mod tests {
         assert_eq!(r.step(None), State::Squeeze);
         assert_eq!(r.step(None), State::Squeeze, "both arms feel it");
         set(&mut r.ev, 2, 0.9, 0.0);
-        for _ in 0..=(SLIP_S / 0.004) as usize {
-            assert_eq!(r.step(None), State::Squeeze, "an arm may flicker");
-        }
-        assert_eq!(r.step(None), State::Pull, "an arm lost it for {SLIP_S} s: pull again, not hold with one");
+        assert_eq!(r.after_a_slip(State::Squeeze), State::Pull, "pull again, not hold with one arm");
         set(&mut r.ev, 2, 0.9, 0.15);
         assert_eq!(r.step(None), State::Squeeze);
         assert_eq!(r.step(None), State::Squeeze, "both arms feel it again");
