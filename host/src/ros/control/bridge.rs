@@ -232,8 +232,11 @@ impl Ros2Robot {
 
     /// [`Ros2Robot::start`] at the priority raised, or not for `refused`.
     fn start_raised(config: &ControlConfig, refused: Option<&std::io::Error>) -> Result<Ros2Robot, ControlError> {
-        let context = context(config.domain, config.localhost_only)?;
-        let mut node = ros_node(&context, "skin_control")?;
+        let (context, mut node) = signals::blocked_while(|| -> Result<_, ControlError> {
+            let context = context(config.domain, config.localhost_only)?;
+            let node = ros_node(&context, "skin_control")?;
+            Ok((context, node))
+        })?;
         let reliable = QosProfile::publisher_default()
             .reliability(Reliability::Reliable { when_full: WhenFull::Wait(Duration::from_millis(10)) })
             .durability(Durability::Volatile)
