@@ -186,7 +186,9 @@ impl Controller {
         }
         self.trajectory_event = None;
         self.trajectory = match directive.motion() {
-            Some((pose, motion)) => Some(Trajectory::new(pose, self.poses.get(pose)?, motion, self.params.timing)?),
+            Some((pose, motion)) => {
+                Some(Trajectory::new(pose, self.poses.get(pose)?, motion, directive.timing(self.params.timing))?)
+            }
             None => None,
         };
         Ok(())

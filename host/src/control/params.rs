@@ -119,6 +119,10 @@ pub struct StateParams {
     /// Postural accuracy of the trajectory, rad.
     #[serde(default)]
     pub accuracy: Option<f64>,
+    /// Window over which this state's progress is judged, s; none: the
+    /// common `timing.stall_window_s`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stall_window_s: Option<f64>,
     /// Gains of every area not overridden below.
     pub all: CellGains,
     /// Gains of the pat area.
@@ -153,7 +157,21 @@ impl StateParams {
         Some((pose, Motion { max_velocity: self.max_velocity?, accuracy: self.accuracy?, stop_at_target: true }))
     }
 
+    /// The trajectory timing of this state: `common` with its own stall
+    /// window, if it has one.
+    pub fn timing(&self, common: Timing) -> Timing {
+        Timing { stall_window_s: self.stall_window_s.unwrap_or(common.stall_window_s), ..common }
+    }
+
     fn check(&self, state: &str) -> Result<(), ControlError> {
+        if let Some(window) = self.stall_window_s {
+            Timing { stall_window_s: window, ..Timing::default() }.check().map_err(|e| in_state(state, e))?;
+        }
+        if self.stall_window_s.is_some() && self.pose.is_none() {
+            return Err(ControlError::Incomplete(format!(
+                "state.{state}: `stall_window_s` judges a trajectory: give `pose` too"
+            )));
+        }
         for kind in AreaKind::ALL {
             self.gains(kind).check().map_err(|e| in_state(state, e))?;
         }
@@ -292,6 +310,9 @@ mod tests {
         assert_eq!(s.squeeze.motion().map(|(n, _)| n.to_owned()), Some("pulled".into()));
         assert_eq!(s.hold.gains(AreaKind::Contact).force, Primitive::new(0.20, 2.0), "Table 4: 0.10, 0.8");
         assert_eq!(s.release.gains(AreaKind::Contact).proximity, Primitive::new(0.01, 0.2));
+        // The pull alone judges its progress over a longer window.
+        assert_eq!(s.pull.timing(p.timing), Timing { stall_window_s: 3.0, ..p.timing });
+        assert_eq!(s.approach.timing(p.timing), p.timing);
     }
 
     proptest::proptest! {
@@ -352,6 +373,7 @@ mod tests {
             ("settle_s = 0.25", "settle_s = 1e300", "timing.settle_s = 1e300"),
             ("stall_window_s = 1.0", "stall_window_s = 1e9", "timing.stall_window_s = 1000000000"),
             ("stall_rad = 0.005", "stall_rad = 7.0", "timing.stall_rad = 7"),
+            ("stall_window_s = 3.0", "stall_window_s = 0.0", "state.pull: timing.stall_window_s = 0"),
             (
                 "force = { threshold = 0.05, gain = 1.0 }",
                 "force = { threshold = 0.05, gain = 1e38 }",
@@ -376,6 +398,9 @@ mod tests {
         let typo = DEFAULT_TOML.replace("stall_rad", "stall_radians");
         let e = Params::from_toml_str(&typo).unwrap_err().to_string();
         assert!(e.contains("stall_radians"), "{e}");
+        let idle = DEFAULT_TOML.replace("[state.hold]", "[state.hold]\nstall_window_s = 2.0");
+        let e = Params::from_toml_str(&idle).unwrap_err().to_string();
+        assert!(e.contains("state.hold") && e.contains("give `pose` too"), "{e}");
         let half = DEFAULT_TOML.replace("pose = \"pulled\"", "");
         assert!(Params::from_toml_str(&half).unwrap_err().to_string().contains("state.pull"));
         let floor = DEFAULT_TOML.replace(
