@@ -24,6 +24,20 @@ fn run(world: &mut World, ticks: usize) -> Vec<(skin_protocol::Address, Sample)>
     out
 }
 
+/// Drives the joints towards `target` for `ticks` control periods, no
+/// faster than `max` rad/s each; the samples of the last.
+fn drive(world: &mut World, target: &[f64], max: f64, ticks: usize) -> Vec<(skin_protocol::Address, Sample)> {
+    let mut out = Vec::new();
+    for _ in 0..ticks {
+        let command: Vec<f64> =
+            world.positions().iter().zip(target).map(|(q, p)| (2.0 * (p - q)).clamp(-max, max)).collect();
+        world.command(&command).unwrap();
+        out.clear();
+        world.step(&mut out);
+    }
+    out
+}
+
 #[test]
 fn an_object_stands_on_the_tray_and_falls_when_the_person_lets_go() {
     let setup = Setup::new(&hrp2::robot(), 1).unwrap();
@@ -143,14 +157,7 @@ fn in_the_pulled_pose_no_cell_sees_the_robot_s_own_body() {
     let setup = Setup::new(&robot, 5).unwrap();
     let (mut world, _stage) = experiment_world(None, &setup, 5).unwrap();
     let pulled = skin_sim::scene::experiment::intended_pose(&robot, "pulled").unwrap();
-    let mut out = Vec::new();
-    for _ in 0..1000 {
-        let command: Vec<f64> =
-            world.positions().iter().zip(&pulled).map(|(q, p)| (2.0 * (p - q)).clamp(-1.0, 1.0)).collect();
-        world.command(&command).unwrap();
-        out.clear();
-        world.step(&mut out);
-    }
+    let out = drive(&mut world, &pulled, 1.0, 1000);
     let off = world.positions().iter().zip(&pulled).map(|(q, p)| (q - p).abs()).fold(0.0, f64::max);
     assert!(off < 0.02, "the arms reach the pulled pose: {off} rad off");
     let seeing: Vec<_> = out.iter().filter(|(_, s)| s.proximity_norm() > 0.01).collect();
@@ -172,4 +179,39 @@ fn a_press_between_the_force_cells_is_shared_by_all_three() {
     let felt = out.iter().find(|(a, _)| *a == id).unwrap().1.force_norm();
     let (low, high) = felt.iter().fold((f32::MAX, 0.0f32), |(l, h), f| (l.min(*f), h.max(*f)));
     assert!(low > 0.04 && high < 1.3 * low, "the three force cells alike: {felt:?}");
+}
+
+/// The arms drag an object put down between them back over the person's
+/// hands, past where the hands first held it: the hands go along under it
+/// (as the built-in scene's support is under an object wherever it
+/// slides), so it still stands on them, upright, at the chest. A tray left
+/// where the object was put down let it tip off its back edge and fall
+/// between the arms (this ball fell to the floor).
+#[test]
+fn an_object_the_arms_drag_back_stays_on_the_person_s_hands() {
+    let robot = hrp2::robot();
+    let setup = Setup::new(&robot, 4).unwrap();
+    let (mut world, stage) = experiment_world(None, &setup, 4).unwrap();
+    let closed = skin_sim::scene::experiment::intended_pose(&robot, "closed").unwrap();
+    let pulled = skin_sim::scene::experiment::intended_pose(&robot, "pulled").unwrap();
+    drive(&mut world, &closed, 0.3, 2000);
+    let ball = skin_sim::scene::object_file::parse(
+        "name = \"ball\"\nshape = { sphere = { radius = 0.07 } }\nmass_kg = 0.2\n\
+         stiffness_n_per_m = 1500\nreflectance = 0.7\nfriction = 0.4\n",
+    )
+    .unwrap()
+    .object;
+    let forward = Placement { offset_m: nalgebra::Vector3::new(0.10, 0.0, 0.0), yaw_rad: 0.0 };
+    let pose = object_pose(&ball, &forward, stage.skin().surface_offset_m);
+    stage.put(Some((ball, pose)));
+    // 40% of the way to the pulled pose (further, the forearms wedge the
+    // ball against the chest and lift it).
+    let part_way: Vec<f64> = closed.iter().zip(&pulled).map(|(c, p)| c + 0.4 * (p - c)).collect();
+    drive(&mut world, &part_way, 0.3, 2000);
+    let look = stage.look();
+    let now = look.object.expect("the object is there").pose.translation.vector;
+    let start = pose.translation.vector;
+    assert!(start.x - now.x > 0.7 * 0.07, "dragged back past the hands' first back edge: {start} to {now}");
+    assert_eq!((look.resting, look.fallen), (Some(true), false), "on the person's hands at {now}");
+    assert!((now.z - start.z).abs() < 0.02, "upright on them: {start} to {now}");
 }

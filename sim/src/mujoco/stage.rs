@@ -150,7 +150,8 @@ struct Body {
     object: Object,
     geom: usize,
     qpos: usize,
-    /// Where the tray stands under it (its centre).
+    /// Where the tray stands under it (its centre) when put down; the
+    /// tray then follows it sideways.
     tray: [f64; 3],
     /// Where it is in the velocities (its free joint's first DoF).
     qvel: usize,
@@ -308,10 +309,17 @@ impl Scenery {
             data.qpos_mut()[qpos..qpos + 7].copy_from_slice(&[at[0], at[1], at[2], 1.0, 0.0, 0.0, 0.0]);
             data.qvel_mut()[qvel..qvel + 6].fill(0.0);
         }
-        data.mocap_pos_mut()[self.tray_mocap] = match &self.object {
-            Some(body) if props.supporting => body.tray,
+        // The person's hands stay under the object as the arms drag it
+        // over them (as the built-in scene's support does): a tray left
+        // where the object was put down let it tip off its back edge.
+        let tray = match &self.object {
+            Some(body) if props.supporting => {
+                let at = &data.qpos()[body.qpos..body.qpos + 2];
+                [at[0], at[1], body.tray[2]]
+            }
             _ => PARKED,
         };
+        data.mocap_pos_mut()[self.tray_mocap] = tray;
     }
 
     /// Recompiles the model with `object` (or none) and carries the
