@@ -150,9 +150,8 @@ struct Body {
     object: Object,
     geom: usize,
     qpos: usize,
-    /// Where the tray stands under it (its centre) when put down; the
-    /// tray then follows it sideways.
-    tray: [f64; 3],
+    /// Height of the tray's centre under it; sideways the tray follows it.
+    tray_z: f64,
     /// Where it is in the velocities (its free joint's first DoF).
     qvel: usize,
     /// How it was turned when put down, which the person's hands keep
@@ -315,7 +314,7 @@ impl Scenery {
         let tray = match &self.object {
             Some(body) if props.supporting => {
                 let at = &data.qpos()[body.qpos..body.qpos + 2];
-                [at[0], at[1], body.tray[2]]
+                [at[0], at[1], body.tray_z]
             }
             _ => PARKED,
         };
@@ -335,7 +334,7 @@ impl Scenery {
             #[allow(unsafe_code)]
             unsafe { old.delete() }.map_err(|e| e.to_string())?;
         }
-        let tray = object.as_ref().map(|(o, pose)| add_object(&mut self.spec, o, pose));
+        let tray_z = object.as_ref().map(|(o, pose)| add_object(&mut self.spec, o, pose));
         let model = self.spec.compile().map_err(|e| e.to_string())?;
         let mut next = MjData::new(Box::new(model));
         next.qpos_mut()[..self.kept_nq].copy_from_slice(&data.qpos()[..self.kept_nq]);
@@ -346,8 +345,8 @@ impl Scenery {
         next.mocap_pos_mut().copy_from_slice(data.mocap_pos());
         next.mocap_quat_mut().copy_from_slice(data.mocap_quat());
         next.set_time(data.time());
-        self.object = match (object, tray) {
-            (Some((object, pose)), Some(tray)) => {
+        self.object = match (object, tray_z) {
+            (Some((object, pose)), Some(tray_z)) => {
                 let model = next.model();
                 let geom = model
                     .name_to_id(MjtObjBase::mjOBJ_GEOM, "stage:object")
@@ -366,7 +365,7 @@ impl Scenery {
                     object,
                     geom,
                     qpos,
-                    tray,
+                    tray_z,
                     qvel,
                     upright: pose.rotation,
                     inertia,
@@ -517,9 +516,9 @@ fn plate_contact_stiffness(object: &Object) -> f64 {
     1.0 / (1.0 / foam + 1.0 / object.stiffness_n_per_m)
 }
 
-/// Adds `object` at `pose` as a free body; returns where the tray goes
-/// under it (centre).
-fn add_object(spec: &mut MjSpec, object: &Object, pose: &Isometry3<f64>) -> [f64; 3] {
+/// Adds `object` at `pose` as a free body; returns the height of the
+/// tray's centre under it.
+fn add_object(spec: &mut MjSpec, object: &Object, pose: &Isometry3<f64>) -> f64 {
     let body = spec.world_body_mut().add_body();
     let _ = body.set_name("stage:object");
     let joint = body.add_free_joint();
@@ -556,7 +555,7 @@ fn add_object(spec: &mut MjSpec, object: &Object, pose: &Isometry3<f64>) -> [f64
     if let Some(plate) = spec.geom_mut("stage:tray") {
         *plate.size_mut() = [tray_half[0], tray_half[1], TRAY_HALF_M];
     }
-    tray_under(object, pose)
+    tray_z_under(object, pose)
 }
 
 /// The person's hands carry `body`'s weight and hold it near `at`, as
@@ -594,11 +593,10 @@ fn steady(data: &mut MjData<Box<MjModel>>, body: &Body) {
     f[3..].copy_from_slice(local.as_slice());
 }
 
-/// Where the tray's centre goes to carry `object` standing at `pose`.
-fn tray_under(object: &Object, pose: &Isometry3<f64>) -> [f64; 3] {
-    let p = pose.translation.vector;
+/// Height of the tray's centre that carries `object` standing at `pose`.
+fn tray_z_under(object: &Object, pose: &Isometry3<f64>) -> f64 {
     let bottom = object.shape.extent(&(pose.rotation.inverse() * -Vector3::z()));
-    [p.x, p.y, p.z - bottom - TRAY_HALF_M]
+    pose.translation.z - bottom - TRAY_HALF_M
 }
 
 /// The pose of the free body whose position starts at `qpos`.
