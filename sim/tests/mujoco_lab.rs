@@ -32,8 +32,7 @@ fn drive(world: &mut World, target: &[f64], max: f64, ticks: usize) -> Vec<(skin
         let command: Vec<f64> =
             world.positions().iter().zip(target).map(|(q, p)| (2.0 * (p - q)).clamp(-max, max)).collect();
         world.command(&command).unwrap();
-        out.clear();
-        world.step(&mut out);
+        out = run(world, 1);
     }
     out
 }

@@ -164,13 +164,13 @@ impl StateParams {
     }
 
     fn check(&self, state: &str) -> Result<(), ControlError> {
-        if let Some(window) = self.stall_window_s {
-            Timing { stall_window_s: window, ..Timing::default() }.check().map_err(|e| in_state(state, e))?;
-        }
-        if self.stall_window_s.is_some() && self.pose.is_none() {
-            return Err(ControlError::Incomplete(format!(
-                "state.{state}: `stall_window_s` judges a trajectory: give `pose` too"
-            )));
+        if self.stall_window_s.is_some() {
+            if self.pose.is_none() {
+                return Err(ControlError::Incomplete(format!(
+                    "state.{state}: `stall_window_s` judges a trajectory: give `pose` too"
+                )));
+            }
+            self.timing(Timing::default()).check().map_err(|e| in_state(state, e))?;
         }
         for kind in AreaKind::ALL {
             self.gains(kind).check().map_err(|e| in_state(state, e))?;
