@@ -4,9 +4,10 @@
 //!
 //! The scene hook of the MuJoCo world ([`super::Model::world_on_stage`])
 //! adds to the robot's model, through mjSpec: a floor 1 m below the root,
-//! two mocap spheres for the person's hands (they touch the robot, not the
-//! object), and a mocap tray for the person's hands under the object (it
-//! touches the object only). An object put down is a free body with the
+//! two spheres for the person's palms, free bodies put where the person
+//! holds them every tick (they touch the robot, not the object), and a
+//! mocap tray for the person's hands under the object (it touches the
+//! object only). An object put down is a free body with the
 //! object file's mass and friction and a contact softness from its
 //! stiffness; putting one down recompiles the model from the kept spec and
 //! carries the robot's state over. Taking an object back, the person's
