@@ -49,12 +49,17 @@ const PLATE_M: f64 = 0.012;
 /// cover the touch zones sit on the link's own surface, which a convex
 /// object meets at a single point, mostly between the zones: a hug no cell
 /// feels; with a pad per force cell, one 5 mm pad carried a whole contact
-/// and felt pain at 4.24 N, a third of what the cell bears.
+/// and felt pain at 4.24 N, a third of what the cell bears. The plate
+/// grips with the cover's `friction`, at the contact `priority` of what
+/// has its own softness (MuJoCo mixes equal priorities' parameters; a
+/// higher one imposes all of its own, its softness too).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Cover {
     pub height_m: f64,
     pub contype: i32,
     pub conaffinity: i32,
+    pub friction: f64,
+    pub priority: i32,
 }
 
 /// Adds cell `name` on body `body` at `pose` (body frame, z the outward
@@ -86,6 +91,8 @@ pub(super) fn add(
             plate.set_density(0.0);
             plate.set_contype(cover.contype);
             plate.set_conaffinity(cover.conaffinity);
+            plate.friction_mut()[0] = cover.friction;
+            plate.set_priority(cover.priority);
         }
         None => {
             for (k, [x, y]) in forces.iter().enumerate() {
