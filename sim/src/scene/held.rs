@@ -6,7 +6,9 @@
 //! press on it, with their skin or their bare surface: the truth counts
 //! what holds the object, whether the skin feels it or not. Where objects
 //! can be lifted and fall (MuJoCo), held also means that nothing but the
-//! robot carries it.
+//! robot carries it, and there an object both arms press onto the chest
+//! from its front is between the arms and the chest too: whether friction
+//! carries it is the physics' to say.
 
 use super::experiment::gap_to_chest_m;
 use super::{Contact, Placed};
@@ -55,6 +57,8 @@ pub struct ObjectTruth {
     pub body_force_n: f64,
     /// Each arm presses from its own side of the object's centre.
     pub between_arms: bool,
+    /// Both arms press on it ahead of its centre (from its front).
+    pub from_front: bool,
     /// Whether something other than the robot carries it (its support, the
     /// floor); none where objects never leave their table.
     pub resting: Option<bool>,
@@ -76,6 +80,7 @@ impl ObjectTruth {
         let mut body_force_n = 0.0;
         // Force-weighted sideways position of each arm's contacts.
         let mut weighted_y = [0.0; 2];
+        let mut weighted_x = [0.0; 2];
         for c in contacts {
             let Some(Some(arm)) = arms.get(c.cell) else {
                 body_force_n += c.force_n;
@@ -84,6 +89,7 @@ impl ObjectTruth {
             let k = *arm as usize;
             force[k] += c.force_n;
             weighted_y[k] += c.force_n * c.point.y;
+            weighted_x[k] += c.force_n * c.point.x;
         }
         let centre_y = placed.pose.translation.y;
         let touched = force.map(|f| f >= ARM_CONTACT_N);
@@ -95,6 +101,7 @@ impl ObjectTruth {
             arm_force_n: force,
             body_force_n,
             between_arms,
+            from_front: touched == [true, true] && (0..2).all(|k| weighted_x[k] / force[k] > placed.pose.translation.x),
             resting: None,
             fallen: false,
         }
@@ -107,7 +114,15 @@ impl ObjectTruth {
 
     /// Between the arms, against the chest, both arms pressing.
     pub fn hugged(&self) -> bool {
-        self.between_arms && self.gripped() && self.gap_m <= AGAINST_CHEST_M
+        self.enclosed() && self.gripped() && self.gap_m <= AGAINST_CHEST_M
+    }
+
+    /// Between the arms: pressed from either side, or (where the world
+    /// tells whether the robot carries it) from its front onto the chest.
+    /// The built-in world cannot drop an object friction fails to carry, so
+    /// there only the arms on either side count.
+    pub fn enclosed(&self) -> bool {
+        self.between_arms || (self.from_front && self.resting.is_some())
     }
 
     /// Held: hugged, and carried by the robot alone where it could rest
@@ -128,7 +143,7 @@ impl ObjectTruth {
             Some(NotHeld::RightArmOff)
         } else if self.arm_force_n[1] < ARM_CONTACT_N {
             Some(NotHeld::LeftArmOff)
-        } else if !self.between_arms {
+        } else if !self.enclosed() {
             Some(NotHeld::NotBetweenArms)
         } else if self.gap_m > AGAINST_CHEST_M {
             Some(NotHeld::OffChest)
@@ -150,7 +165,8 @@ pub enum NotHeld {
     RightArmOff,
     /// The left arm does not press on it.
     LeftArmOff,
-    /// The arms do not press from either side of its centre.
+    /// The arms do not press from either side of its centre (nor, where
+    /// it could fall, both from its front).
     NotBetweenArms,
     /// It is more than [`AGAINST_CHEST_M`] from the chest's skin.
     OffChest,
@@ -214,6 +230,26 @@ mod tests {
         assert!(lifted.held(), "carried by the robot alone");
         assert_eq!(ObjectTruth { resting: Some(true), ..truth }.not_held(), Some(NotHeld::Resting));
         assert_eq!(ObjectTruth { fallen: true, resting: Some(true), ..truth }.not_held(), Some(NotHeld::Fallen));
+    }
+
+    #[test]
+    fn pressed_from_the_front_is_between_only_where_it_could_fall() {
+        let arms = [Some(Arm::Right), Some(Arm::Left), None];
+        let at =
+            |cell: usize, x: f64, y: f64| Contact { cell, point: Point3::new(x, y, 0.15), force_n: 1.0, felt: true };
+        // Both arms on the lid's front (ahead of its centre at x = 0.2),
+        // both right of its centre: not from either side.
+        let front = [at(0, 0.26, -0.08), at(1, 0.26, -0.01), at(2, 0.14, 0.0)];
+        let truth = ObjectTruth::observe(&placed(0.0), 0.06, 0.008, &arms, &front);
+        assert!(truth.gripped() && truth.from_front && !truth.between_arms);
+        assert_eq!(truth.not_held(), Some(NotHeld::NotBetweenArms), "the built-in world cannot drop it");
+        assert!(!truth.hugged());
+        let lifted = ObjectTruth { resting: Some(false), ..truth };
+        assert!(lifted.hugged() && lifted.held(), "where it could fall, friction carried it");
+        // One arm behind the centre: not from the front.
+        let behind = [at(0, 0.26, -0.08), at(1, 0.17, -0.01), at(2, 0.14, 0.0)];
+        let truth = ObjectTruth::observe(&placed(0.0), 0.06, 0.008, &arms, &behind);
+        assert!(!truth.from_front && !ObjectTruth { resting: Some(false), ..truth }.held());
     }
 
     #[test]
