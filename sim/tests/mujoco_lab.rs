@@ -214,3 +214,47 @@ fn an_object_the_arms_drag_back_stays_on_the_person_s_hands() {
     assert_eq!((look.resting, look.fallen), (Some(true), false), "on the person's hands at {now}");
     assert!((now.z - start.z).abs() < 0.02, "upright on them: {start} to {now}");
 }
+
+/// A small box resting on the cover plate of the cell that faces most
+/// nearly up (on top of a shoulder) presses it with its weight, and the
+/// plate's foam should feel that weight. It does not yet: a plate's force
+/// is the depth of MuJoCo's contact points times the foam's stiffness,
+/// and MuJoCo weighs a contact's depth by the contact's own mass and
+/// impedance, not the object's: this box's four points read 1.42 N of its
+/// 2.84 N (over the five Figure 16 grasps, seed 0, 0.51 of MuJoCo's
+/// contact force, median per instant). Reading the force the soft contact
+/// settles to at that depth passes this test, but changes what the arms
+/// can hold (docs/src/limits.md), so it is kept as a failing test until
+/// that change lands.
+#[test]
+#[ignore = "fails: the plates feel about half of what presses them (docs/src/limits.md)"]
+fn a_weight_on_a_cell_is_felt_as_its_weight() {
+    let setup = Setup::new(&hrp2::robot(), 4).unwrap();
+    let (mut world, stage) = experiment_world(None, &setup, 4).unwrap();
+    run(&mut world, 25);
+    let weight = Object {
+        name: "weight".into(),
+        shape: skin_sim::scene::shape::Shape::Box { half: nalgebra::Vector3::new(0.008, 0.008, 0.01), round_m: 0.001 },
+        mass_kg: 0.3,
+        stiffness_n_per_m: 3000.0,
+        reflectance: 0.7,
+        friction: 0.5,
+    };
+    let facing_up = |u: &usize| (world.cell_poses()[*u].rotation * nalgebra::Vector3::z()).z;
+    let top = (0..setup.skin.cells().len()).max_by(|a, b| facing_up(a).total_cmp(&facing_up(b))).unwrap();
+    let cell = world.cell_poses()[top];
+    let tilt = facing_up(&top);
+    assert!(tilt > 0.9, "a cell faces up: {tilt}");
+    let above = stage.skin().surface_offset_m + 0.0105;
+    let pose = nalgebra::Isometry3::from_parts((cell * nalgebra::Point3::new(0.0, 0.0, above)).into(), cell.rotation);
+    stage.put(Some((weight, pose)));
+    run(&mut world, 1);
+    stage.let_go();
+    run(&mut world, 250);
+    let look = stage.look();
+    assert_eq!((look.resting, look.fallen), (Some(false), false), "on the robot alone: {look:?}");
+    let on_plate: f64 = look.contacts.iter().filter(|c| c.felt && c.cell == top).map(|c| c.force_n).sum();
+    // Its weight along the plate's normal (the plate is tilted a little).
+    let g = 0.3 * 9.81 * tilt;
+    assert!((on_plate - g).abs() < 0.1 * g, "the plate feels {on_plate} N of the box's {g} N");
+}
