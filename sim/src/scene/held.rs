@@ -78,7 +78,7 @@ impl ObjectTruth {
     ) -> ObjectTruth {
         let mut force = [0.0; 2];
         let mut body_force_n = 0.0;
-        // Force-weighted sideways position of each arm's contacts.
+        // Force-weighted position of each arm's contacts, sideways and forward.
         let mut weighted_y = [0.0; 2];
         let mut weighted_x = [0.0; 2];
         for c in contacts {
