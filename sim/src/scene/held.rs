@@ -10,6 +10,8 @@
 //! from its front is between the arms and the chest too: whether friction
 //! carries it is the physics' to say.
 
+use nalgebra::Vector3;
+
 use super::experiment::gap_to_chest_m;
 use super::{Contact, Placed};
 
@@ -78,9 +80,8 @@ impl ObjectTruth {
     ) -> ObjectTruth {
         let mut force = [0.0; 2];
         let mut body_force_n = 0.0;
-        // Force-weighted position of each arm's contacts, sideways and forward.
-        let mut weighted_y = [0.0; 2];
-        let mut weighted_x = [0.0; 2];
+        // Force-weighted sum of each arm's contact points.
+        let mut weighted = [Vector3::zeros(); 2];
         for c in contacts {
             let Some(Some(arm)) = arms.get(c.cell) else {
                 body_force_n += c.force_n;
@@ -88,20 +89,19 @@ impl ObjectTruth {
             };
             let k = *arm as usize;
             force[k] += c.force_n;
-            weighted_y[k] += c.force_n * c.point.y;
-            weighted_x[k] += c.force_n * c.point.x;
+            weighted[k] += c.force_n * c.point.coords;
         }
-        let centre_y = placed.pose.translation.y;
-        let touched = force.map(|f| f >= ARM_CONTACT_N);
-        let between_arms =
-            touched == [true, true] && weighted_y[0] / force[0] < centre_y && weighted_y[1] / force[1] > centre_y;
+        let centre = placed.pose.translation.vector;
+        let touched = force.map(|f| f >= ARM_CONTACT_N) == [true, true];
+        // Where each arm presses, on average.
+        let [right, left] = [0, 1].map(|k| weighted[k] / force[k]);
         ObjectTruth {
             gap_m: gap_to_chest_m(placed, back_m, skin_offset_m),
-            centre_m: placed.pose.translation.vector.into(),
+            centre_m: centre.into(),
             arm_force_n: force,
             body_force_n,
-            between_arms,
-            from_front: touched == [true, true] && (0..2).all(|k| weighted_x[k] / force[k] > placed.pose.translation.x),
+            between_arms: touched && right.y < centre.y && left.y > centre.y,
+            from_front: touched && right.x > centre.x && left.x > centre.x,
             resting: None,
             fallen: false,
         }
