@@ -209,7 +209,7 @@ fn a_hundred_objects_anywhere_the_arms_reach_in_each_world() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// Too wide for the arms, too heavy to pull: cancelled, without pain, in
+/// Too wide for the arms, too heavy to carry: not held, without pain, in
 /// every world.
 #[test]
 #[ignore]
@@ -232,7 +232,12 @@ fn objects_that_cannot_be_held_fail_without_pain() {
             assert_eq!(r["succeeded"], false, "{what}");
             assert_ne!(r["reason"], "pain", "{what}");
             assert_eq!(r["pain_events"], 0, "{what}");
-            assert_eq!(r["controller_state"], "cancelled", "{what}: the controller gives up, it does not hold");
+            // The controller gives up; or it holds on, and the person,
+            // feeling the object come down with their hands, never lets
+            // go: it ends on their hands, not carried by the robot.
+            let gave_up = r["controller_state"] == "cancelled";
+            let kept = r["failed"]["why"]["not_held"] == "resting";
+            assert!(gave_up || kept, "{what}: the controller gives up or the person keeps it: {r}");
         }
     }
     std::fs::remove_dir_all(&dir).unwrap();

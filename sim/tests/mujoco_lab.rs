@@ -44,6 +44,7 @@ fn an_object_stands_on_the_tray_and_falls_when_the_person_lets_go() {
     run(&mut world, 25);
     assert_eq!(stage.look().object, None, "nothing put down yet");
     let bin = Object::by_name("trash_bin").unwrap();
+    let weight = bin.mass_kg * 9.81;
     let pose = object_pose(&bin, &Placement { yaw_rad: 0.2, ..Placement::default() }, stage.skin().surface_offset_m);
     stage.put(Some((bin, pose)));
     run(&mut world, 250);
@@ -54,6 +55,16 @@ fn an_object_stands_on_the_tray_and_falls_when_the_person_lets_go() {
     assert_eq!((look.resting, look.fallen), (Some(true), false), "on the tray");
     assert!(look.contacts.is_empty(), "the robot at home does not touch it");
     assert_eq!(look.bare_force_max_n, Some(0.0));
+    let carried = look.support_n.expect("MuJoCo tells the support's force");
+    assert!((carried - weight).abs() < 0.05 * weight, "the tray bears its weight: {carried} N of {weight} N");
+
+    // Lowered, the tray takes the object down with it.
+    stage.lower_support(0.02);
+    run(&mut world, 250);
+    let look = stage.look();
+    let lowered = look.object.expect("the object is there").pose.translation;
+    assert!((lowered.z - (stood.translation.z - 0.02)).abs() < 0.002, "2 cm lower: {lowered}");
+    assert_eq!((look.resting, look.fallen), (Some(true), false), "still on the tray");
 
     stage.let_go();
     run(&mut world, 250);
@@ -61,6 +72,8 @@ fn an_object_stands_on_the_tray_and_falls_when_the_person_lets_go() {
     let fell = look.object.expect("the object is there").pose;
     assert!(fell.translation.z < -0.5, "on the floor 1 m below the chest: {fell}");
     assert_eq!((look.resting, look.fallen), (Some(true), true));
+    let carried = look.support_n.expect("MuJoCo tells the support's force");
+    assert!((carried - weight).abs() < 0.05 * weight, "the floor bears its weight: {carried} N of {weight} N");
     stage.put(None);
     run(&mut world, 1);
     assert_eq!(stage.look().object, None, "taken away");
@@ -217,17 +230,10 @@ fn an_object_the_arms_drag_back_stays_on_the_person_s_hands() {
 
 /// A small box resting on the cover plate of the cell that faces most
 /// nearly up (on top of a shoulder) presses it with its weight, and the
-/// plate's foam should feel that weight. It does not yet: a plate's force
-/// is the depth of MuJoCo's contact points times the foam's stiffness,
-/// and MuJoCo weighs a contact's depth by the contact's own mass and
-/// impedance, not the object's: this box's four points read 1.42 N of its
-/// 2.84 N (over the five Figure 16 grasps, seed 0, 0.51 of MuJoCo's
-/// contact force, median per instant). Reading the force the soft contact
-/// settles to at that depth passes this test, but changes what the arms
-/// can hold (docs/src/limits.md), so it is kept as a failing test until
-/// that change lands.
+/// plate's foam feels that weight. Its contact points' depth times the
+/// foam's stiffness read 1.42 N of its 2.84 N: MuJoCo weighs a contact's
+/// depth by the contact's own mass and impedance, not the object's.
 #[test]
-#[ignore = "fails: the plates feel about half of what presses them (docs/src/limits.md)"]
 fn a_weight_on_a_cell_is_felt_as_its_weight() {
     let setup = Setup::new(&hrp2::robot(), 4).unwrap();
     let (mut world, stage) = experiment_world(None, &setup, 4).unwrap();

@@ -34,7 +34,7 @@ fn trace_csv(run: &GraspRun) -> String {
     }
     s.push_str(",force_right,force_left,force_chest,proximity_right,proximity_left,proximity_chest");
     s.push_str(
-        ",object_x_m,object_y_m,object_z_m,object_force_right_n,object_force_left_n,object_force_body_n,object_gap_m\n",
+        ",object_x_m,object_y_m,object_z_m,object_force_right_n,object_force_left_n,object_force_body_n,object_gap_m,object_support_n\n",
     );
     for r in &run.trace {
         let _ = write!(s, "{:.3},{}", r.time_s, r.state.name());
@@ -48,9 +48,10 @@ fn trace_csv(run: &GraspRun) -> String {
             Some(o) => {
                 let [x, y, z] = o.centre_m;
                 let [right, left] = o.arm_force_n;
-                let _ = writeln!(s, ",{x:.4},{y:.4},{z:.4},{right:.3},{left:.3},{:.3},{:.4}", o.body_force_n, o.gap_m);
+                let _ = write!(s, ",{x:.4},{y:.4},{z:.4},{right:.3},{left:.3},{:.3},{:.4},", o.body_force_n, o.gap_m);
+                let _ = writeln!(s, "{}", o.support_n.map_or(String::new(), |f| format!("{f:.3}")));
             }
-            None => s.push_str(",,,,,,,\n"),
+            None => s.push_str(",,,,,,,,\n"),
         }
     }
     s

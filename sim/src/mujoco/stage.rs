@@ -112,8 +112,10 @@ struct Props {
     hands: Vec<Hand>,
     /// An object to put down (none: take it away) at the next tick.
     put: Option<Option<(Object, Isometry3<f64>)>>,
-    /// The person holds the tray up under the object.
+    /// The person holds the tray up under the object...
     supporting: bool,
+    /// ...this far below where they put it down, m.
+    lowered_m: f64,
     /// The person takes the object into their hands where it is now.
     taking_back: bool,
     look: Look,
@@ -150,9 +152,14 @@ impl Stage for SharedStage {
     fn put(&self, object: Option<(Object, Isometry3<f64>)>) {
         let mut props = self.0.borrow_mut();
         props.supporting = object.is_some();
+        props.lowered_m = 0.0;
         props.look =
             Look { bare_force_max_n: Some(0.0), resting: object.is_some().then_some(false), ..Look::default() };
         props.put = Some(object);
+    }
+
+    fn lower_support(&self, down_m: f64) {
+        self.0.borrow_mut().lowered_m = down_m;
     }
 
     fn let_go(&self) {
@@ -182,8 +189,6 @@ struct Body {
     upright: nalgebra::UnitQuaternion<f64>,
     /// Its largest principal moment of inertia, kg m^2.
     inertia: f64,
-    /// Its contacts' stiffness against a cell's cover plate, N/m.
-    stiffness: f64,
     /// Where the person holds it in their hands, taken back (none: not).
     in_hands_at: Option<[f64; 3]>,
 }
@@ -337,7 +342,7 @@ impl Scenery {
         let tray = match &self.object {
             Some(body) if props.supporting => {
                 let at = &data.qpos()[body.qpos..body.qpos + 2];
-                [at[0], at[1], body.tray_z]
+                [at[0], at[1], body.tray_z - props.lowered_m]
             }
             _ => PARKED,
         };
@@ -383,18 +388,7 @@ impl Scenery {
                 let q = pose.rotation.quaternion();
                 let p = pose.translation.vector;
                 next.qpos_mut()[qpos..qpos + 7].copy_from_slice(&[p.x, p.y, p.z, q.w, q.i, q.j, q.k]);
-                let stiffness = plate_contact_stiffness(&object);
-                Some(Body {
-                    object,
-                    geom,
-                    qpos,
-                    tray_z,
-                    qvel,
-                    upright: pose.rotation,
-                    inertia,
-                    stiffness,
-                    in_hands_at: None,
-                })
+                Some(Body { object, geom, qpos, tray_z, qvel, upright: pose.rotation, inertia, in_hands_at: None })
             }
             _ => None,
         };
@@ -451,7 +445,7 @@ impl Scenery {
         let object_geom = self.object.as_ref().map(|b| b.geom);
         // Per force cell (cell, force cell): the object's force and the hands'.
         let mut zones: Vec<[[f64; 3]; 2]> = vec![[[0.0; 3]; 2]; self.cells.len()];
-        let (mut resting, mut fallen) = (false, false);
+        let (mut resting, mut fallen, mut support_n) = (false, false, 0.0);
         let hand_geoms = self.hand_geom;
         for (i, c) in data.contact().iter().enumerate() {
             let (g1, g2) = (c.geom1 as usize, c.geom2 as usize);
@@ -464,24 +458,28 @@ impl Scenery {
             };
             if other == self.floor_geom || other == self.tray_geom {
                 resting = true;
+                support_n += data.contact_force(i)[0].max(0.0);
                 fallen |= other == self.floor_geom;
                 continue;
             }
             let point = Point3::from(Vector3::from(c.pos));
             let plate = self.plate_of.get(other).copied().flatten();
-            // A plate's force is what compresses the foam under it: its
-            // depth times the contact's stiffness, as a spring has it. The
-            // solver's constraint force also carries, within the step, any
-            // push the arm's servo gives (MuJoCo blends a soft contact's
-            // acceleration with the unconstrained one): read as the foam's
-            // force, a servo's tick-to-tick change came back as 0.5-6 N
-            // swings every other tick, and the force reactions fed them.
+            // A plate's force is what compresses the foam under it: the
+            // force MuJoCo's soft contact settles to at its depth, as a
+            // spring has it. The solver's constraint force also carries,
+            // within the step, any push the arm's servo gives (MuJoCo
+            // blends a soft contact's acceleration with the unconstrained
+            // one): read as the foam's force, a servo's tick-to-tick change
+            // came back as 0.5-6 N swings every other tick, and the force
+            // reactions fed them. The depth times the object's stiffness
+            // read about half of it (MuJoCo's contact rows weigh the depth
+            // by the contact's own mass, not the object's): a 0.3 kg box
+            // resting on a plate read 1.42 N of its 2.84 N. A palm's force
+            // stays its depth times the hand's stiffness: the person puts
+            // it where they hold it every tick, never at rest on the plate.
             let force_n = match plate {
-                Some(_) => {
-                    let stiffness =
-                        if by_hand { HAND_N_PER_M } else { self.object.as_ref().map_or(0.0, |b| b.stiffness) };
-                    stiffness * (-c.dist).max(0.0)
-                }
+                Some(_) if by_hand => HAND_N_PER_M * (-c.dist).max(0.0),
+                Some(_) => spring_force(data, c.efc_address, -c.dist),
                 None => data.contact_force(i)[0].max(0.0),
             };
             if let Some(u) = plate {
@@ -515,8 +513,25 @@ impl Scenery {
         }
         if look.object.is_some() {
             look.resting = Some(resting);
+            look.support_n = Some(support_n);
             look.fallen = fallen;
         }
+    }
+}
+
+/// The force a soft contact settles to at `depth_m` (its constraint rows
+/// starting at `efc`, the normal first): MuJoCo's reference acceleration
+/// for that depth, stiffness times impedance times depth, over the row's
+/// regulariser (times the constraint mass `efc_D`).
+fn spring_force(data: &MjData<Box<MjModel>>, efc: i32, depth_m: f64) -> f64 {
+    let Ok(row) = usize::try_from(efc) else { return 0.0 };
+    // SAFETY: `after` runs after a step, whose pipeline filled the
+    // constraint arrays for this tick's contacts; `row` is a contact's own.
+    #[allow(unsafe_code)]
+    let (kbip, mass) = unsafe { (data.efc_kbip(), data.efc_d()) };
+    match (kbip.get(row), mass.get(row)) {
+        (Some(&[k, _, imp, _]), Some(&d)) => (k * imp * depth_m.max(0.0) * d).max(0.0),
+        _ => 0.0,
     }
 }
 

@@ -64,6 +64,9 @@ pub struct ObjectTruth {
     /// Whether something other than the robot carries it (its support, the
     /// floor); none where objects never leave their table.
     pub resting: Option<bool>,
+    /// The force with which its support (or the floor) bears it, N; none
+    /// where objects never leave their table.
+    pub support_n: Option<f64>,
     /// Whether it has fallen to the floor.
     pub fallen: bool,
 }
@@ -103,6 +106,7 @@ impl ObjectTruth {
             between_arms: touched && right.y < centre.y && left.y > centre.y,
             from_front: touched && right.x > centre.x && left.x > centre.x,
             resting: None,
+            support_n: None,
             fallen: false,
         }
     }

@@ -15,7 +15,7 @@
 
 use std::cell::Cell;
 
-use nalgebra::{Point3, UnitQuaternion};
+use nalgebra::{Isometry3, Point3, UnitQuaternion};
 use skin_protocol::Address;
 
 use super::experiment::{back_extent, intended_pose, object_pose, Setup};
@@ -48,6 +48,14 @@ const HUG_WAIT_S: f64 = 1.0;
 /// towards the chest is not taken for a hold (at 3 mm the person let a
 /// 0.63 kg sphere go mid-pull, under a grip of 3 N).
 const STILL_M: f64 = 0.001;
+/// How fast the person lowers their hands from under the object, m/s,
+/// and how far before they let go, m: they feel whether the robot carries
+/// it rather than let a 40 kg box drop onto the chest.
+const EASE_M_PER_S: f64 = 0.02;
+const EASE_M: f64 = 0.03;
+/// The object came this far down with their hands, m: the robot does not
+/// carry it, and the person takes it into their hands where it is.
+const FOLLOW_M: f64 = 0.01;
 
 /// What the experimenter asks of the person.
 #[derive(Clone, Debug, PartialEq)]
@@ -125,6 +133,21 @@ enum Act {
     },
 }
 
+/// How far the person has handed the object over to the robot.
+enum Handover {
+    /// Holding up what it stands on; since when the arms have hugged it
+    /// at the chest and held still, s, and where their cells were then.
+    Holding { hugged_since: Option<(f64, Vec<Point3<f64>>)> },
+    /// Lowering their hands since `since_s`, the object's centre then at
+    /// height `z_m`.
+    Easing { since_s: f64, z_m: f64 },
+    /// Let go: the robot carries it.
+    LetGo,
+    /// It came down with their hands: they hold it where it is, and the
+    /// robot never carries it alone.
+    Kept,
+}
+
 /// The person, the objects and what they see.
 pub struct Operator {
     robot: Robot,
@@ -133,11 +156,8 @@ pub struct Operator {
     act: Act,
     /// Since the first [`Order::Place`], every period is reported.
     watching: bool,
-    /// The person has let go of what the object stands on.
-    let_go: bool,
-    /// Since when the arms have hugged the object at the chest and held
-    /// still, s, and where their cells were then.
-    hugged_since: Option<(f64, Vec<Point3<f64>>)>,
+    /// How far the person has handed the object over to the robot.
+    handover: Handover,
     /// The arm of each skin cell.
     arms: Vec<Option<Arm>>,
     /// How far the object reaches behind its centre, m, for the turn it
@@ -158,8 +178,7 @@ impl Operator {
             stage,
             act: Act::Idle,
             watching: false,
-            let_go: false,
-            hugged_since: None,
+            handover: Handover::Holding { hugged_since: None },
             arms,
             back: Cell::new(None),
         }
@@ -188,14 +207,13 @@ impl Operator {
                     (object, pose)
                 }));
                 self.watching = true;
-                self.let_go = false;
-                self.hugged_since = None;
+                self.handover = Handover::Holding { hugged_since: None };
                 None
             }
             Order::Pat => {
                 // Patting to release what the robot carries, the person
                 // takes it back first, as from a robot that might drop it.
-                if self.let_go {
+                if !matches!(self.handover, Handover::Holding { .. }) {
                     self.stage.take_back();
                 }
                 self.act = Act::Patting { until_s: world.time_s() + PAT_S };
@@ -213,29 +231,8 @@ impl Operator {
         let (t, poses) = (world.time_s(), world.cell_poses());
         let skin = self.stage.skin();
         let offset = skin.surface_offset_m;
-        if self.watching && !self.let_go {
-            // The robot has hugged it at the chest and held still for a
-            // while: the person lets go of what it stood on (whether the
-            // arms can carry it is the test). Letting go while the arms
-            // still pull (as soon as it presses on the chest) drops it
-            // mid-pull.
-            self.hugged_since = if self.truth().is_some_and(|o| o.hugged()) {
-                let arms: Vec<_> =
-                    self.setup.guided_cells.iter().flatten().map(|&u| poses[u] * Point3::origin()).collect();
-                match self.hugged_since.take() {
-                    Some((since, at)) if at.iter().zip(&arms).all(|(a, b)| (a - b).norm() < STILL_M) => {
-                        Some((since, at))
-                    }
-                    _ => Some((t, arms)),
-                }
-            } else {
-                None
-            };
-            let waited = self.hugged_since.as_ref().is_some_and(|(since, _)| t - since >= HUG_WAIT_S);
-            if waited {
-                self.stage.let_go();
-                self.let_go = true;
-            }
+        if self.watching {
+            self.hand_over(t, poses);
         }
         match std::mem::replace(&mut self.act, Act::Idle) {
             Act::Idle => {}
@@ -267,6 +264,50 @@ impl Operator {
         None
     }
 
+    /// The person hands the object over: they hold up what it stands on
+    /// until the robot has hugged it at the chest and held still for a
+    /// while (letting go while the arms still pull, as soon as it presses
+    /// on the chest, drops it mid-pull), then lower their hands slowly and
+    /// let go, unless the object comes down with them: then the robot
+    /// cannot carry it, and they take it into their hands where it is
+    /// (whether the arms can carry it is the test, not the person's nerve).
+    fn hand_over(&mut self, t: f64, poses: &[Isometry3<f64>]) {
+        let truth = self.truth();
+        self.handover = match std::mem::replace(&mut self.handover, Handover::LetGo) {
+            Handover::Holding { hugged_since } => {
+                let hugged_since = truth.filter(ObjectTruth::hugged).map(|_| {
+                    let arms: Vec<_> =
+                        self.setup.guided_cells.iter().flatten().map(|&u| poses[u] * Point3::origin()).collect();
+                    match hugged_since {
+                        Some((since, at)) if at.iter().zip(&arms).all(|(a, b)| (a - b).norm() < STILL_M) => (since, at),
+                        _ => (t, arms),
+                    }
+                });
+                match (&hugged_since, truth) {
+                    (Some((since, _)), Some(o)) if t - since >= HUG_WAIT_S => {
+                        Handover::Easing { since_s: t, z_m: o.centre_m[2] }
+                    }
+                    _ => Handover::Holding { hugged_since },
+                }
+            }
+            Handover::Easing { since_s, z_m } => {
+                let down_m = (EASE_M_PER_S * (t - since_s)).min(EASE_M);
+                if truth.is_some_and(|o| o.centre_m[2] < z_m - FOLLOW_M) {
+                    tracing::debug!(time_s = t, "the object follows the person's hands down: they keep it");
+                    self.stage.take_back();
+                    Handover::Kept
+                } else if down_m >= EASE_M {
+                    self.stage.let_go();
+                    Handover::LetGo
+                } else {
+                    self.stage.lower_support(down_m);
+                    Handover::Easing { since_s, z_m }
+                }
+            }
+            kept_or_let_go => kept_or_let_go,
+        };
+    }
+
     /// What the person sees after a period, once watching.
     pub fn watch(&self, world: &World) -> Option<Note> {
         self.watching.then(|| {
@@ -291,6 +332,7 @@ impl Operator {
         let offset = self.stage.skin().surface_offset_m;
         look.object.as_ref().map(|p| ObjectTruth {
             resting: look.resting,
+            support_n: look.support_n,
             fallen: look.fallen,
             ..ObjectTruth::observe(p, self.back_m(p), offset, &self.arms, &look.contacts)
         })
@@ -375,5 +417,100 @@ mod tests {
         assert_eq!(pose, "home");
         assert!((time_s - rest_s).abs() < 1e-9 && (world.time_s() - start - rest_s - 0.004).abs() < 1e-9);
         assert!(error_m.iter().all(|e| *e < 0.01), "{error_m:?}");
+    }
+
+    /// A stage whose look the test sets, noting what the person does to
+    /// the support: how far lowered, let go, taken back.
+    #[derive(Clone, Default)]
+    struct Support(std::rc::Rc<std::cell::RefCell<(super::super::stage::Look, f64, bool, bool)>>);
+
+    impl Stage for Support {
+        fn skin(&self) -> super::super::SkinModel {
+            super::super::SkinModel::default()
+        }
+        fn pat(&self, cell: &Isometry3<f64>, depth_m: f64) -> super::super::hand::Hand {
+            super::super::hand::Hand::facing(cell, 0.0, -depth_m)
+        }
+        fn set_hands(&self, _hands: Vec<super::super::hand::Hand>) {}
+        fn put(&self, object: Option<(Object, Isometry3<f64>)>) {
+            self.0.borrow_mut().0.object = object.map(|(object, pose)| Placed { object, pose });
+        }
+        fn lower_support(&self, down_m: f64) {
+            self.0.borrow_mut().1 = down_m;
+        }
+        fn let_go(&self) {
+            self.0.borrow_mut().2 = true;
+        }
+        fn take_back(&self) {
+            self.0.borrow_mut().3 = true;
+        }
+        fn look(&self) -> super::super::stage::Look {
+            self.0.borrow().0.clone()
+        }
+    }
+
+    /// The person hands a hugged object over: they wait for the arms to
+    /// hold still, lower their hands, and let go; or, when it comes down
+    /// with their hands (`follows`), take it back and never let go.
+    fn hand_over(follows: bool) -> (f64, bool, bool) {
+        let robot = hrp2::robot();
+        let setup = Setup::new(&robot, 4).unwrap();
+        // Bolted down: a standing robot's sway moves its cells 1 mm.
+        let base = crate::world::BaseConfig::rigid();
+        let mut world =
+            World::new(robot.clone(), setup.skin.clone(), crate::world::WorldConfig { base, ..Default::default() });
+        let ids: Vec<Address> = setup.skin.cells().iter().map(|c| c.id).collect();
+        let stage = Support::default();
+        let mut op = Operator::new(robot, setup.clone(), Box::new(stage.clone()));
+        let bin = ObjectAt { object: Object::by_name("trash_bin").unwrap(), placement: Placement::default() };
+        op.order(Order::Place(Some(bin)), &world, &ids);
+        {
+            // Against the chest, both arms pressing it from either side.
+            let look = &mut stage.0.borrow_mut().0;
+            let placed = look.object.as_mut().unwrap();
+            placed.pose.translation.x -= OBJECT_GAP_M;
+            let centre = Point3::from(placed.pose.translation.vector);
+            let cell_of =
+                |arm: Arm| setup.skin.cells().iter().position(|c| Arm::of_link(&c.link) == Some(arm)).unwrap();
+            look.contacts = [(Arm::Right, -0.1), (Arm::Left, 0.1)]
+                .map(|(arm, y)| super::super::Contact {
+                    cell: cell_of(arm),
+                    point: centre + nalgebra::Vector3::new(0.05, y, 0.0),
+                    force_n: 1.0,
+                    felt: true,
+                })
+                .to_vec();
+            look.resting = Some(true);
+        }
+        assert!(op.truth().unwrap().hugged());
+        let mut samples = Vec::new();
+        let start = world.time_s();
+        while world.time_s() - start < HUG_WAIT_S + EASE_M / EASE_M_PER_S + 0.5 {
+            op.act(&world);
+            world.step(&mut samples);
+            let lowered = stage.0.borrow().1;
+            if world.time_s() - start < HUG_WAIT_S {
+                assert_eq!(lowered, 0.0, "the person waits for the arms to hold still");
+            }
+            if follows && lowered > 0.0 {
+                stage.0.borrow_mut().0.object.as_mut().unwrap().pose.translation.z -= 0.001;
+            }
+        }
+        let (_, lowered, let_go, taken_back) = *stage.0.borrow();
+        (lowered, let_go, taken_back)
+    }
+
+    #[test]
+    fn the_person_lowers_their_hands_and_lets_go_of_what_the_robot_carries() {
+        let (lowered, let_go, taken_back) = hand_over(false);
+        assert!(lowered > EASE_M * 0.9, "lowered by {lowered} m before letting go");
+        assert!(let_go && !taken_back);
+    }
+
+    #[test]
+    fn the_person_keeps_what_comes_down_with_their_hands() {
+        let (lowered, let_go, taken_back) = hand_over(true);
+        assert!(lowered > 0.0 && lowered < EASE_M / 2.0, "stopped lowering at {lowered} m");
+        assert!(!let_go && taken_back);
     }
 }

@@ -69,6 +69,8 @@ impl Stage for SharedScene {
         scene.reset_max_force();
     }
 
+    fn lower_support(&self, _down_m: f64) {}
+
     fn let_go(&self) {}
 
     fn take_back(&self) {}
@@ -83,6 +85,7 @@ impl Stage for SharedScene {
             object: scene.objects().first().cloned(),
             contacts: scene.contacts().to_vec(),
             resting: None,
+            support_n: None,
             fallen: false,
         }
     }

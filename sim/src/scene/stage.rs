@@ -25,6 +25,9 @@ pub trait Stage {
     /// Puts `object` down at the pose given, standing on its support, or
     /// takes the object away; forgets the largest forces.
     fn put(&self, object: Option<(Object, Isometry3<f64>)>);
+    /// The person lowers the support the object stands on to `down_m`
+    /// below where they put it (a table that stays does nothing).
+    fn lower_support(&self, down_m: f64);
     /// The person lets go of the support the object stands on, once the
     /// robot holds it (a table that stays does nothing).
     fn let_go(&self);
@@ -56,6 +59,9 @@ pub struct Look {
     /// Whether the object rests on something other than the robot (its
     /// support, the floor); none where objects never leave their table.
     pub resting: Option<bool>,
+    /// The force with which its support (or the floor) bears the object
+    /// now, N; none where objects never leave their table.
+    pub support_n: Option<f64>,
     /// Whether the object has fallen to the floor.
     pub fallen: bool,
 }
