@@ -73,7 +73,8 @@ fn the_sponge_rock_is_grasped_and_traced() {
     assert!(csv.starts_with("time_s,state,q0_rad"), "{}", &csv[..80]);
     assert!(csv.lines().count() > 100);
     assert!(csv.contains(",hold,"));
-    let gaps: Vec<f64> = csv.lines().skip(1).filter_map(|l| l.rsplit(',').next()?.parse().ok()).collect();
+    let column = csv.lines().next().unwrap().split(',').position(|c| c == "object_gap_m").unwrap();
+    let gaps: Vec<f64> = csv.lines().skip(1).filter_map(|l| l.split(',').nth(column)?.parse().ok()).collect();
     assert!(gaps.first().unwrap() > gaps.last().unwrap(), "the object was pulled towards the chest");
     let svg = file("svg");
     assert!(svg.contains("<svg") && svg.contains("pre-contact"));

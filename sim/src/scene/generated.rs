@@ -190,8 +190,10 @@ mod tests {
         let setup = Setup::new(&robot, 0).unwrap();
         let offset = SkinModel::default().surface_offset_m;
         let reach = Reach::new(&robot, &setup, offset);
+        // 12 cm: the arms' height is 5-7 cm below its middle, where a
+        // smaller ball is narrower than the closed pose's forearms.
         let ball = parse(
-            "name = \"ball\"\nshape = { sphere = { radius = 0.10 } }\nmass_kg = 0.3\n\
+            "name = \"ball\"\nshape = { sphere = { radius = 0.12 } }\nmass_kg = 0.3\n\
              stiffness_n_per_m = 3000\nreflectance = 0.7\nfriction = 0.4\n",
         )
         .unwrap()
