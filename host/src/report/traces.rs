@@ -110,6 +110,12 @@ fn plot(run: &GraspRun, path: &Path) -> Result<(), Box<dyn std::error::Error>> {
         series[3].push((axis.to_owned(), colours[k], truth(x)));
         series[4].push((name.to_owned(), colours[k], truth(f)));
     }
+    // What the person's hands bear, where the world tells it: the handover.
+    let support: Vec<(f64, f64)> =
+        run.trace.iter().filter_map(|r| Some((r.time_s, r.object.as_ref()?.support_n?))).collect();
+    if !support.is_empty() {
+        series[4].push(("support".to_owned(), RGBColor(0, 140, 0), support));
+    }
     // Each panel's title, and whether its axis starts at zero (the
     // object's path is drawn around its values alone).
     let titles = [
@@ -117,7 +123,7 @@ fn plot(run: &GraspRun, path: &Path) -> Result<(), Box<dyn std::error::Error>> {
         ("force: summed normalized readings".to_owned(), true),
         ("pre-contact: highest proximity intensity".to_owned(), true),
         ("truth: the object's centre (m)".to_owned(), false),
-        ("truth: the object's contact force, skin and bare surface (N)".to_owned(), true),
+        ("truth: the object's contact force, skin and bare surface, and its support's (N)".to_owned(), true),
     ];
     for ((panel, lines), (title, from_zero)) in panels.iter().zip(&series).zip(titles) {
         let first = lines.iter().flat_map(|l| l.2.first()).map(|p| p.1).next();
