@@ -48,8 +48,9 @@ fn trace_csv(run: &GraspRun) -> String {
             Some(o) => {
                 let [x, y, z] = o.centre_m;
                 let [right, left] = o.arm_force_n;
-                let _ = write!(s, ",{x:.4},{y:.4},{z:.4},{right:.3},{left:.3},{:.3},{:.4},", o.body_force_n, o.gap_m);
-                let _ = writeln!(s, "{}", o.support_n.map_or(String::new(), |f| format!("{f:.3}")));
+                let support = o.support_n.map_or(String::new(), |f| format!("{f:.3}"));
+                let (body, gap) = (o.body_force_n, o.gap_m);
+                let _ = writeln!(s, ",{x:.4},{y:.4},{z:.4},{right:.3},{left:.3},{body:.3},{gap:.4},{support}");
             }
             None => s.push_str(",,,,,,,,\n"),
         }

@@ -353,8 +353,11 @@ impl Operator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::hand::Hand;
     use crate::scene::object::Object;
     use crate::scene::placement::{Placement, OBJECT_GAP_M};
+    use crate::scene::stage::Look;
+    use crate::scene::{Contact, SkinModel};
     use skin_model::robot::hrp2;
 
     #[test]
@@ -419,33 +422,42 @@ mod tests {
         assert!(error_m.iter().all(|e| *e < 0.01), "{error_m:?}");
     }
 
+    /// What the person did to the support, by the test's stage.
+    #[derive(Default)]
+    struct Handled {
+        look: Look,
+        lowered_m: f64,
+        let_go: bool,
+        taken_back: bool,
+    }
+
     /// A stage whose look the test sets, noting what the person does to
-    /// the support: how far lowered, let go, taken back.
+    /// the support.
     #[derive(Clone, Default)]
-    struct Support(std::rc::Rc<std::cell::RefCell<(super::super::stage::Look, f64, bool, bool)>>);
+    struct Support(std::rc::Rc<std::cell::RefCell<Handled>>);
 
     impl Stage for Support {
-        fn skin(&self) -> super::super::SkinModel {
-            super::super::SkinModel::default()
+        fn skin(&self) -> SkinModel {
+            SkinModel::default()
         }
-        fn pat(&self, cell: &Isometry3<f64>, depth_m: f64) -> super::super::hand::Hand {
-            super::super::hand::Hand::facing(cell, 0.0, -depth_m)
+        fn pat(&self, cell: &Isometry3<f64>, depth_m: f64) -> Hand {
+            Hand::facing(cell, 0.0, -depth_m)
         }
-        fn set_hands(&self, _hands: Vec<super::super::hand::Hand>) {}
+        fn set_hands(&self, _hands: Vec<Hand>) {}
         fn put(&self, object: Option<(Object, Isometry3<f64>)>) {
-            self.0.borrow_mut().0.object = object.map(|(object, pose)| Placed { object, pose });
+            self.0.borrow_mut().look.object = object.map(|(object, pose)| Placed { object, pose });
         }
         fn lower_support(&self, down_m: f64) {
-            self.0.borrow_mut().1 = down_m;
+            self.0.borrow_mut().lowered_m = down_m;
         }
         fn let_go(&self) {
-            self.0.borrow_mut().2 = true;
+            self.0.borrow_mut().let_go = true;
         }
         fn take_back(&self) {
-            self.0.borrow_mut().3 = true;
+            self.0.borrow_mut().taken_back = true;
         }
-        fn look(&self) -> super::super::stage::Look {
-            self.0.borrow().0.clone()
+        fn look(&self) -> Look {
+            self.0.borrow().look.clone()
         }
     }
 
@@ -466,14 +478,14 @@ mod tests {
         op.order(Order::Place(Some(bin)), &world, &ids);
         {
             // Against the chest, both arms pressing it from either side.
-            let look = &mut stage.0.borrow_mut().0;
+            let look = &mut stage.0.borrow_mut().look;
             let placed = look.object.as_mut().unwrap();
             placed.pose.translation.x -= OBJECT_GAP_M;
             let centre = Point3::from(placed.pose.translation.vector);
             let cell_of =
                 |arm: Arm| setup.skin.cells().iter().position(|c| Arm::of_link(&c.link) == Some(arm)).unwrap();
             look.contacts = [(Arm::Right, -0.1), (Arm::Left, 0.1)]
-                .map(|(arm, y)| super::super::Contact {
+                .map(|(arm, y)| Contact {
                     cell: cell_of(arm),
                     point: centre + nalgebra::Vector3::new(0.05, y, 0.0),
                     force_n: 1.0,
@@ -488,16 +500,16 @@ mod tests {
         while world.time_s() - start < HUG_WAIT_S + EASE_M / EASE_M_PER_S + 0.5 {
             op.act(&world);
             world.step(&mut samples);
-            let lowered = stage.0.borrow().1;
+            let lowered = stage.0.borrow().lowered_m;
             if world.time_s() - start < HUG_WAIT_S {
                 assert_eq!(lowered, 0.0, "the person waits for the arms to hold still");
             }
             if follows && lowered > 0.0 {
-                stage.0.borrow_mut().0.object.as_mut().unwrap().pose.translation.z -= 0.001;
+                stage.0.borrow_mut().look.object.as_mut().unwrap().pose.translation.z -= 0.001;
             }
         }
-        let (_, lowered, let_go, taken_back) = *stage.0.borrow();
-        (lowered, let_go, taken_back)
+        let handled = stage.0.borrow();
+        (handled.lowered_m, handled.let_go, handled.taken_back)
     }
 
     #[test]
