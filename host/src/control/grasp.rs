@@ -12,9 +12,8 @@
 //! arms hold the object, not the chest alone; then the arms squeeze it
 //! until a cell feels the high force level (a chest cell the medium one,
 //! or they can close no further) and hold that pose, so the grip can
-//! carry the object's weight once the person lets go, and an object
-//! pressed ever harder on the chest while held is given up before pain;
-//! loading that reaches the
+//! carry the object's weight once the person lets go (the chest may then
+//! bear it harder: only pain ends the hold); loading that reaches the
 //! closed pose with the object still near both arms (narrow or soft: the
 //! taught pose is no tighter than the teacher made it) pulls it in too,
 //! and a touch on the chest ends the contact phase like one on an arm (an
@@ -206,9 +205,6 @@ pub struct Grasp {
     held_by: usize,
     /// Since when fewer contact areas feel it than held it, s.
     slipping_since_s: Option<f64>,
-    /// The chest felt a high force when Hold was entered (the pull
-    /// pinned the object there, and it bears that).
-    chest_high_on_hold: bool,
 }
 
 impl Grasp {
@@ -221,7 +217,6 @@ impl Grasp {
             evaded_from: State::Home,
             held_by: 0,
             slipping_since_s: None,
-            chest_high_on_hold: false,
         }
     }
 
@@ -247,12 +242,8 @@ impl Grasp {
         };
         let slipped = self.slipping_since_s.is_some_and(|since| time_s - since >= SLIP_S);
         let (next, cause) = self.next(touch, trajectory, pat, slipped)?;
-        match next {
-            State::Evade => self.evaded_from = self.state,
-            State::Hold => {
-                self.chest_high_on_hold = touch.any(AreaKind::Chest, Modality::Force, level::HIGH);
-            }
-            _ => {}
+        if next == State::Evade {
+            self.evaded_from = self.state;
         }
         let tr = Transition { from: self.state, to: next, time_s, cause };
         self.state = next;
@@ -395,15 +386,14 @@ impl Grasp {
                 }
             }
             // The object is lost when the contact areas no longer see it;
-            // when an arm that held it no longer feels it, pull again. The
-            // chest's cells cannot move away: an object pressed on them
-            // ever harder while held (by an arm's bare surface, which no
-            // cell feels) is given up before they reach pain.
+            // when an arm that held it no longer feels it, pull again. A
+            // chest pressed harder while held is the object's weight
+            // settling into the arms once the person lets go: giving it up
+            // at the high level dropped round objects the arms carry, and
+            // easing the grip let them sink and wedge into a cell (pain).
             Hold => {
                 if lost {
                     Some((Cancel, Cause::ContactLost))
-                } else if any(Chest, Force, level::HIGH) && !self.chest_high_on_hold {
-                    Some((Cancel, Cause::Force))
                 } else {
                     slipped.then_some((Pull, Cause::Slipped))
                 }
@@ -545,7 +535,7 @@ mod tests {
     }
 
     #[test]
-    fn the_chest_ends_the_squeeze_early_and_hold_gives_up_before_its_pain() {
+    fn the_chest_ends_the_squeeze_early_and_only_pain_ends_the_hold() {
         let mut r = Run::pulling();
         set(&mut r.ev, 4, 0.9, 0.05);
         assert_eq!(r.step(None), State::Squeeze);
@@ -554,7 +544,9 @@ mod tests {
         set(&mut r.ev, 4, 0.9, 0.25);
         assert_eq!(r.step(None), State::Hold, "the chest may bear more");
         set(&mut r.ev, 4, 0.9, 0.31);
-        assert_eq!(r.step(None), State::Cancel, "the chest's force grew high while held: given up before pain");
+        assert_eq!(r.step(None), State::Hold, "the chest's force grew high while held: the object's weight");
+        set(&mut r.ev, 4, 0.9, 0.46);
+        assert_eq!(r.step(None), State::Evade, "pain");
         let mut r = Run::pulling();
         set(&mut r.ev, 4, 0.9, 0.05);
         assert_eq!(r.step(None), State::Squeeze);
@@ -563,7 +555,7 @@ mod tests {
         set(&mut r.ev, 4, 0.9, 0.35);
         assert_eq!(r.step(None), State::Squeeze, "pulled until the chest felt a high force");
         assert_eq!(r.step(None), State::Hold);
-        assert_eq!(r.step(None), State::Hold, "pinned there by the pull, as it was on entering Hold");
+        assert_eq!(r.step(None), State::Hold, "pinned there by the pull");
     }
 
     #[test]
