@@ -19,7 +19,10 @@
 //! and a touch on the chest ends the contact phase like one on an arm (an
 //! arm's bare surface pushed the object there); when a contact area that
 //! felt it on squeezing or holding has not felt it for [`SLIP_S`], the
-//! grasp pulls again. Transitions are driven by tactile events (as
+//! grasp pulls again. A pull that stalls, or strains, with the object
+//! still far from the chest lets go and hugs it again from the open pose,
+//! where the pull left it ([`REGRIPS`] times, then it gives up).
+//! Transitions are driven by tactile events (as
 //! per-area levels) and trajectory events only. A state whose goal is
 //! contact fails when its key pose is reached, or its motion stalls, before
 //! the touch it waits for: then the grasp is cancelled and the robot backs
@@ -40,6 +43,14 @@ use super::trajectory::TrajectoryEvent;
 /// How long a contact area that held the object may feel nothing before
 /// the grasp pulls again, s (a relaxing arm flickers at the lowest level).
 pub const SLIP_S: f64 = 0.25;
+
+/// How many times a grasp whose pull cannot bring the object to the chest
+/// lets go and hugs it again before it gives up. Arms that met an object
+/// far forward only at its sides squeeze those sides with bare surfaces no
+/// cell feels, and friction alone drags it, ever slower; opening and
+/// closing again meets it where the pull left it, nearer, with the
+/// forearms further round it.
+pub const REGRIPS: u8 = 2;
 
 /// A state of the grasp.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
@@ -205,6 +216,8 @@ pub struct Grasp {
     held_by: usize,
     /// Since when fewer contact areas feel it than held it, s.
     slipping_since_s: Option<f64>,
+    /// Hugs begun again in this grasp ([`REGRIPS`]).
+    regrips: u8,
 }
 
 impl Grasp {
@@ -217,6 +230,7 @@ impl Grasp {
             evaded_from: State::Home,
             held_by: 0,
             slipping_since_s: None,
+            regrips: 0,
         }
     }
 
@@ -244,6 +258,11 @@ impl Grasp {
         let (next, cause) = self.next(touch, trajectory, pat, slipped)?;
         if next == State::Evade {
             self.evaded_from = self.state;
+        }
+        if self.state.is_rest() {
+            self.regrips = 0;
+        } else if next == State::Open {
+            self.regrips += 1;
         }
         let tr = Transition { from: self.state, to: next, time_s, cause };
         self.state = next;
@@ -354,12 +373,16 @@ impl Grasp {
                 let one_arm = any(Contact, Force, 1);
                 // Pulling against high force on an arm or the chest, the
                 // object will not come closer: hold it if it is near the
-                // chest, else give up before the force reaches pain.
+                // chest, else let go before the force reaches pain and hug
+                // it again where it is now ([`REGRIPS`] times, then give up).
                 let straining = touch.highest(Force) >= level::HIGH;
+                let again = |cause| Some((if self.regrips < REGRIPS { Open } else { Cancel }, cause));
                 if (chest_close && both_arms) || ((stalled || straining) && chest_near && one_arm) {
                     Some((Squeeze, Cause::Chest))
                 } else if straining {
-                    Some((Cancel, Cause::Force))
+                    again(Cause::Force)
+                } else if stalled && !lost {
+                    again(Cause::Stalled)
                 } else if lost {
                     Some((Cancel, Cause::ContactLost))
                 } else {
@@ -610,6 +633,34 @@ mod tests {
         assert_eq!(r.step(Some(Stalled)), State::Cancel, "stalled with nothing seen: missed");
         let mut r = contact(0.0);
         assert_eq!(r.step(Some(Reached)), State::Cancel, "closed without touching it: missed");
+    }
+
+    #[test]
+    fn a_pull_that_cannot_bring_the_object_in_hugs_again_then_gives_up() {
+        use TrajectoryEvent::*;
+        let hug_again = |r: &mut Run| {
+            assert_eq!(r.step(Some(Reached)), State::Approach, "opened: close on it again");
+            assert_eq!(r.step(None), State::Contact);
+            assert_eq!(r.step(None), State::Load);
+            assert_eq!(r.step(None), State::Pull);
+        };
+        let mut r = Run::pulling();
+        assert_eq!(r.step(Some(Stalled)), State::Open, "stalled far from the chest: let go");
+        hug_again(&mut r);
+        set(&mut r.ev, 3, 0.9, 0.31);
+        assert_eq!(r.step(None), State::Open, "straining far from the chest: let go");
+        set(&mut r.ev, 3, 0.9, 0.15);
+        hug_again(&mut r);
+        assert_eq!(REGRIPS, 2);
+        assert_eq!(r.step(Some(Stalled)), State::Cancel, "after {REGRIPS} hugs again: give up");
+        r.step(Some(Reached));
+        assert_eq!(r.pat(), State::Open);
+        hug_again(&mut r);
+        assert_eq!(r.step(Some(Stalled)), State::Open, "a new grasp hugs again as often");
+        let mut r = Run::pulling();
+        set(&mut r.ev, 2, 0.0, 0.0);
+        set(&mut r.ev, 3, 0.0, 0.0);
+        assert_eq!(r.step(Some(Stalled)), State::Cancel, "stalled with the object lost: nothing to hug");
     }
 
     #[test]
