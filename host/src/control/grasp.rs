@@ -381,10 +381,10 @@ impl Grasp {
                     Some((Squeeze, Cause::Chest))
                 } else if straining {
                     again(Cause::Force)
-                } else if stalled && !lost {
-                    again(Cause::Stalled)
                 } else if lost {
                     Some((Cancel, Cause::ContactLost))
+                } else if stalled {
+                    again(Cause::Stalled)
                 } else {
                     fail(trajectory)
                 }
