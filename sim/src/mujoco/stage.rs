@@ -224,15 +224,6 @@ pub(super) fn furnish(spec: &mut MjSpec) {
     let option = spec.option_mut();
     option.cone = MjtCone::mjCONE_ELLIPTIC as i32;
     option.impratio = FRICTION_IMPRATIO;
-    // One contact point per pair of convex geoms: MuJoCo's multi-point
-    // convex collision (`multiccd`) gave a cylinder or an ellipsoid several,
-    // and on a 12 mm cell plate it moved a second point onto the first in
-    // one step (a held cylinder's chest plate read 2.85 N, then 5.7 N:
-    // pain) or turned a box corner's contact to another axis (9.4 N on a
-    // wrist plate for one tick, under 1 N either side): 2 pains in each of
-    // two runs of the 100 anywhere-objects. With it off, none, more held,
-    // and no object fell off the tray.
-    option.disableflags |= MjtDisableBit::mjDSBL_MULTICCD as i32;
     let world = spec.world_body_mut();
     let floor = world.add_geom();
     let _ = floor.set_name("stage:floor");
