@@ -118,7 +118,10 @@ mod tests {
         assert!(matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut), "{e}");
         assert!(start.elapsed() >= Duration::from_millis(20), "the socket blocks again after trying");
         assert_eq!(spin.resting, REST);
-        // Sent later: the blocking wait takes it; the rest counts down.
+        // Sent later: the blocking wait takes it; the rest counts down. The
+        // wait is long, so that a loaded machine late to run the sender
+        // still delivers (at 20 ms it timed out beside two busy processes).
+        rx.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
         let late = std::thread::spawn(move || {
             std::thread::sleep(Duration::from_millis(5));
             tx.send_to(b"late", to).unwrap();
@@ -126,6 +129,7 @@ mod tests {
         let (n, _) = spin.recv_from(&rx, &mut buf).unwrap();
         assert_eq!((&buf[..n], spin.resting), (&b"late"[..], REST - 1));
         late.join().unwrap();
+        rx.set_read_timeout(Some(Duration::from_millis(20))).unwrap();
         // A real-time peer is never tried for.
         let mut never = SpinRecv::new(Duration::ZERO);
         let e = never.recv_from(&rx, &mut buf).unwrap_err();
