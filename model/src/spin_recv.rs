@@ -104,7 +104,8 @@ mod tests {
 
     #[test]
     fn a_datagram_is_taken_while_trying_or_after_and_a_miss_rests_the_tries() {
-        let (rx, to) = socket(Duration::from_millis(20));
+        let timeout = Duration::from_millis(20);
+        let (rx, to) = socket(timeout);
         let tx = UdpSocket::bind("127.0.0.1:0").unwrap();
         let mut spin = SpinRecv::new(LOCKSTEP_SPIN);
         let mut buf = [0u8; 8];
@@ -116,11 +117,11 @@ mod tests {
         let start = Instant::now();
         let e = spin.recv_from(&rx, &mut buf).unwrap_err();
         assert!(matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut), "{e}");
-        assert!(start.elapsed() >= Duration::from_millis(20), "the socket blocks again after trying");
+        assert!(start.elapsed() >= timeout, "the socket blocks again after trying");
         assert_eq!(spin.resting, REST);
         // Sent later: the blocking wait takes it; the rest counts down. The
         // wait is long, so that a loaded machine late to run the sender
-        // still delivers (at 20 ms it timed out beside two busy processes).
+        // still delivers (at `timeout` it timed out beside two busy processes).
         rx.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
         let late = std::thread::spawn(move || {
             std::thread::sleep(Duration::from_millis(5));
@@ -129,7 +130,7 @@ mod tests {
         let (n, _) = spin.recv_from(&rx, &mut buf).unwrap();
         assert_eq!((&buf[..n], spin.resting), (&b"late"[..], REST - 1));
         late.join().unwrap();
-        rx.set_read_timeout(Some(Duration::from_millis(20))).unwrap();
+        rx.set_read_timeout(Some(timeout)).unwrap();
         // A real-time peer is never tried for.
         let mut never = SpinRecv::new(Duration::ZERO);
         let e = never.recv_from(&rx, &mut buf).unwrap_err();
