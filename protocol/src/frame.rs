@@ -157,9 +157,14 @@ impl Frame {
         Header { kind: self.kind(), src: self.src(), dst: self.dst() }
     }
 
-    /// Decodes the payload.
+    /// Decodes the payload. Only the one form a message encodes to is
+    /// accepted: postcard also reads over-long varints (0 as `80 80 00`) and
+    /// ignores trailing bytes, which would give one message many frames.
     pub fn message(&self) -> Result<Message, FrameError> {
-        Message::decode_payload(self.kind(), &self.bytes[PAYLOAD]).ok_or(FrameError::BadPayload)
+        let message = Message::decode_payload(self.kind(), &self.bytes[PAYLOAD]).ok_or(FrameError::BadPayload)?;
+        let mut canonical = [0; PAYLOAD_LEN];
+        let encoded = message.encode_payload(&mut canonical).is_ok();
+        (encoded && canonical[..] == self.bytes[PAYLOAD]).then_some(message).ok_or(FrameError::BadPayload)
     }
 
     /// The same frame sent to another destination (with a new CRC).
@@ -244,5 +249,19 @@ mod tests {
         assert_eq!(Frame::parse(g.as_bytes()), Ok(g));
         assert_eq!(g.dst(), Address(9));
         assert_eq!(g.message(), f.message());
+    }
+
+    #[test]
+    fn an_over_long_varint_is_refused() {
+        // Chunk index 0 is `00`; postcard also reads `80 80 00` as 0, with
+        // the same (zero) data after it, but that is not the frame of it.
+        use crate::message::{ImageChunk, CHUNK_LEN};
+        let chunk = Message::ImageChunk(ImageChunk { index: 0, data: [0; CHUNK_LEN] });
+        let good = Frame::new(Address(1), Address(2), &chunk);
+        let mut bytes = good.bytes;
+        bytes[PAYLOAD.start..PAYLOAD.start + 2].copy_from_slice(&[0x80, 0x80]);
+        let bad = Frame::parse(Frame::seal(Kind::ImageChunk, bytes).as_bytes()).unwrap();
+        assert_eq!(good.message(), Ok(chunk));
+        assert_eq!(bad.message(), Err(FrameError::BadPayload));
     }
 }

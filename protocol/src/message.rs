@@ -514,12 +514,11 @@ impl Message {
         Ok(used.len())
     }
 
-    /// Decodes a payload of the given kind; the bytes after the encoded value
-    /// must be zero padding, so every message has exactly one wire form.
+    /// Decodes a payload of the given kind; [`Frame::message`](crate::frame::Frame::message)
+    /// checks that it was the message's one wire form.
     pub(crate) fn decode_payload(kind: Kind, bytes: &[u8]) -> Option<Message> {
         fn take<'a, T: Deserialize<'a>>(bytes: &'a [u8]) -> Option<T> {
-            let (value, rest) = postcard::take_from_bytes(bytes).ok()?;
-            rest.iter().all(|b| *b == 0).then_some(value)
+            postcard::from_bytes(bytes).ok()
         }
         Some(match kind {
             Kind::Probe => Message::Probe(take(bytes)?),
