@@ -514,13 +514,15 @@ impl Message {
         Ok(used.len())
     }
 
-    /// Decodes a payload of the given kind; [`Frame::message`](crate::frame::Frame::message)
-    /// checks that it was the message's one wire form.
+    /// Decodes a payload of the given kind, if it is the very bytes its
+    /// message encodes to: postcard also reads over-long varints (0 as
+    /// `80 80 00`) and ignores trailing bytes, which would give one message
+    /// many frames.
     pub(crate) fn decode_payload(kind: Kind, bytes: &[u8]) -> Option<Message> {
         fn take<'a, T: Deserialize<'a>>(bytes: &'a [u8]) -> Option<T> {
             postcard::from_bytes(bytes).ok()
         }
-        Some(match kind {
+        let message = match kind {
             Kind::Probe => Message::Probe(take(bytes)?),
             Kind::ProbeAck => Message::ProbeAck(take(bytes)?),
             Kind::Beacon => Message::Beacon(take(bytes)?),
@@ -535,7 +537,11 @@ impl Message {
             Kind::ImageChunk => Message::ImageChunk(take(bytes)?),
             Kind::UpdateReport => Message::UpdateReport(take(bytes)?),
             Kind::UpdateCommand => Message::UpdateCommand(take(bytes)?),
-        })
+        };
+        let mut buf = [0; crate::frame::PAYLOAD_LEN];
+        let canonical = buf.get_mut(..bytes.len())?;
+        message.encode_payload(canonical).ok()?;
+        (*canonical == *bytes).then_some(message)
     }
 }
 
