@@ -52,6 +52,11 @@ pub enum Base {
     Rigid,
 }
 
+/// What `--mujoco` says in a build without MuJoCo: how to get it. CI tests
+/// with MuJoCo built in, so the text is checked here in every build.
+#[cfg_attr(feature = "mujoco", allow(dead_code))]
+const NO_MUJOCO: &str = "this skin was built without MuJoCo: run `cargo xtask install` (it installs the pinned MuJoCo library), then rebuild with `cargo build --release -p skin-host --features mujoco`";
+
 /// Why the world cannot be built.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -67,9 +72,7 @@ pub enum Error {
     NoiseScale(f64),
     /// `--mujoco` asked of a build without MuJoCo.
     #[cfg(not(feature = "mujoco"))]
-    #[error(
-        "this skin was built without MuJoCo: run `cargo xtask install` (it installs the pinned MuJoCo library), then rebuild with `cargo build --release -p skin-host --features mujoco`"
-    )]
+    #[error("{NO_MUJOCO}")]
     NoMujoco,
     /// MuJoCo cannot load the model or carry the skin.
     #[cfg(feature = "mujoco")]
@@ -222,4 +225,24 @@ pub fn engine_name(world: &World) -> &'static str {
     }
     let _ = world;
     "kinematics"
+}
+
+#[cfg(test)]
+mod tests {
+    /// The message names the install and the rebuild, and both are real:
+    /// xtask has the subcommand, the package has the feature.
+    #[test]
+    fn a_build_without_mujoco_names_the_install_and_the_rebuild() {
+        let xtask = include_str!("../../../xtask/src/main.rs");
+        assert!(xtask.contains("Some(\"install\") =>"), "the install the message names");
+        let manifest = include_str!("../../Cargo.toml");
+        assert!(manifest.contains("name = \"skin-host\""), "the package the rebuild names");
+        assert!(manifest.contains("\nmujoco = ["), "the feature the rebuild names");
+        assert!(super::NO_MUJOCO.contains("`cargo xtask install`"), "{}", super::NO_MUJOCO);
+        assert!(
+            super::NO_MUJOCO.contains("`cargo build --release -p skin-host --features mujoco`"),
+            "{}",
+            super::NO_MUJOCO
+        );
+    }
 }
