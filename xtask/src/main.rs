@@ -48,10 +48,19 @@ const BINARIES: [(&str, u64); 4] = [
     ("boot-stm32f4", BOOTLOADER_BUDGET),
 ];
 
+/// The one build of every crate's tests, with every feature: each feature
+/// set compiles skin-host and its test programs again.
+const TEST_BUILD: &str = "test --workspace --features skin-host/ros2,skin-host/mujoco";
+
 /// What a step does.
 enum Action {
     /// Runs a program with its output in the step's log.
     Run(&'static str, Vec<&'static str>),
+    /// Runs a test program of [`TEST_BUILD`] (the test target's name) with
+    /// these arguments, as `cargo test` would: from its package's folder.
+    /// A `cargo test --test NAME` resolves features anew and compiled
+    /// skin-host and the ROS 2 stack again (150 s cold).
+    TestProgram(&'static str, Vec<&'static str>),
     /// Runs a check of our own; `Ok` carries lines to print.
     Check(fn() -> Result<Vec<String>, String>),
 }
@@ -95,14 +104,12 @@ fn ci_steps() -> Vec<Step> {
             "clippy -p skin-firmware --target thumbv7em-none-eabihf --features stm32f4 --bins -- -D warnings",
         ),
         cargo("docs", r#"doc --workspace --no-deps --config build.rustdocflags=["-D","warnings"]"#),
-        // One test build of the whole workspace with every feature: each
-        // feature set compiles skin-host and its test programs again.
         cargo(
             // rclpy on Fast DDS, a Python zenoh peer and Foxglove client; libmujoco
             // of the pinned wheel, explore, a welded base, sim-endpoint over UDP,
             // robot_with_skin.xml read by MuJoCo's Python package.
             "tests (every crate, with ROS 2 on DDS and Zenoh, ros2_control, Foxglove and the MuJoCo world)",
-            "test --workspace --features skin-host/ros2,skin-host/mujoco",
+            TEST_BUILD,
         ),
         cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
         cargo(
@@ -116,18 +123,16 @@ fn ci_steps() -> Vec<Step> {
         Step { name: "firmware size within budget", action: Action::Check(firmware_size) },
         Step { name: "book (mdbook build docs)", action: Action::Run("mdbook", vec!["build", "docs"]) },
         Step { name: "book and README internal links", action: Action::Check(book_links) },
-        // The QEMU tests with the features of the test build above, whose
-        // programs they reuse: another feature set compiles skin-host again.
-        cargo(
-            "QEMU tests (fault exits, 7-cell network)",
-            "test --workspace --features skin-host/ros2,skin-host/mujoco --test qemu -- --ignored",
-        ),
+        Step {
+            name: "QEMU tests (fault exits, 7-cell network)",
+            action: Action::TestProgram("qemu", vec!["--ignored"]),
+        },
         // The clean update of 7 cells is left to the heavy runs: the kill
         // test updates the same 7 cells to the end, one of them cut mid-write.
-        cargo(
-            "QEMU update tests (7 cells: update with one killed mid-write, refusals, rollback; a hanging trial image)",
-            "test --workspace --features skin-host/ros2,skin-host/mujoco --test qemu_update -- --ignored --skip twenty --skip seven_cells",
-        ),
+        Step {
+            name: "QEMU update tests (7 cells: update with one killed mid-write, refusals, rollback; a hanging trial image)",
+            action: Action::TestProgram("qemu_update", vec!["--ignored", "--skip", "twenty", "--skip", "seven_cells"]),
+        },
     ]
 }
 
@@ -211,6 +216,7 @@ fn ci(root: &Path) -> ExitCode {
             Action::Run(program, args) => run_logged(program, args, &log)
                 .map(|()| Vec::new())
                 .map_err(|()| format!("`{program} {}`, log {}", args.join(" "), log.display())),
+            Action::TestProgram(name, args) => run_test_program(name, args, &log),
             Action::Check(check) => check(),
         };
         let secs = t.elapsed().as_secs_f64();
@@ -247,6 +253,41 @@ fn run_logged(program: &str, args: &[&str], log: &Path) -> Result<(), ()> {
     let err = out.try_clone().map_err(drop)?;
     let status = Command::new(program).args(args).stdin(Stdio::null()).stdout(out).stderr(err).status();
     status.is_ok_and(|s| s.success()).then_some(()).ok_or(())
+}
+
+/// Runs test program `name` of [`TEST_BUILD`] (built by then: cargo only
+/// says where it is) with `args`, its output in a log file.
+fn run_test_program(name: &str, args: &[&str], log: &Path) -> Result<Vec<String>, String> {
+    let mut build: Vec<&str> = TEST_BUILD.split(' ').collect();
+    build.extend(["--no-run", "--message-format=json"]);
+    let out = Command::new("cargo")
+        .args(&build)
+        .stderr(Stdio::null())
+        .output()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    let listing = String::from_utf8_lossy(&out.stdout);
+    let (program, manifest) = listing
+        .lines()
+        .filter(|l| l.contains("\"kind\":[\"test\"]") && l.contains(&format!("\"name\":\"{name}\",")))
+        .find_map(|l| Some((json_string(l, "executable")?, json_string(l, "manifest_path")?)))
+        .ok_or_else(|| format!("`cargo {}` lists no test program {name}", build.join(" ")))?;
+    let dir = Path::new(&manifest).parent().ok_or_else(|| format!("no folder in {manifest}"))?;
+    let file = fs::File::create(log).map_err(|e| format!("cannot create {}: {e}", log.display()))?;
+    let err = file.try_clone().map_err(|e| format!("cannot write {}: {e}", log.display()))?;
+    let status =
+        Command::new(&program).args(args).current_dir(dir).stdin(Stdio::null()).stdout(file).stderr(err).status();
+    match status {
+        Ok(s) if s.success() => Ok(Vec::new()),
+        _ => Err(format!("`{program} {}`, log {}", args.join(" "), log.display())),
+    }
+}
+
+/// The string value of `key` in one line of cargo's JSON messages, when it
+/// has no escapes (cargo's paths here have none).
+fn json_string(line: &str, key: &str) -> Option<String> {
+    let start = line.find(&format!("\"{key}\":\""))? + key.len() + 4;
+    let value = &line[start..start + line[start..].find('"')?];
+    (!value.contains('\\')).then(|| value.to_owned())
 }
 
 fn print_tail(log: &Path, lines: usize) {
