@@ -155,15 +155,17 @@ fn forged_foreign_and_truncated_images_are_refused_by_every_cell_and_nothing_cha
     patch.finish();
 }
 
+/// On 3 cells, one of them relaying the others' reports: a rollback is
+/// each cell's own, and 7 took CI 86 s against 38.
 #[test]
 #[ignore]
 fn an_image_never_confirmed_is_rolled_back_on_every_cell() {
     let _one = one_patch();
-    let mut patch = start(7);
+    let mut patch = start(3);
     let image = patch.programs().genuine(5);
     let mut feed = Unconfirmed(Distributor::new(&image, patch.ids.clone()).unwrap());
     let secs = patch.update(&mut feed, Duration::from_secs(900), &mut |_| Ok(())).unwrap_or_else(|e| panic!("{e}"));
-    println!("7 QEMU cells: version 5 never confirmed, all back on version 1 in {secs:.2} s");
+    println!("3 QEMU cells: version 5 never confirmed, all back on version 1 in {secs:.2} s");
     all(&feed, Outcome::RolledBack);
     for i in 0..patch.len() {
         assert_eq!(patch.record(i).unwrap(), BootRecord { failed: Some(5), ..UNTOUCHED }, "cell {i}");

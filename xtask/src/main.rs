@@ -130,7 +130,7 @@ fn ci_steps() -> Vec<Step> {
         // The clean update of 7 cells is left to the heavy runs: the kill
         // test updates the same 7 cells to the end, one of them cut mid-write.
         Step {
-            name: "QEMU update tests (7 cells: update with one killed mid-write, refusals, rollback; a hanging trial image)",
+            name: "QEMU update tests (7 cells: update with one killed mid-write, refusals; rollback on 3; a hanging trial image)",
             action: Action::TestProgram("qemu_update", vec!["--ignored", "--skip", "twenty", "--skip", "seven_cells"]),
         },
     ]
