@@ -59,7 +59,7 @@ enum Action {
     /// Runs a test program of [`TEST_BUILD`] (the test target's name) with
     /// these arguments, as `cargo test` would: from its package's folder.
     /// A `cargo test --test NAME` resolves features anew and compiled
-    /// skin-host and the ROS 2 stack again (150 s cold).
+    /// skin-host and the ROS 2 stack again (161 s cold).
     TestProgram(&'static str, Vec<&'static str>),
     /// Runs a check of our own; `Ok` carries lines to print.
     Check(fn() -> Result<Vec<String>, String>),
@@ -673,4 +673,22 @@ fn qemu_net(args: &[String]) -> Result<(), String> {
     let mut all = vec!["run", "--quiet", "-p", "skin-tests", "--bin", "qemu-net", "--"];
     all.extend(args.iter().map(String::as_str));
     run("cargo", &all)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::json_string;
+
+    /// A compiler-artifact line as cargo 1.95 prints it (shortened).
+    const ARTIFACT: &str = r#"{"reason":"compiler-artifact","manifest_path":"/w/tests/Cargo.toml","target":{"kind":["test"],"crate_types":["bin"],"name":"qemu","src_path":"/w/tests/tests/qemu.rs","test":true},"executable":"/w/target/debug/deps/qemu-63ba01df0dff747a","fresh":true}"#;
+
+    #[test]
+    fn a_test_program_and_its_package_are_read_from_cargos_json() {
+        assert_eq!(json_string(ARTIFACT, "executable").as_deref(), Some("/w/target/debug/deps/qemu-63ba01df0dff747a"));
+        assert_eq!(json_string(ARTIFACT, "manifest_path").as_deref(), Some("/w/tests/Cargo.toml"));
+        assert_eq!(json_string(ARTIFACT, "missing"), None);
+        // A value with an escape is not read as a path.
+        assert_eq!(json_string(r#"{"executable":"C:\\t\\q.exe"}"#, "executable"), None);
+        assert_eq!(json_string(r#"{"executable":null}"#, "executable"), None);
+    }
 }
