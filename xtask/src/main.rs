@@ -213,10 +213,10 @@ fn ci(root: &Path) -> ExitCode {
         let t = Instant::now();
         let log = logs.join(format!("{:02}-{}.log", i + 1, slug(s.name)));
         let outcome = match &s.action {
-            Action::Run(program, args) => run_logged(program, args, &log)
-                .map(|()| Vec::new())
-                .map_err(|()| format!("`{program} {}`, log {}", args.join(" "), log.display())),
-            Action::TestProgram(name, args) => run_test_program(name, args, &log),
+            Action::Run(program, args) => run_logged(program, args, None, &log),
+            Action::TestProgram(name, args) => {
+                test_program(name).and_then(|(program, dir)| run_logged(&program, args, Some(&dir), &log))
+            }
             Action::Check(check) => check(),
         };
         let secs = t.elapsed().as_secs_f64();
@@ -247,17 +247,23 @@ fn slug(name: &str) -> String {
     s.split('-').filter(|p| !p.is_empty()).collect::<Vec<_>>().join("-")
 }
 
-/// Runs a program with its output in a log file.
-fn run_logged(program: &str, args: &[&str], log: &Path) -> Result<(), ()> {
-    let out = fs::File::create(log).map_err(drop)?;
-    let err = out.try_clone().map_err(drop)?;
-    let status = Command::new(program).args(args).stdin(Stdio::null()).stdout(out).stderr(err).status();
-    status.is_ok_and(|s| s.success()).then_some(()).ok_or(())
+/// Runs a program (in folder `dir`, else ours) with its output in a log file.
+fn run_logged(program: &str, args: &[&str], dir: Option<&Path>, log: &Path) -> Result<Vec<String>, String> {
+    let failed = || format!("`{program} {}`, log {}", args.join(" "), log.display());
+    let out = fs::File::create(log).map_err(|_| failed())?;
+    let err = out.try_clone().map_err(|_| failed())?;
+    let mut command = Command::new(program);
+    command.args(args).stdin(Stdio::null()).stdout(out).stderr(err);
+    if let Some(dir) = dir {
+        command.current_dir(dir);
+    }
+    let status = command.status();
+    status.is_ok_and(|s| s.success()).then(Vec::new).ok_or_else(failed)
 }
 
-/// Runs test program `name` of [`TEST_BUILD`] (built by then: cargo only
-/// says where it is) with `args`, its output in a log file.
-fn run_test_program(name: &str, args: &[&str], log: &Path) -> Result<Vec<String>, String> {
+/// Where test program `name` of [`TEST_BUILD`] is (built by then: cargo
+/// only says where), and its package's folder, which `cargo test` runs it in.
+fn test_program(name: &str) -> Result<(String, PathBuf), String> {
     let mut build: Vec<&str> = TEST_BUILD.split(' ').collect();
     build.extend(["--no-run", "--message-format=json"]);
     let out = Command::new("cargo")
@@ -272,14 +278,7 @@ fn run_test_program(name: &str, args: &[&str], log: &Path) -> Result<Vec<String>
         .find_map(|l| Some((json_string(l, "executable")?, json_string(l, "manifest_path")?)))
         .ok_or_else(|| format!("`cargo {}` lists no test program {name}", build.join(" ")))?;
     let dir = Path::new(&manifest).parent().ok_or_else(|| format!("no folder in {manifest}"))?;
-    let file = fs::File::create(log).map_err(|e| format!("cannot create {}: {e}", log.display()))?;
-    let err = file.try_clone().map_err(|e| format!("cannot write {}: {e}", log.display()))?;
-    let status =
-        Command::new(&program).args(args).current_dir(dir).stdin(Stdio::null()).stdout(file).stderr(err).status();
-    match status {
-        Ok(s) if s.success() => Ok(Vec::new()),
-        _ => Err(format!("`{program} {}`, log {}", args.join(" "), log.display())),
-    }
+    Ok((program, dir.to_path_buf()))
 }
 
 /// The string value of `key` in one line of cargo's JSON messages, when it
