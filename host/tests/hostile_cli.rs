@@ -4,7 +4,6 @@
 
 use std::io::{BufRead, BufReader, Read};
 use std::net::{SocketAddr, UdpSocket};
-use std::path::PathBuf;
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -139,10 +138,10 @@ fn stderr_until(child: &mut Child, line: &str) -> String {
 
 /// `skin run` against `robot` with no skin, and `more` flags: its exit code and stderr.
 fn run_against(robot: SocketAddr, more: &[&str]) -> (Option<i32>, String) {
-    let out_dir = std::env::temp_dir().join(format!("skin-hostile-cli-{}-{}", std::process::id(), robot.port()));
+    let out_dir = scratch("run");
     let out = Command::new(env!("CARGO_BIN_EXE_skin"))
         .args(["run", "--interface", "127.0.0.1:0", "--robot", &robot.to_string(), "--out"])
-        .arg(&out_dir)
+        .arg(out_dir.path())
         .args(more)
         .output()
         .unwrap();
@@ -306,14 +305,19 @@ fn sim_endpoint_with(host: &str, robot: &str, more: &[&str]) -> Child {
 /// Logged by `skin run` when it starts exploring.
 const EXPLORING: &str = "the skin organized; exploring the body";
 
+/// A test's own scratch folder, named after `name`, removed when dropped.
+fn scratch(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("skin-hostile-cli-{name}-")).tempdir().unwrap()
+}
+
 /// `skin run` for `cells` cells heard on `interface`, against `robot`,
 /// with `more` flags, logging at info level on a piped stderr; and its
 /// report folder.
-fn exploring_run(interface: &str, robot: &str, cells: &str, more: &[&str], name: &str) -> (Child, PathBuf) {
-    let out_dir = std::env::temp_dir().join(format!("skin-hostile-cli-{}-{name}", std::process::id()));
+fn exploring_run(interface: &str, robot: &str, cells: &str, more: &[&str], name: &str) -> (Child, tempfile::TempDir) {
+    let out_dir = scratch(name);
     let run = Command::new(env!("CARGO_BIN_EXE_skin"))
         .args(["run", "--cells", cells, "--interface", interface, "--robot", robot, "--out"])
-        .arg(&out_dir)
+        .arg(out_dir.path())
         .args(more)
         .env("RUST_LOG", "info")
         .stdout(Stdio::null())
@@ -378,7 +382,7 @@ fn a_skin_that_stops_sending_mid_run_ends_skin_run_naming_its_ports() {
     assert!(err.contains(" datagrams from other addresses were dropped as spoofed (a skin endpoint that restarts sends from new ones)"), "{err}");
     assert!(err.ends_with("then start the run again: its measurements would have gaps)"), "{err}");
     assert!(took < Duration::from_secs(1), "ended {took:?} after the skin stopped");
-    assert!(!out_dir.join("report.json").exists(), "no report of a run whose data stopped");
+    assert!(!out_dir.path().join("report.json").exists(), "no report of a run whose data stopped");
 }
 
 #[test]
@@ -398,14 +402,15 @@ fn a_sim_endpoint_restarted_mid_run_ends_skin_run_naming_the_restart() {
     let err = failure(code, &stderr);
     assert!(err.starts_with("error: the robot's clock ran backwards, from "), "{stderr}");
     assert!(err.ends_with(" s (was the robot restarted?)"), "{err}");
-    assert!(!out_dir.join("report.json").exists(), "no report of a run whose robot restarted");
+    assert!(!out_dir.path().join("report.json").exists(), "no report of a run whose robot restarted");
 }
 
 #[test]
 fn a_second_skin_run_against_a_served_robot_is_told_it_serves_another_host() {
     let (host, robot) = (free_addr(), free_addr());
     let mut endpoint = sim_endpoint(&host, &robot);
-    let (mut first, _) = exploring_run(&host, &robot, "74", &[], "first-host");
+    // Its folder lives as long as the run writes to it.
+    let (mut first, _first_out) = exploring_run(&host, &robot, "74", &[], "first-host");
     stderr_until(&mut first, EXPLORING);
     let (second, out_dir) = exploring_run(&free_addr(), &robot, "74", &[], "second-host");
     let (code, stderr) = run_end(second, String::new());
@@ -416,7 +421,7 @@ fn a_second_skin_run_against_a_served_robot_is_told_it_serves_another_host() {
         stderr.trim_end(),
         format!("error: the robot at {robot} serves another host and refuses this one: stop the other host or restart the robot endpoint")
     );
-    assert!(!out_dir.join("report.json").exists());
+    assert!(!out_dir.path().join("report.json").exists());
 }
 
 #[test]
@@ -463,7 +468,7 @@ fn a_flood_of_id_requests_on_an_unpinned_port_is_named_when_the_skin_cannot_orga
     assert!(count(" datagrams dropped as spoofed") > 0, "{err}");
     assert!(count(" ID requests refused as a flood") > 1_000, "{err}");
     assert!(err.ends_with("another sender may be using the interface ports (pin each port's address in the configuration) (check the cables and interface ports; `skin monitor` shows what arrives)"), "{err}");
-    assert!(!out_dir.join("report.json").exists());
+    assert!(!out_dir.path().join("report.json").exists());
 }
 
 #[test]
@@ -638,7 +643,7 @@ fn explored(
     stop(&mut endpoint);
     assert_eq!(code, Some(0), "{stderr}");
     let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out_dir.join("report.json")).unwrap()).unwrap();
+        serde_json::from_str(&std::fs::read_to_string(out_dir.path().join("report.json")).unwrap()).unwrap();
     let e = &report["exploration"];
     assert_eq!(e["warnings"], serde_json::json!([]), "{stderr}");
     // Cell IDs follow the order the cells organized in, which timing moves.

@@ -13,10 +13,9 @@ fn skin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_skin"))
 }
 
-fn scratch(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("skin-interface-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+/// A test's own scratch folder, removed when the test ends.
+fn scratch() -> tempfile::TempDir {
+    tempfile::Builder::new().prefix("skin-interface-cli-").tempdir().unwrap()
 }
 
 #[test]
@@ -26,8 +25,8 @@ fn the_default_configuration_is_written_checked_and_kept() {
     let text = String::from_utf8(out.stdout).unwrap();
     assert_eq!(Config::from_toml(&text, "stdout").unwrap(), Config::default());
 
-    let path = scratch("skin.toml");
-    let _ = std::fs::remove_file(&path);
+    let dir = scratch();
+    let path = dir.path().join("skin.toml");
     let write = |force: bool| {
         let mut c = skin();
         c.args(["config", "--default", "--output"]).arg(&path);
@@ -48,7 +47,8 @@ fn the_default_configuration_is_written_checked_and_kept() {
 
 #[test]
 fn a_bad_configuration_is_refused_naming_the_key() {
-    let path = scratch("bad.toml");
+    let dir = scratch();
+    let path = dir.path().join("bad.toml");
     std::fs::write(&path, "[cells]\nhysteresis = 3.0\n").unwrap();
     for args in [&["config", "--check"][..], &["monitor", "--once", "--config"][..]] {
         let out = skin().args(args).arg(&path).output().unwrap();

@@ -51,13 +51,21 @@ pub const ARM: &str = r#"
 </mujoco>
 "#;
 
-/// Writes `text` to a fresh temporary file named `name`.
-pub fn write_model(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("skin-mujoco-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("the temporary folder is writable");
-    let path = dir.join(name);
+/// A scratch folder for a test's model files, removed when dropped.
+fn scratch() -> tempfile::TempDir {
+    tempfile::Builder::new().prefix("skin-mujoco-").tempdir().expect("the temporary folder is writable")
+}
+
+/// `text` written to a file named `name` in `dir`.
+fn write_model(dir: &tempfile::TempDir, name: &str, text: &str) -> PathBuf {
+    let path = dir.path().join(name);
     std::fs::write(&path, text).expect("the temporary folder is writable");
     path
+}
+
+/// The model `text` as MuJoCo loads it from a file named `name`.
+fn load(name: &str, text: &str) -> Result<Model, skin_sim::mujoco::MujocoError> {
+    Model::load(&write_model(&scratch(), name, text))
 }
 
 fn rigid(seed: u64) -> WorldConfig {
@@ -71,7 +79,7 @@ fn skinned(model: Model, cells_per_link: usize) -> World {
 }
 
 fn arm_world(cells_per_link: usize) -> World {
-    let model = Model::load(&write_model("arm.xml", ARM)).expect("MuJoCo loads the arm");
+    let model = load("arm.xml", ARM).expect("MuJoCo loads the arm");
     let skin = Skin::per_link(model.robot(), cells_per_link, 3).expect("the arm has surfaces");
     model.world(skin, rigid(3)).expect("the arm takes the skin")
 }
@@ -100,7 +108,7 @@ fn hold_still(world: &mut World, ticks: usize) -> Vec<(skin_protocol::Address, s
 
 #[test]
 fn the_tree_read_from_mujoco_has_the_models_joints_bodies_and_coupling() {
-    let model = Model::load(&write_model("arm.xml", ARM)).expect("MuJoCo loads the arm");
+    let model = load("arm.xml", ARM).expect("MuJoCo loads the arm");
     let robot = model.robot();
     let dofs: Vec<&str> = robot.dofs().iter().map(|d| d.name.as_str()).collect();
     assert_eq!(dofs, ["yaw", "shoulder", "elbow", "reach"], "the finger follows the slide");
@@ -191,7 +199,7 @@ const LEG: &str = r#"
 
 #[test]
 fn the_robot_starts_in_the_models_home_keyframe_and_says_so() {
-    let model = Model::load(&write_model("leg.xml", LEG)).expect("MuJoCo loads the leg");
+    let model = load("leg.xml", LEG).expect("MuJoCo loads the leg");
     assert_eq!(model.robot().home(), [0.5, -1.0]);
     assert!(model.notes().iter().any(|n| n.contains("keyframe \"home\"")), "{:?}", model.notes());
     let mut world = skinned(model, 2);
@@ -201,7 +209,7 @@ fn the_robot_starts_in_the_models_home_keyframe_and_says_so() {
     }
     // Without keyframes, the reference pose held inside the joint's range.
     let bare = LEG.replace(&LEG[LEG.find("  <keyframe>").expect("keys")..LEG.find("</mujoco>").expect("end")], "");
-    let model = Model::load(&write_model("bare_leg.xml", &bare)).expect("MuJoCo loads the leg");
+    let model = load("bare_leg.xml", &bare).expect("MuJoCo loads the leg");
     assert_eq!(model.robot().home(), [0.0, -0.2]);
     assert!(!model.notes().iter().any(|n| n.contains("keyframe")), "{:?}", model.notes());
 }
@@ -235,7 +243,7 @@ const GRIPPER: &str = r#"
 
 #[test]
 fn the_start_keyframe_s_controls_hold_what_the_world_does_not_drive() {
-    let model = Model::load(&write_model("gripper.xml", GRIPPER)).expect("MuJoCo loads the gripper");
+    let model = load("gripper.xml", GRIPPER).expect("MuJoCo loads the gripper");
     assert_eq!(model.robot().home(), [0.03]);
     let mut world = skinned(model, 2);
     hold_still(&mut world, 250);
@@ -268,7 +276,7 @@ const KNEE: &str = r#"
 
 #[test]
 fn a_joint_moves_within_its_servo_s_control_range_and_starts_inside_it() {
-    let model = Model::load(&write_model("knee.xml", KNEE)).expect("MuJoCo loads the knee");
+    let model = load("knee.xml", KNEE).expect("MuJoCo loads the knee");
     let knee = &model.robot().dofs()[0];
     assert_eq!((knee.lower, knee.upper), (0.1, 2.3), "the servo's control range, not the joint's");
     assert_eq!(model.robot().home(), [0.1], "the start clamped into it");
@@ -306,7 +314,7 @@ const STICKY: &str = r#"
 
 #[test]
 fn a_servo_weaker_than_its_joint_s_friction_is_named_and_a_step_leaves_the_joint() {
-    let model = Model::load(&write_model("sticky.xml", STICKY)).expect("MuJoCo loads the knee");
+    let model = load("sticky.xml", STICKY).expect("MuJoCo loads the knee");
     let mut world = skinned(model, 2);
     let notes = world.mujoco_engine().expect("a MuJoCo world").notes().to_vec();
     assert!(notes.iter().any(|n| n.contains("dry friction") && n.contains("knee 1.000")), "{notes:?}");
@@ -321,7 +329,7 @@ fn a_servo_weaker_than_its_joint_s_friction_is_named_and_a_step_leaves_the_joint
 #[test]
 fn a_servo_stronger_than_its_joint_s_friction_is_not_named() {
     let stiff = STICKY.replace(r#"kp="1" kv="0.1""#, r#"kp="200" kv="4""#);
-    let model = Model::load(&write_model("stiff.xml", &stiff)).expect("MuJoCo loads the knee");
+    let model = load("stiff.xml", &stiff).expect("MuJoCo loads the knee");
     let world = skinned(model, 2);
     let notes = world.mujoco_engine().expect("a MuJoCo world").notes().to_vec();
     assert!(!notes.iter().any(|n| n.contains("dry friction")), "{notes:?}");
@@ -365,7 +373,7 @@ fn ticks_until(world: &mut World, command: f64, limit: usize, until: impl Fn(f64
 
 #[test]
 fn a_joint_held_against_an_obstacle_comes_away_as_soon_as_commanded() {
-    let model = Model::load(&write_model("post.xml", POST)).expect("MuJoCo loads the post");
+    let model = load("post.xml", POST).expect("MuJoCo loads the post");
     let mut world = skinned(model, 1);
     // Swung at 1 rad/s into the post (about 0.45 rad) and pressed there
     // for 3 s, as a move that a limb blocks does until it gives up.
@@ -404,7 +412,7 @@ const SWING: &str = r#"
 
 #[test]
 fn a_stiff_servo_with_little_force_follows_the_commanded_speed() {
-    let model = Model::load(&write_model("swing.xml", SWING)).expect("MuJoCo loads the swing");
+    let model = load("swing.xml", SWING).expect("MuJoCo loads the swing");
     let mut world = skinned(model, 1);
     // 1.5 rad/s for 0.5 s, then held: the goal's lead limit must not hold
     // the joint back while the set point trails the goal.
@@ -487,10 +495,11 @@ const SURFACES: &str = r#"
 #[test]
 fn cells_lie_on_capsule_caps_and_on_a_meshs_faces_as_mujoco_sees_them() {
     use mujoco_rs::prelude::*;
-    let path = write_model("surfaces.xml", SURFACES);
+    let dir = scratch();
+    let path = write_model(&dir, "surfaces.xml", SURFACES);
     let model = Model::load(&path).expect("MuJoCo loads the model");
     // The robot written as MJCF (skin model) keeps the capsule and the mesh.
-    let again = Model::load(&write_model("surfaces_again.xml", &model.robot().to_mjcf())).expect("MuJoCo loads it");
+    let again = load("surfaces_again.xml", &model.robot().to_mjcf()).expect("MuJoCo loads it");
     for link in ["capsule_link", "mesh_link"] {
         let shapes = |m: &Model| match &m.robot().link(link).expect("the link").surface {
             Surface::Shapes(shapes) => shapes.iter().map(|(_, s)| s.clone()).collect::<Vec<_>>(),
