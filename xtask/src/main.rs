@@ -220,14 +220,17 @@ fn ci(root: &Path) -> ExitCode {
         let t = Instant::now();
         let log = logs.join(format!("{:02}-{}.log", i + 1, slug(s.name)));
         let outcome = match &s.action {
-            Action::Run(program, args) => run_logged(program, args, None, &[], &log),
-            Action::Test(extra) => {
-                let args: Vec<&str> = TEST_BUILD.split(' ').chain(extra.iter().copied()).collect();
-                run_logged("cargo", &args, None, &LINTED, &log)
+            Action::Run(program, args) => {
+                let mut command = Command::new(program);
+                command.args(args);
+                run_logged(command, &log)
             }
-            Action::TestProgram(name, args) => {
-                test_program(name).and_then(|(program, dir)| run_logged(&program, args, Some(&dir), &[], &log))
-            }
+            Action::Test(extra) => run_logged(test_build(extra), &log),
+            Action::TestProgram(name, args) => test_program(name).and_then(|(program, dir)| {
+                let mut command = Command::new(program);
+                command.args(args).current_dir(dir);
+                run_logged(command, &log)
+            }),
             Action::Check(check) => check(),
         };
         let secs = t.elapsed().as_secs_f64();
@@ -258,35 +261,30 @@ fn slug(name: &str) -> String {
     s.split('-').filter(|p| !p.is_empty()).collect::<Vec<_>>().join("-")
 }
 
-/// Runs a program (in folder `dir`, else ours, with `envs` set) with its
-/// output in a log file.
-fn run_logged(
-    program: &str,
-    args: &[&str],
-    dir: Option<&Path>,
-    envs: &[(&str, &str)],
-    log: &Path,
-) -> Result<Vec<String>, String> {
-    let failed = || format!("`{program} {}`, log {}", args.join(" "), log.display());
+/// Runs `command` with its output in a log file.
+fn run_logged(mut command: Command, log: &Path) -> Result<Vec<String>, String> {
+    let words: Vec<_> = std::iter::once(command.get_program())
+        .chain(command.get_args())
+        .map(|w| w.to_string_lossy().into_owned())
+        .collect();
+    let failed = || format!("`{}`, log {}", words.join(" "), log.display());
     let out = fs::File::create(log).map_err(|_| failed())?;
     let err = out.try_clone().map_err(|_| failed())?;
-    let mut command = Command::new(program);
-    command.args(args).envs(envs.iter().copied()).stdin(Stdio::null()).stdout(out).stderr(err);
-    if let Some(dir) = dir {
-        command.current_dir(dir);
-    }
-    let status = command.status();
+    let status = command.stdin(Stdio::null()).stdout(out).stderr(err).status();
     status.is_ok_and(|s| s.success()).then(Vec::new).ok_or_else(failed)
+}
+
+/// `cargo` running [`TEST_BUILD`] with `extra` arguments, [`LINTED`].
+fn test_build(extra: &[&str]) -> Command {
+    let mut command = Command::new("cargo");
+    command.args(TEST_BUILD.split(' ')).args(extra).envs(LINTED);
+    command
 }
 
 /// Where test program `name` of [`TEST_BUILD`] is (built by then: cargo
 /// only says where), and its package's folder, which `cargo test` runs it in.
 fn test_program(name: &str) -> Result<(String, PathBuf), String> {
-    let mut build: Vec<&str> = TEST_BUILD.split(' ').collect();
-    build.extend(["--no-run", "--message-format=json"]);
-    let out = Command::new("cargo")
-        .args(&build)
-        .envs(LINTED)
+    let out = test_build(&["--no-run", "--message-format=json"])
         .stderr(Stdio::null())
         .output()
         .map_err(|e| format!("cannot run cargo: {e}"))?;
@@ -295,7 +293,7 @@ fn test_program(name: &str) -> Result<(String, PathBuf), String> {
         .lines()
         .filter(|l| l.contains("\"kind\":[\"test\"]") && l.contains(&format!("\"name\":\"{name}\",")))
         .find_map(|l| Some((json_string(l, "executable")?, json_string(l, "manifest_path")?)))
-        .ok_or_else(|| format!("`cargo {}` lists no test program {name}", build.join(" ")))?;
+        .ok_or_else(|| format!("`cargo {TEST_BUILD} --no-run` lists no test program {name}"))?;
     let dir = Path::new(&manifest).parent().ok_or_else(|| format!("no folder in {manifest}"))?;
     Ok((program, dir.to_path_buf()))
 }
