@@ -19,6 +19,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError};
 use std::sync::OnceLock;
+use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use common::rclpy::{self, Domain};
@@ -72,35 +73,45 @@ impl Rig {
             domain,
             out: std::env::temp_dir().join(format!("skin-ros2-control-{}-{name}", std::process::id())),
         };
-        rig.robot_says("ready", None);
+        rig.robot_says("ready", None).unwrap();
         rig
     }
 
     /// Waits for the robot node to print `word` on stderr; fails when it
-    /// ends first, or `run` (skin run) does, or a minute passes.
-    fn robot_says(&mut self, word: &str, mut run: Option<&mut Child>) {
+    /// ends first or a minute passes, and is an error when `run` (skin
+    /// run) ends first.
+    fn robot_says(&mut self, word: &str, mut run: Option<&mut Child>) -> Result<(), String> {
         let start = Instant::now();
         loop {
             match self.robot_lines.recv_timeout(Duration::from_millis(50)) {
-                Ok(line) if line.trim() == word => return,
+                Ok(line) if line.trim() == word => return Ok(()),
                 Ok(_) | Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => panic!("the robot node ended before {word:?}"),
             }
             if let Some(status) = run.as_mut().and_then(|r| r.try_wait().unwrap()) {
-                panic!("skin run ended ({status}) before the robot node said {word:?}");
+                return Err(format!("skin run ended ({status}) before the robot node said {word:?}"));
             }
             assert!(start.elapsed() < Duration::from_secs(60), "the robot node did not say {word:?} within a minute");
         }
     }
 
+    /// Waits for the robot node to say "moving" under `run`, whose stderr
+    /// `drain` collects (returned): fails with it when the run ends first.
+    fn moving(&mut self, run: &mut Child, drain: JoinHandle<String>) -> JoinHandle<String> {
+        if let Err(why) = self.robot_says("moving", Some(run)) {
+            panic!("{why}: {}", drain.join().unwrap());
+        }
+        drain
+    }
+
     /// `skin run --robot ros2 ARGS` on this rig, once it has the robot, in
     /// its domain by `--ros-domain` (`ROS_DOMAIN_ID` left unset).
-    fn run(&self, extra: &[&OsStr]) -> (Child, std::thread::JoinHandle<String>) {
+    fn run(&self, extra: &[&OsStr]) -> (Child, JoinHandle<String>) {
         self.run_in(self.domain.0, extra)
     }
 
     /// As [`Rig::run`] in ROS domain `domain`.
-    fn run_in(&self, domain: u16, extra: &[&OsStr]) -> (Child, std::thread::JoinHandle<String>) {
+    fn run_in(&self, domain: u16, extra: &[&OsStr]) -> (Child, JoinHandle<String>) {
         let id = domain.to_string();
         let args =
             ["run", "--robot", "ros2", "--cells", "74", "--json", "--interface", &self.host, "--ros-domain", &id];
@@ -242,7 +253,7 @@ fn sigterm_mid_motion_leaves_a_zero_command_as_the_controllers_last() {
     let mut rig = Rig::start(&python, "sigterm", &["--no-parameters", "1", "--description", urdf_arg]);
     let joints = joints.join(",");
     let (mut run, drain) = rig.run(&["--robot-joints".as_ref(), joints.as_ref()]);
-    rig.robot_says("moving", Some(&mut run));
+    let drain = rig.moving(&mut run, drain);
     std::thread::sleep(Duration::from_millis(300));
     let signalled = now_s();
     assert!(Command::new("kill").args(["-TERM", &run.id().to_string()]).status().unwrap().success());
@@ -276,7 +287,7 @@ fn joint_states_falling_silent_end_the_run_within_200_ms_with_a_zero_command() {
     let Some(python) = rclpy::python() else { return };
     let mut rig = Rig::start(&python, "silent", &["--states-for", "0.5"]);
     let (mut run, drain) = rig.run(&[]);
-    rig.robot_says("moving", Some(&mut run));
+    let drain = rig.moving(&mut run, drain);
     let (status, at) = ended(&mut run, Duration::from_secs(30));
     let stderr = drain.join().unwrap();
     assert_eq!(status.code(), Some(1), "{stderr}");
@@ -327,7 +338,7 @@ fn the_host_starved_of_the_cpu_is_not_taken_for_a_silent_robot() {
     let Some(python) = rclpy::python() else { return };
     let mut rig = Rig::start(&python, "starved", &[]);
     let (mut run, drain) = rig.run(&[]);
-    rig.robot_says("moving", Some(&mut run));
+    let drain = rig.moving(&mut run, drain);
     // Three times the silence bound without a CPU: /joint_states kept
     // coming, into the skin's sockets.
     if !starve_the_host(&python, Duration::from_millis(300)) {
@@ -373,7 +384,7 @@ fn a_controller_with_other_joints_is_refused_before_any_command() {
 
 /// `skin run` that must end with exit code 1 before commanding anything:
 /// its stderr and the robot node's commands.
-fn refused(rig: Rig, run: (Child, std::thread::JoinHandle<String>)) -> (String, Vec<(f64, Vec<f64>)>) {
+fn refused(rig: Rig, run: (Child, JoinHandle<String>)) -> (String, Vec<(f64, Vec<f64>)>) {
     let (mut run, drain) = run;
     let (status, _) = ended(&mut run, Duration::from_secs(40));
     let stderr = drain.join().unwrap();
