@@ -8,9 +8,10 @@ mod common;
 
 use std::collections::HashSet;
 use std::io::{BufRead, BufReader};
-use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+
+use common::free_addr;
 
 use serde_json::Value;
 
@@ -192,13 +193,9 @@ fn serve(args: &[&str]) -> (std::process::Child, String) {
     (endpoint, announced)
 }
 
-fn free_port() -> String {
-    UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string()
-}
-
 #[test]
 fn skin_run_drives_the_simulated_robot_served_by_another_process() {
-    let (host, robot) = (free_port(), free_port());
+    let (host, robot) = (free_addr(), free_addr());
     let (mut endpoint, announced) = serve(&["--seed", "4", "--duration", "300", "--host", &host, "--robot", &robot]);
     assert!(announced.contains(&format!("serving the simulated robot on {robot}")), "{announced}");
 
@@ -274,7 +271,7 @@ fn skin_run_places_blind_cells_from_the_neighbour_tables_the_skin_reports() {
     let urdf = dir.join("hrp2.urdf");
     std::fs::write(&urdf, skin_model::robot::hrp2::urdf()).unwrap();
     let run = |pitch: Option<&str>| -> (Value, String) {
-        let (host, robot_addr) = (free_port(), free_port());
+        let (host, robot_addr) = (free_addr(), free_addr());
         let args = ["--patches", "--seed", "1", "--duration", "120", "--host", &host, "--robot", &robot_addr];
         let (mut endpoint, announced) = serve(&args);
         // As many interface ports as the endpoint serves, numbered from 0.
@@ -390,7 +387,7 @@ fn check_calibration(dir: &Path, report: &Value, recording: &Path, urdf: &Path) 
 
 #[test]
 fn a_missing_robot_or_a_bad_flag_is_explained() {
-    let nobody = free_port();
+    let nobody = free_addr();
     let out = skin()
         .args(["run", "--robot", &nobody, "--interface", "127.0.0.1:0", "--robot-timeout-ms", "100"])
         .output()

@@ -2,10 +2,14 @@
 //! with a non-zero exit code and one line naming the flag and its range,
 //! never a panic or a process left serving nothing.
 
+mod common;
+
 use std::io::{BufRead, BufReader, Read};
 use std::net::{SocketAddr, UdpSocket};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
+
+use common::free_addr;
 
 use skin_protocol::interface::{encode, DatagramHeader, MAX_DATAGRAM};
 use skin_protocol::message::{IdRequest, Port};
@@ -22,11 +26,6 @@ fn refused(args: &[&str], says: &str) {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
     assert_eq!(err.trim_end(), format!("error: {says}"), "{args:?}");
-}
-
-/// A loopback address nobody listens on.
-fn free_addr() -> String {
-    UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string()
 }
 
 #[test]

@@ -4,10 +4,13 @@
 //! welded, and `skin sim-endpoint --mujoco` serves the robot link and the
 //! skin's interface on UDP to `skin run`, as a real robot would.
 
+mod common;
+
 use std::io::BufRead;
-use std::net::UdpSocket;
 use std::path::PathBuf;
 use std::process::{Command, Output, Stdio};
+
+use common::free_addr;
 
 use serde_json::Value;
 
@@ -38,10 +41,6 @@ fn serve(args: &[&str]) -> (std::process::Child, String) {
     let mut line = String::new();
     std::io::BufReader::new(served.stdout.take().unwrap()).read_line(&mut line).unwrap();
     (served, line)
-}
-
-fn free_addr() -> String {
-    UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string()
 }
 
 #[test]

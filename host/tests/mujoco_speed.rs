@@ -6,13 +6,12 @@
 //! Ignored: it needs the release build's speed and prints figures
 //! (`cargo test --release -p skin-host --features mujoco --test mujoco_speed -- --ignored --nocapture`).
 
+mod common;
+
 use std::io::{BufRead, Read};
-use std::net::UdpSocket;
 use std::process::{Command, Stdio};
 
-fn free_addr() -> String {
-    UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string()
-}
+use common::free_addr;
 
 /// The seconds after `label` in `line` ("robot time in 2.18 s").
 fn seconds_after(line: &str, label: &str) -> f64 {

@@ -14,7 +14,6 @@ mod common;
 use std::collections::HashMap;
 use std::ffi::OsStr;
 use std::io::{BufRead, BufReader, Read};
-use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError};
@@ -147,7 +146,7 @@ impl Drop for Rig {
 /// `skin sim-endpoint` in lockstep, sending the skin to a free loopback
 /// port: that port, the child, and its robot-link address.
 fn endpoint() -> (String, Child, String) {
-    let host = UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string();
+    let host = common::free_addr();
     let mut endpoint = hardware()
         .args(["sim-endpoint", "--pace", "lockstep", "--robot", "127.0.0.1:0", "--host", &host])
         .args(["--duration", "300"])

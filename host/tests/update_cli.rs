@@ -2,9 +2,13 @@
 //! by a tool we did not write: OpenSSL reads the keys, verifies our
 //! signatures and, Ed25519 being deterministic, signs to the same bytes.
 
+mod common;
+
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+use common::free_addr;
 
 use skin_protocol::image::{self, Board, HEADER_LEN, SIGNED_LEN};
 
@@ -221,9 +225,4 @@ fn skin_flash_updates_the_simulated_skin_and_a_forged_image_is_refused_everywher
         println!("{}", text.lines().last().unwrap_or_default());
     }
     fs::remove_dir_all(&dir).unwrap();
-}
-
-/// A loopback address nobody listens on yet.
-fn free_addr() -> String {
-    std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string()
 }

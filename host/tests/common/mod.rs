@@ -1,9 +1,10 @@
 //! The Python readers we did not write (rosbags, mcap-ros2-support,
 //! eclipse-zenoh, websockets with protobuf), as `cargo xtask install` puts them in a venv under the
-//! target directory.
+//! target directory; and the programs the tests start.
 
 use std::ffi::OsStr;
 use std::io::{BufRead, BufReader, Read};
+use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::thread::JoinHandle;
@@ -84,4 +85,33 @@ pub fn announcing(command: &mut Command, marker: &str) -> (Child, String, JoinHa
         rest
     });
     (child, announced, drain)
+}
+
+/// A loopback UDP address nobody listens on, for a program about to be
+/// started to bind: a port below the kernel's ephemeral range, so that no
+/// socket bound to port 0 meanwhile (by the programs started first, DDS
+/// participants among them) can take it first, as one freed in that range
+/// can. (The tests' ROS domains, 100 and up, put DDS's own ports above
+/// 32400.)
+#[allow(dead_code, reason = "the CLI tests' helper; the other tests share this module")]
+pub fn free_addr() -> String {
+    let low = std::fs::read_to_string("/proc/sys/net/ipv4/ip_local_port_range")
+        .ok()
+        .and_then(|r| r.split_whitespace().next()?.parse::<u16>().ok())
+        .unwrap_or(32768);
+    // Under the ephemeral range, above the well-known ports the tests'
+    // middlewares use (DDS from 7400, Zenoh's 7446 and 7447).
+    let (from, to) = (20_000, low.min(32_000));
+    for attempt in 0..1000u32 {
+        if to <= from {
+            break;
+        }
+        // A fresh RandomState hashes with new random keys.
+        let random = std::hash::BuildHasher::hash_one(&std::collections::hash_map::RandomState::new(), attempt);
+        let port = from + (random % u64::from(to - from)) as u16;
+        if let Ok(socket) = UdpSocket::bind(("127.0.0.1", port)) {
+            return socket.local_addr().unwrap().to_string();
+        }
+    }
+    UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string()
 }
