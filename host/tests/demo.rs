@@ -12,7 +12,6 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
 use common::free_addr;
-
 use serde_json::Value;
 
 fn skin() -> Command {

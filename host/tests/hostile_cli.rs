@@ -10,7 +10,6 @@ use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use common::free_addr;
-
 use skin_protocol::interface::{encode, DatagramHeader, MAX_DATAGRAM};
 use skin_protocol::message::{IdRequest, Port};
 use skin_protocol::robot_link::{self, FromRobot, Refusal, ToRobot};

@@ -11,7 +11,6 @@ use std::path::PathBuf;
 use std::process::{Command, Output, Stdio};
 
 use common::free_addr;
-
 use serde_json::Value;
 
 fn skin(args: &[&str]) -> Output {

@@ -9,7 +9,6 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use common::free_addr;
-
 use skin_protocol::image::{self, Board, HEADER_LEN, SIGNED_LEN};
 
 fn skin(args: &[&str]) -> Output {

@@ -102,13 +102,11 @@ pub fn free_addr() -> String {
     // Under the ephemeral range, above the well-known ports the tests'
     // middlewares use (DDS from 7400, Zenoh's 7446 and 7447).
     let (from, to) = (20_000, low.min(32_000));
-    for attempt in 0..1000u32 {
-        if to <= from {
-            break;
-        }
-        // A fresh RandomState hashes with new random keys.
-        let random = std::hash::BuildHasher::hash_one(&std::collections::hash_map::RandomState::new(), attempt);
-        let port = from + (random % u64::from(to - from)) as u16;
+    // A fresh RandomState hashes with new random keys.
+    let random = || std::hash::BuildHasher::hash_one(&std::collections::hash_map::RandomState::new(), 0);
+    let tries = if from < to { 1000 } else { 0 };
+    for _ in 0..tries {
+        let port = from + (random() % u64::from(to - from)) as u16;
         if let Ok(socket) = UdpSocket::bind(("127.0.0.1", port)) {
             return socket.local_addr().unwrap().to_string();
         }
