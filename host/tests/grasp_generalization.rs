@@ -15,14 +15,7 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use serde_json::Value;
-use skin_model::robot::hrp2;
-use skin_sim::scene::experiment::Setup;
-use skin_sim::scene::generated::{object_file, placement_keys, Reach};
-use skin_sim::scene::object_file::parse;
-use skin_sim::scene::SkinModel;
 
 /// Seed of the generated objects.
 const OBJECT_SEED: u64 = 19;
@@ -43,18 +36,34 @@ fn worlds() -> Vec<(&'static str, &'static [&'static str])> {
     worlds
 }
 
+/// `skin` with `args`, its standard output; panics with its standard
+/// error when it fails.
+fn skin(args: &[&str]) -> Vec<u8> {
+    let out = Command::new(env!("CARGO_BIN_EXE_skin")).args(args).output().expect("the skin binary runs");
+    assert!(out.status.success(), "skin {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    out.stdout
+}
+
+/// `skin objects` into `dir`: `count` object files from each of `seeds`,
+/// placed anywhere both arms reach unless `unplaced`.
+fn generate(dir: &Path, seeds: &[u64], count: usize, unplaced: bool) {
+    let count = count.to_string();
+    let mut args = vec!["objects", "--out", dir.to_str().unwrap(), "--count", &count];
+    let seeds: Vec<String> = seeds.iter().map(u64::to_string).collect();
+    seeds.iter().for_each(|s| args.extend(["--seed", s]));
+    if unplaced {
+        args.push("--unplaced");
+    }
+    skin(&args);
+}
+
 /// `skin grasp --json` on every object file of `dir`, placed by `args`,
 /// and the wall time it took, s.
 fn grasp_folder(dir: &Path, args: &[&str]) -> (Vec<Value>, f64) {
     let started = Instant::now();
-    let out = Command::new(env!("CARGO_BIN_EXE_skin"))
-        .args(["grasp", "--json", "--object-file"])
-        .arg(dir)
-        .args(args)
-        .output()
-        .expect("the skin binary runs");
-    let runs: Value =
-        serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&out.stderr)));
+    let mut all = vec!["grasp", "--json", "--object-file", dir.to_str().unwrap()];
+    all.extend(args);
+    let runs: Value = serde_json::from_slice(&skin(&all)).expect("a JSON array");
     (runs.as_array().expect("an array").clone(), started.elapsed().as_secs_f64())
 }
 
@@ -159,11 +168,7 @@ fn check_goal(world: &str, runs: &[Value], percent: usize) {
 #[ignore]
 fn a_hundred_generated_objects_at_random_spots() {
     let dir = scratch("generated-objects");
-    let mut rng = ChaCha8Rng::seed_from_u64(OBJECT_SEED);
-    for k in 0..COUNT {
-        let name = format!("gen_{k:03}");
-        std::fs::write(dir.join(format!("{name}.toml")), object_file(&name, &mut rng)).unwrap();
-    }
+    generate(&dir, &[OBJECT_SEED], COUNT, true);
     let (runs, wall_s) = grasp_folder(&dir, &["--jitter", &PLACEMENT_SEED.to_string()]);
     assert_eq!(runs.len(), COUNT);
     let column = Column { world: "built-in", runs, wall_s };
@@ -181,20 +186,8 @@ fn a_hundred_generated_objects_at_random_spots() {
 #[ignore]
 fn a_hundred_objects_anywhere_the_arms_reach_in_each_world() {
     let dir = scratch("reached-objects");
-    let robot = hrp2::robot();
-    let reach = Reach::new(&robot, &Setup::new(&robot, 0).unwrap(), SkinModel::default().surface_offset_m);
     let share = COUNT / SIDE_BY_SIDE_SEEDS.len();
-    for seed in SIDE_BY_SIDE_SEEDS {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        for k in 0..share {
-            let name = format!("gen{seed}_{k:02}");
-            let text = object_file(&name, &mut rng);
-            let object = parse(&text).unwrap().object;
-            let placement =
-                reach.placement(&object, &mut rng).unwrap_or_else(|| panic!("{name}: no placement reaches"));
-            std::fs::write(dir.join(format!("{name}.toml")), text + &placement_keys(&placement)).unwrap();
-        }
-    }
+    generate(&dir, &SIDE_BY_SIDE_SEEDS, share, false);
     let columns = in_every_world(&dir);
     for c in &columns {
         assert_eq!(c.runs.len(), COUNT, "{}", c.world);
@@ -247,4 +240,42 @@ fn objects_that_cannot_be_held_fail_without_pain() {
         }
     }
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `skin objects`: the same seeds write the same files, which `skin grasp`
+/// reads; a file already there is never overwritten.
+#[test]
+fn generated_object_files_are_the_same_for_a_seed_and_never_overwrite() {
+    let [a, b] = ["objects-a", "objects-b"].map(scratch);
+    generate(&a, &[7, 8], 3, false);
+    generate(&b, &[7, 8], 3, false);
+    let files = |dir: &Path| {
+        let mut v: Vec<(String, String)> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| {
+                let path = e.unwrap().path();
+                (path.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&path).unwrap())
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    let written = files(&a);
+    let names: Vec<&str> = written.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["gen7_00.toml", "gen7_01.toml", "gen7_02.toml", "gen8_00.toml", "gen8_01.toml", "gen8_02.toml"]);
+    assert_eq!(files(&b), written);
+    assert!(written.iter().all(|(_, text)| text.contains("offset_m")), "placed");
+    let again = Command::new(env!("CARGO_BIN_EXE_skin"))
+        .args(["objects", "--seed", "7", "--count", "1", "--out", a.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(again.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&again.stderr).contains("gen7_00.toml"), "names the file it would overwrite");
+    assert_eq!(files(&a), written, "nothing overwritten");
+    let zero =
+        Command::new(env!("CARGO_BIN_EXE_skin")).args(["objects", "--count", "0", "--out", "x"]).output().unwrap();
+    assert_eq!(zero.status.code(), Some(2), "a bad count is a usage error");
+    for dir in [a, b] {
+        std::fs::remove_dir_all(dir).unwrap();
+    }
 }

@@ -65,6 +65,9 @@ enum Command {
     /// Teach key poses by touch and grasp the objects of Figure 16 in simulation (sections 5 and 6).
     #[cfg(feature = "sim")]
     Grasp(grasp::Args),
+    /// Write generated object files for `skin grasp --object-file`: seeded shapes, sizes, masses, frictions, and placements anywhere both arms reach.
+    #[cfg(feature = "sim")]
+    Objects(objects::GenerateArgs),
     /// Watch the skin live: cells, rates, tactile events, drops.
     Monitor(monitor::Args),
     /// Write the default configuration file, or check one.
@@ -133,6 +136,8 @@ pub fn main() -> ExitCode {
         Command::Calibrate(args) => calibrate::run(args),
         #[cfg(feature = "sim")]
         Command::Grasp(args) => grasp::run(args),
+        #[cfg(feature = "sim")]
+        Command::Objects(args) => objects::generate(args),
         Command::Monitor(args) => monitor::run(args),
         Command::Config(args) => config::run(args),
         Command::Model(args) => model::run(args),

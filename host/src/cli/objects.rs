@@ -1,4 +1,5 @@
-//! The objects `skin grasp` puts in front of the robot, and where.
+//! The objects `skin grasp` puts in front of the robot, and where, and
+//! `skin objects`, which writes generated object files for it.
 //!
 //! Built-in names (the five of Figure 16, `all`, `none`), object files
 //! (`--object-file`, repeatable, a file or a folder of them), and a
@@ -7,13 +8,20 @@
 //! [`skin_sim::scene::placement`] (forward 0 to 2 cm, sideways +-3 cm, yaw
 //! +-0.3 rad). A placement flag replaces the placement in object files.
 
+use std::fs::OpenOptions;
+use std::io::Write;
 use std::path::PathBuf;
+use std::process::ExitCode;
 
 use skin_host::grasping::GraspError;
+use skin_model::robot::hrp2;
+use skin_sim::scene::experiment::Setup;
+use skin_sim::scene::generated::{object_files, Reach};
 use skin_sim::scene::object::Object;
 use skin_sim::scene::object_error::ObjectError;
 use skin_sim::scene::object_file;
 use skin_sim::scene::placement::{ObjectAt, Placement};
+use skin_sim::scene::SkinModel;
 
 /// The object arguments of `skin grasp`.
 #[derive(clap::Args)]
@@ -92,4 +100,44 @@ pub fn built_in(choice: &str) -> Result<Vec<Option<Object>>, GraspError> {
         "none" => Ok(vec![None]),
         name => Object::by_name(name).map(|o| vec![Some(o)]).ok_or_else(|| GraspError::UnknownObject(name.into())),
     }
+}
+
+/// Arguments of `skin objects`.
+#[derive(clap::Args)]
+pub struct GenerateArgs {
+    /// Folder to write the object files into (made if missing; a file already there is never overwritten).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Generator seed, repeatable: `--count` objects from each, named gen<SEED>_<k> [default: 1].
+    #[arg(long = "seed", value_name = "SEED")]
+    seeds: Vec<u64>,
+    /// Objects per seed.
+    #[arg(long, default_value_t = 25, value_parser = clap::value_parser!(u64).range(1..=10_000))]
+    count: u64,
+    /// Write no placement (place them with `skin grasp --jitter` or `--offset`); by default each is put anywhere both arms of the built-in robot reach around it, turned up to 0.3 rad.
+    #[arg(long)]
+    unplaced: bool,
+}
+
+/// Writes the generated object files; the same seeds give the same files.
+pub fn generate(args: GenerateArgs) -> Result<ExitCode, Box<dyn std::error::Error>> {
+    let seeds = if args.seeds.is_empty() { vec![1] } else { args.seeds };
+    let robot = hrp2::robot();
+    let reach = Reach::new(&robot, &Setup::new(&robot, 0)?, SkinModel::default().surface_offset_m);
+    let reach = (!args.unplaced).then_some(&reach);
+    let count = usize::try_from(args.count)?;
+    std::fs::create_dir_all(&args.out).map_err(|e| format!("--out {}: {e}", args.out.display()))?;
+    let mut written = 0;
+    for seed in seeds {
+        for (name, text) in object_files(seed, count, reach)? {
+            let path = args.out.join(format!("{name}.toml"));
+            let mut file = OpenOptions::new().write(true).create_new(true).open(&path).map_err(|e| {
+                format!("{}: {e} (objects are never overwritten: choose another --out)", path.display())
+            })?;
+            file.write_all(text.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
+            written += 1;
+        }
+    }
+    println!("wrote {written} object files to {} (grasp them: skin grasp --object-file {0})", args.out.display());
+    Ok(ExitCode::SUCCESS)
 }

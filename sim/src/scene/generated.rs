@@ -10,12 +10,14 @@
 //! where the skin can feel it). Every placement drawn is checked so.
 
 use nalgebra::{Isometry3, Point3, Vector3};
-use rand::Rng;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use skin_model::robot::Robot;
 
 use super::experiment::{body_poses, intended_pose, object_pose, surface_points, Setup};
 use super::held::Arm;
 use super::object::Object;
+use super::object_file::parse;
 use super::placement::{Placement, JITTER_YAW_RAD, OBJECT_GAP_M};
 
 /// How far forward of the default spot a placement is drawn, m.
@@ -59,6 +61,32 @@ pub fn object_file(name: &str, rng: &mut impl Rng) -> String {
         r(0.5, 0.9),
         r(0.2, 0.5)
     )
+}
+
+/// No placement drawn lets both arms reach around this object.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}: none of {TRIES} placements drawn lets both arms reach around it")]
+pub struct Unreachable(pub String);
+
+/// `count` object files drawn from `seed`, as (name, text): named
+/// `gen{seed}_{k}`, each followed by a placement anywhere both arms of
+/// `reach` reach around it, or by none (`skin grasp --jitter` places
+/// them). The same seed and reach give the same files.
+pub fn object_files(seed: u64, count: usize, reach: Option<&Reach>) -> Result<Vec<(String, String)>, Unreachable> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let width = count.saturating_sub(1).to_string().len().max(2);
+    (0..count)
+        .map(|k| {
+            let name = format!("gen{seed}_{k:0width$}");
+            let text = object_file(&name, &mut rng);
+            let Some(reach) = reach else { return Ok((name, text)) };
+            let object = parse(&text).expect("the generator writes valid object files").object;
+            match reach.placement(&object, &mut rng) {
+                Some(p) => Ok((name, text + &placement_keys(&p))),
+                None => Err(Unreachable(name)),
+            }
+        })
+        .collect()
 }
 
 /// The placement as object-file keys, to append to [`object_file`]'s text.
@@ -152,10 +180,7 @@ impl Reach {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::object_file::parse;
     use crate::scene::SkinModel;
-    use rand::SeedableRng;
-    use rand_chacha::ChaCha8Rng;
     use skin_model::robot::hrp2;
 
     #[test]
@@ -182,6 +207,26 @@ mod tests {
         assert!(!reach.reaches(&bin, &far), "beyond the hands");
         let aside = Placement { offset_m: Vector3::new(0.0, 0.4, 0.0), yaw_rad: 0.0 };
         assert!(!reach.reaches(&bin, &aside), "in the left arm's way");
+    }
+
+    #[test]
+    fn a_seed_gives_the_same_named_files_placed_or_not() {
+        let robot = hrp2::robot();
+        let reach = Reach::new(&robot, &Setup::new(&robot, 0).unwrap(), SkinModel::default().surface_offset_m);
+        let placed = object_files(3, 4, Some(&reach)).unwrap();
+        let names: Vec<&str> = placed.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["gen3_00", "gen3_01", "gen3_02", "gen3_03"]);
+        assert_eq!(object_files(3, 4, Some(&reach)).unwrap(), placed, "seeded");
+        for (name, text) in &placed {
+            let at = parse(text).unwrap();
+            assert_eq!(&at.object.name, name);
+            assert!(reach.reaches(&at.object, &at.placement), "{name} at {:?}", at.placement);
+        }
+        let unplaced = object_files(3, 101, None).unwrap();
+        assert_eq!(unplaced[100].0, "gen3_100");
+        assert!(unplaced.iter().all(|(_, text)| !text.contains("offset_m") && parse(text).is_ok()));
+        // The first object is drawn before any placement.
+        assert!(placed[0].1.starts_with(&object_files(3, 1, None).unwrap()[0].1));
     }
 
     #[test]
