@@ -108,7 +108,7 @@ pub struct GenerateArgs {
     /// Folder to write the object files into (made if missing; a file already there is never overwritten).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
-    /// Generator seed, repeatable: `--count` objects from each, named gen<SEED>_<k> [default: 1].
+    /// Generator seed, repeatable: `--count` objects from each, named `gen<SEED>_<k>` [default: 1].
     #[arg(long = "seed", value_name = "SEED")]
     seeds: Vec<u64>,
     /// Objects per seed.
