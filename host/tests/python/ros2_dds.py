@@ -7,7 +7,10 @@ transient-local subscription to /robot_description.
 /tf_static is checked in the graph only: its type, tf2_msgs/TFMessage, has
 no wheel, and Fast DDS matches a reader to a writer by type name.
 
-Usage: ros2_dds.py SECONDS. Prints one JSON object.
+Usage: ros2_dds.py SECONDS STREAM. Listens until every volatile topic has
+been heard, the streams (the cloud, joint states, IMU) STREAM times each,
+and the late joiner has its description, or SECONDS have passed. Prints one
+JSON object.
 """
 
 import json
@@ -23,6 +26,8 @@ from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
 SECONDS = float(sys.argv[1])
+STREAM = int(sys.argv[2])
+STREAMS = ["/skin/cells", "/joint_states", "/skin/imu"]
 VOLATILE = {
     "/skin/cells": PointCloud2,
     "/skin/imu": Imu,
@@ -113,7 +118,14 @@ late = {}
 late_node.create_subscription(String, "/robot_description", keep(late, "/robot_description"), latched_qos)
 executor.add_node(late_node)
 
-while time.monotonic() < deadline and not (all(t in live for t in VOLATILE) and "/robot_description" in late):
+# A stream, not one burst: /skin/imu comes as one message per cell at
+# each cloud, so heard once it may be a few messages of a single burst.
+def heard_enough():
+    streams = all(live.get(t, {}).get("count", 0) >= STREAM for t in STREAMS)
+    return streams and all(t in live for t in VOLATILE) and "/robot_description" in late
+
+
+while time.monotonic() < deadline and not heard_enough():
     executor.spin_once(timeout_sec=0.05)
 # A moment more: a second copy of a latched message would arrive now.
 settle = time.monotonic() + 0.5
