@@ -12,7 +12,7 @@
 use std::collections::BTreeMap;
 use std::fmt::Write;
 use std::path::Path;
-use std::process::Command;
+use std::process::{Command, Output};
 use std::time::Instant;
 
 use serde_json::Value;
@@ -36,10 +36,15 @@ fn worlds() -> Vec<(&'static str, &'static [&'static str])> {
     worlds
 }
 
+/// `skin` with `args`, run to its end.
+fn run_skin(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_skin")).args(args).output().expect("the skin binary runs")
+}
+
 /// `skin` with `args`, its standard output; panics with its standard
 /// error when it fails.
 fn skin(args: &[&str]) -> Vec<u8> {
-    let out = Command::new(env!("CARGO_BIN_EXE_skin")).args(args).output().expect("the skin binary runs");
+    let out = run_skin(args);
     assert!(out.status.success(), "skin {args:?}: {}", String::from_utf8_lossy(&out.stderr));
     out.stdout
 }
@@ -265,15 +270,11 @@ fn generated_object_files_are_the_same_for_a_seed_and_never_overwrite() {
     assert_eq!(names, ["gen7_00.toml", "gen7_01.toml", "gen7_02.toml", "gen8_00.toml", "gen8_01.toml", "gen8_02.toml"]);
     assert_eq!(files(&b), written);
     assert!(written.iter().all(|(_, text)| text.contains("offset_m")), "placed");
-    let again = Command::new(env!("CARGO_BIN_EXE_skin"))
-        .args(["objects", "--seed", "7", "--count", "1", "--out", a.to_str().unwrap()])
-        .output()
-        .unwrap();
+    let again = run_skin(&["objects", "--seed", "7", "--count", "1", "--out", a.to_str().unwrap()]);
     assert_eq!(again.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&again.stderr).contains("gen7_00.toml"), "names the file it would overwrite");
     assert_eq!(files(&a), written, "nothing overwritten");
-    let zero =
-        Command::new(env!("CARGO_BIN_EXE_skin")).args(["objects", "--count", "0", "--out", "x"]).output().unwrap();
+    let zero = run_skin(&["objects", "--count", "0", "--out", "x"]);
     assert_eq!(zero.status.code(), Some(2), "a bad count is a usage error");
     for dir in [a, b] {
         std::fs::remove_dir_all(dir).unwrap();

@@ -122,14 +122,17 @@ pub struct GenerateArgs {
 /// Writes the generated object files; the same seeds give the same files.
 pub fn generate(args: GenerateArgs) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let seeds = if args.seeds.is_empty() { vec![1] } else { args.seeds };
-    let robot = hrp2::robot();
-    let reach = Reach::new(&robot, &Setup::new(&robot, 0)?, SkinModel::default().surface_offset_m);
-    let reach = (!args.unplaced).then_some(&reach);
+    let reach = if args.unplaced {
+        None
+    } else {
+        let robot = hrp2::robot();
+        Some(Reach::new(&robot, &Setup::new(&robot, 0)?, SkinModel::default().surface_offset_m))
+    };
     let count = usize::try_from(args.count)?;
     std::fs::create_dir_all(&args.out).map_err(|e| format!("--out {}: {e}", args.out.display()))?;
     let mut written = 0;
     for seed in seeds {
-        for (name, text) in object_files(seed, count, reach)? {
+        for (name, text) in object_files(seed, count, reach.as_ref())? {
             let path = args.out.join(format!("{name}.toml"));
             let mut file = OpenOptions::new().write(true).create_new(true).open(&path).map_err(|e| {
                 format!("{}: {e} (objects are never overwritten: choose another --out)", path.display())
