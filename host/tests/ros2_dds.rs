@@ -12,7 +12,9 @@ use std::ffi::OsStr;
 use common::rclpy::{self, Domain};
 use serde_json::Value;
 
-/// Messages of each stream (the cloud, joint states, IMU) the checker waits for.
+/// The streams (the cloud, joint states, IMU), and how many messages of
+/// each the checker waits for.
+const STREAMS: [&str; 3] = ["/skin/cells", "/joint_states", "/skin/imu"];
 const STREAM: u64 = 10;
 
 #[test]
@@ -22,11 +24,10 @@ fn rclpy_on_fast_dds_sees_the_demo_as_a_ros_2_node() {
     let dir = std::env::temp_dir().join(format!("skin-ros2-dds-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     // rclpy first: its participant is up before the first message.
-    let checker = domain
-        .python(&python, "ros2_dds.py", &["120", &STREAM.to_string()])
-        .stdout(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let count = STREAM.to_string();
+    let checker_args: Vec<&str> = ["120", &count].into_iter().chain(STREAMS).collect();
+    let checker =
+        domain.python(&python, "ros2_dds.py", &checker_args).stdout(std::process::Stdio::piped()).spawn().unwrap();
     let id = domain.0.to_string();
     let args =
         ["demo", "--quick", "--no-record", "--json", "--ros2", "--imu", "--ros-domain", &id, "--out"].map(OsStr::new);
@@ -78,7 +79,7 @@ fn rclpy_on_fast_dds_sees_the_demo_as_a_ros_2_node() {
     assert!(live("/skin/imu")["last"]["frame"].as_str().unwrap().starts_with("skin_cell_"));
     assert!(live("/skin/events")["first"]["markers"].as_u64().unwrap() > 0);
     // A stream, not one message: the cloud and joint states many times.
-    for topic in ["/skin/cells", "/joint_states", "/skin/imu"] {
+    for topic in STREAMS {
         assert!(live(topic)["count"].as_u64().unwrap() >= STREAM, "{topic}: {}", live(topic));
     }
 

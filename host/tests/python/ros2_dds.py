@@ -7,10 +7,9 @@ transient-local subscription to /robot_description.
 /tf_static is checked in the graph only: its type, tf2_msgs/TFMessage, has
 no wheel, and Fast DDS matches a reader to a writer by type name.
 
-Usage: ros2_dds.py SECONDS STREAM. Listens until every volatile topic has
-been heard, the streams (the cloud, joint states, IMU) STREAM times each,
-and the late joiner has its description, or SECONDS have passed. Prints one
-JSON object.
+Usage: ros2_dds.py SECONDS COUNT STREAM... Listens until every volatile
+topic has been heard, each STREAM topic COUNT times, and the late joiner
+has its description, or SECONDS have passed. Prints one JSON object.
 """
 
 import json
@@ -26,8 +25,8 @@ from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
 SECONDS = float(sys.argv[1])
-STREAM = int(sys.argv[2])
-STREAMS = ["/skin/cells", "/joint_states", "/skin/imu"]
+COUNT = int(sys.argv[2])
+STREAMS = sys.argv[3:]
 VOLATILE = {
     "/skin/cells": PointCloud2,
     "/skin/imu": Imu,
@@ -121,7 +120,7 @@ executor.add_node(late_node)
 # A stream, not one burst: /skin/imu comes as one message per cell at
 # each cloud, so heard once it may be a few messages of a single burst.
 def heard_enough():
-    streams = all(live.get(t, {}).get("count", 0) >= STREAM for t in STREAMS)
+    streams = all(live.get(t, {}).get("count", 0) >= COUNT for t in STREAMS)
     return streams and all(t in live for t in VOLATILE) and "/robot_description" in late
 
 
