@@ -49,8 +49,11 @@ pub const SLIP_S: f64 = 0.25;
 /// far forward only at its sides squeeze those sides with bare surfaces no
 /// cell feels, and friction alone drags it, ever slower; opening and
 /// closing again meets it where the pull left it, nearer, with the
-/// forearms further round it.
-pub const REGRIPS: u8 = 2;
+/// forearms further round it. A heavy box dragged over the person's hands
+/// comes 1-3 cm nearer a hug: of the 100 anywhere-objects in MuJoCo
+/// (noise seeds 0 and 1), four hugs held 4 and 5 more than two did, and
+/// none that two held was lost.
+pub const REGRIPS: u8 = 4;
 
 /// A state of the grasp.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
@@ -651,7 +654,10 @@ mod tests {
         assert_eq!(r.step(None), State::Open, "straining far from the chest: let go");
         set(&mut r.ev, 3, 0.9, 0.15);
         hug_again(&mut r);
-        assert_eq!(REGRIPS, 2);
+        for _ in 2..REGRIPS {
+            assert_eq!(r.step(Some(Stalled)), State::Open, "stalled again: let go again");
+            hug_again(&mut r);
+        }
         assert_eq!(r.step(Some(Stalled)), State::Cancel, "after {REGRIPS} hugs again: give up");
         r.step(Some(Reached));
         assert_eq!(r.pat(), State::Open);
