@@ -15,7 +15,7 @@ use serde_json::Value;
 /// The streams (the cloud, joint states, IMU), and how many messages of
 /// each the checker waits for.
 const STREAMS: [&str; 3] = ["/skin/cells", "/joint_states", "/skin/imu"];
-const STREAM: u64 = 10;
+const PER_STREAM: u64 = 10;
 
 #[test]
 fn rclpy_on_fast_dds_sees_the_demo_as_a_ros_2_node() {
@@ -24,7 +24,7 @@ fn rclpy_on_fast_dds_sees_the_demo_as_a_ros_2_node() {
     let dir = std::env::temp_dir().join(format!("skin-ros2-dds-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     // rclpy first: its participant is up before the first message.
-    let count = STREAM.to_string();
+    let count = PER_STREAM.to_string();
     let checker_args: Vec<&str> = ["120", &count].into_iter().chain(STREAMS).collect();
     let checker =
         domain.python(&python, "ros2_dds.py", &checker_args).stdout(std::process::Stdio::piped()).spawn().unwrap();
@@ -80,7 +80,7 @@ fn rclpy_on_fast_dds_sees_the_demo_as_a_ros_2_node() {
     assert!(live("/skin/events")["first"]["markers"].as_u64().unwrap() > 0);
     // A stream, not one message: the cloud and joint states many times.
     for topic in STREAMS {
-        assert!(live(topic)["count"].as_u64().unwrap() >= STREAM, "{topic}: {}", live(topic));
+        assert!(live(topic)["count"].as_u64().unwrap() >= PER_STREAM, "{topic}: {}", live(topic));
     }
 
     // The late joiner got the one cached description, exactly once.
