@@ -19,7 +19,8 @@
 //! and a touch on the chest ends the contact phase like one on an arm (an
 //! arm's bare surface pushed the object there); when a contact area that
 //! felt it on squeezing or holding has not felt it for [`SLIP_S`], the
-//! grasp pulls again. A pull that stalls, or strains, with the object
+//! grasp pulls again, until both arms feel it with the chest seeing it
+//! near (it was at the chest). A pull that stalls, or strains, with the object
 //! still far from the chest lets go and hugs it again from the open pose,
 //! where the pull left it ([`REGRIPS`] times, then it gives up).
 //! Transitions are driven by tactile events (as
@@ -221,6 +222,9 @@ pub struct Grasp {
     slipping_since_s: Option<f64>,
     /// Hugs begun again in this grasp ([`REGRIPS`]).
     regrips: u8,
+    /// The pull was begun by a slip (squeezing or holding): the object was
+    /// at the chest, and the arms need only feel it again.
+    slip_pull: bool,
 }
 
 impl Grasp {
@@ -234,6 +238,7 @@ impl Grasp {
             held_by: 0,
             slipping_since_s: None,
             regrips: 0,
+            slip_pull: false,
         }
     }
 
@@ -267,6 +272,7 @@ impl Grasp {
         } else if next == State::Open {
             self.regrips += 1;
         }
+        self.slip_pull = next == State::Pull && cause == Cause::Slipped;
         let tr = Transition { from: self.state, to: next, time_s, cause };
         self.state = next;
         Some(tr)
@@ -370,8 +376,13 @@ impl Grasp {
                 // beside its cells, and an arm's bare surface may hold it
                 // where no cell feels it).
                 let stalled = trajectory == Some(Stalled);
-                let chest_close = any(Chest, Proximity, t.chest_proximity) || any(Chest, Force, 1);
                 let chest_near = any(Chest, Proximity, t.contact_proximity);
+                // After a slip the object was already against the chest
+                // (perhaps beside its cells): near is close enough. Pulling
+                // on until the chest saw it closer kept a box the arms
+                // carried creeping down for 15 s, into the person's hands.
+                let chest_close =
+                    any(Chest, Proximity, t.chest_proximity) || any(Chest, Force, 1) || (self.slip_pull && chest_near);
                 let both_arms = every(Contact, Force, 1);
                 let one_arm = any(Contact, Force, 1);
                 // Pulling against high force on an arm or the chest, the
@@ -602,6 +613,25 @@ mod tests {
             r.step(None);
         }
         assert_eq!(r.g.state(), State::Pull, "the arm that felt it while squeezing counts in Hold too");
+    }
+
+    #[test]
+    fn a_pull_after_a_slip_grips_again_when_the_chest_sees_the_object_near() {
+        let mut r = Run::pulling();
+        set(&mut r.ev, 4, 0.9, 0.11);
+        assert_eq!(r.step(None), State::Squeeze);
+        assert_eq!(r.step(None), State::Hold, "the chest's medium force");
+        // Held, then the left arm no longer feels it, and the chest sees
+        // it only near (it leans beside the chest's cells).
+        set(&mut r.ev, 4, 0.3, 0.0);
+        set(&mut r.ev, 2, 0.9, 0.0);
+        assert_eq!(r.after_a_slip(State::Hold), State::Pull);
+        assert_eq!(r.step(None), State::Pull, "one arm feels it");
+        set(&mut r.ev, 2, 0.9, 0.08);
+        assert_eq!(r.step(None), State::Squeeze, "both again, the chest seeing it near: it was at the chest");
+        let mut r = Run::pulling();
+        set(&mut r.ev, 4, 0.3, 0.0);
+        assert_eq!(r.step(None), State::Pull, "a first pull needs the chest close");
     }
 
     #[test]

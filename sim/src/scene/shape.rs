@@ -164,6 +164,17 @@ impl Shape {
         }
     }
 
+    /// Half its thinnest extent, m (the blob's without its bumps): no
+    /// surface pressed into it can reach deeper without passing its middle.
+    pub fn thinnest_half(&self) -> f64 {
+        match *self {
+            Shape::Box { half, .. } => half.min(),
+            Shape::Cylinder { radius, half_height } => radius.min(half_height),
+            Shape::Sphere { radius } => radius,
+            Shape::Blob { semi, .. } => semi.min(),
+        }
+    }
+
     /// Radius of a sphere around the origin that holds the whole shape, m.
     pub fn bounding_radius(&self) -> f64 {
         match *self {
@@ -267,5 +278,20 @@ mod tests {
         let c = Shape::Cylinder { radius: 0.1, half_height: 0.2 };
         assert!((c.extent(&diagonal) - 0.1).abs() < 1e-12 && (c.extent(&Vector3::z()) - 0.2).abs() < 1e-12);
         assert_eq!(Shape::Sphere { radius: 0.04 }.extent(&diagonal), 0.04);
+    }
+
+    #[test]
+    fn the_thinnest_half_is_how_deep_the_middle_lies() {
+        for shape in [
+            Shape::Box { half: Vector3::new(0.2, 0.07, 0.3), round_m: 0.01 },
+            Shape::Cylinder { radius: 0.11, half_height: 0.09 },
+            Shape::Cylinder { radius: 0.05, half_height: 0.2 },
+            Shape::Sphere { radius: 0.13 },
+        ] {
+            let middle = -shape.distance(&Point3::origin());
+            assert!((shape.thinnest_half() - middle).abs() < 1e-12, "{shape:?}: {middle}");
+        }
+        let blob = Shape::Blob { semi: Vector3::new(0.1, 0.15, 0.08), bump_m: 0.0, bump_rad_per_m: 0.0 };
+        assert_eq!(blob.thinnest_half(), 0.08);
     }
 }
