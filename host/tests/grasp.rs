@@ -157,10 +157,9 @@ fn five_objects_held_placed_3_cm_to_either_side() {
     five_held_at(&[["--offset", "0,0.03,0"], ["--offset", "0,-0.03,0"]]);
 }
 
-/// The five objects held turned 0.3 rad either way. Fails today: the
-/// delivery box (hard, 20,000 N/m) turned +0.3 rad slips, its right arm
-/// off it for a moment 0.37 s into the hold (no pain), since the objects
-/// stand 22 cm up instead of 19 (`9238bb5`). About 1.5 min in release:
+/// The five objects held turned 0.3 rad either way (from `9238bb5` until
+/// the arms pulled together the delivery box at +0.3 rad slipped, its
+/// right arm off it for a moment 0.37 s into the hold). About 1.5 min in release:
 /// `cargo test --release -p skin-host --test grasp -- --ignored turned`.
 #[test]
 #[ignore]

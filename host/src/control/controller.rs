@@ -11,9 +11,9 @@ use skin_protocol::message::TactileEvent;
 use skin_protocol::{Address, Sample};
 use tracing::{debug, info};
 
-use super::areas::Areas;
+use super::areas::{AreaKind, Areas};
 use super::cells::CellIndex;
-use super::events::{Events, TouchEvent};
+use super::events::{Events, Modality, TouchEvent};
 use super::grasp::{Grasp, State, Transition};
 use super::params::Params;
 use super::reaction::{Group, Reactions, Stimulus};
@@ -59,6 +59,9 @@ pub struct Controller {
     scratch: Vec<f64>,
     last_time_s: Option<f64>,
     unknown_cells: u64,
+    /// The joints each contact area moves (each joint to the area that
+    /// moves it most), found from the map at the first grasp step.
+    arms: Option<Vec<Vec<usize>>>,
 }
 
 impl Controller {
@@ -87,6 +90,7 @@ impl Controller {
             scratch: vec![0.0; dofs],
             last_time_s: None,
             unknown_cells: 0,
+            arms: None,
         })
     }
 
@@ -148,6 +152,11 @@ impl Controller {
         self.last_time_s = Some(time_s);
 
         if self.mode == Mode::Grasp {
+            if self.arms.is_none() {
+                let arms = self.arm_joints(map, pose);
+                debug!(?arms, "the joints each contact area moves");
+                self.arms = Some(arms);
+            }
             if let Some(tr) = self.grasp.step(&self.events, self.trajectory_event.take(), time_s) {
                 info!(from = ?tr.from, to = ?tr.to, cause = ?tr.cause, time_s, "grasp");
                 self.transitions.push(tr);
@@ -157,6 +166,12 @@ impl Controller {
         let tactile = self.reactions.step(map, pose, dt_s);
         self.command.copy_from_slice(tactile);
         if let Some(t) = &mut self.trajectory {
+            // Near the chest the arms close on the object each at its own
+            // pace: held back there, they looked still to the person, who
+            // let go of an object the pull's light grip does not carry.
+            if self.events.any(AreaKind::Chest, Modality::Proximity, self.params.transitions.contact_proximity) {
+                t.apart();
+            }
             self.trajectory_event = t.step(pose, time_s, &mut self.scratch)?;
             if let Some(e) = self.trajectory_event {
                 debug!(pose = t.name(), event = ?e, time_s, "trajectory");
@@ -187,11 +202,41 @@ impl Controller {
         self.trajectory_event = None;
         self.trajectory = match directive.motion() {
             Some((pose, motion)) => {
-                Some(Trajectory::new(pose, self.poses.get(pose)?, motion, directive.timing(self.params.timing))?)
+                let t = Trajectory::new(pose, self.poses.get(pose)?, motion, directive.timing(self.params.timing))?;
+                let arms = if directive.together { self.arms.clone().unwrap_or_default() } else { Vec::new() };
+                Some(t.together(arms))
             }
             None => None,
         };
         Ok(())
+    }
+
+    /// The joints each contact area moves: each joint goes to the area
+    /// whose cells it moves most (summed weights of `map` at `pose`).
+    fn arm_joints(&self, map: &impl MotorMap, pose: &[f64]) -> Vec<Vec<usize>> {
+        let Some(tile) = map.nearest_tile(pose) else { return Vec::new() };
+        let dofs = self.command.len();
+        let moved: Vec<Vec<f64>> = self
+            .areas
+            .of_kind(AreaKind::Contact)
+            .map(|area| {
+                let mut w = vec![0.0; dofs];
+                for row in self.areas.rows(area) {
+                    for (m, x) in w.iter_mut().zip(map.weights(tile, row)) {
+                        *m += f64::from(x.abs());
+                    }
+                }
+                w
+            })
+            .collect();
+        let mut arms = vec![Vec::new(); moved.len()];
+        for j in 0..dofs {
+            let most = moved.iter().enumerate().max_by(|a, b| a.1[j].total_cmp(&b.1[j]));
+            if let Some((a, _)) = most.filter(|(_, w)| w[j] > 0.0) {
+                arms[a].push(j);
+            }
+        }
+        arms
     }
 
     /// The grasp state, in grasp mode.
@@ -428,6 +473,16 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn each_arm_is_the_joints_its_contact_area_moves() {
+        let mut r = Rig::new();
+        r.step();
+        // Left CA (cell 2) moves joint 0, right CA (cell 3) joint 1; the
+        // pat and non-contact cells move 2 and 3, no arm's.
+        assert_eq!(r.c.arms, Some(vec![vec![0], vec![1]]));
+        assert!(Params::default().state.pull.together, "the pull keeps them together");
     }
 
     #[test]

@@ -123,6 +123,11 @@ pub struct StateParams {
     /// common `timing.stall_window_s`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stall_window_s: Option<f64>,
+    /// The arms (the joints each contact area moves) cover the way to the
+    /// pose together, the one ahead waiting for the other, until the chest
+    /// sees the object near.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub together: bool,
     /// Gains of every area not overridden below.
     pub all: CellGains,
     /// Gains of the pat area.
@@ -164,6 +169,11 @@ impl StateParams {
     }
 
     fn check(&self, state: &str) -> Result<(), ControlError> {
+        if self.together && self.pose.is_none() {
+            return Err(ControlError::Incomplete(format!(
+                "state.{state}: `together` keeps the arms together on a trajectory: give `pose` too"
+            )));
+        }
         if self.stall_window_s.is_some() {
             if self.pose.is_none() {
                 return Err(ControlError::Incomplete(format!(
@@ -400,6 +410,9 @@ mod tests {
         assert!(e.contains("stall_radians"), "{e}");
         let idle = DEFAULT_TOML.replace("[state.hold]", "[state.hold]\nstall_window_s = 2.0");
         let e = Params::from_toml_str(&idle).unwrap_err().to_string();
+        assert!(e.contains("state.hold") && e.contains("give `pose` too"), "{e}");
+        let resting = DEFAULT_TOML.replace("[state.hold]", "[state.hold]\ntogether = true");
+        let e = Params::from_toml_str(&resting).unwrap_err().to_string();
         assert!(e.contains("state.hold") && e.contains("give `pose` too"), "{e}");
         let half = DEFAULT_TOML.replace("pose = \"pulled\"", "");
         assert!(Params::from_toml_str(&half).unwrap_err().to_string().contains("state.pull"));

@@ -7,6 +7,8 @@
 //! without overshoot. An event is sent when the pose is within the postural
 //! accuracy, and another when the robot stops making progress (the tactile
 //! reactions, superposed and dominant, hold it back: it touches something).
+//! Joint groups (the arms) may be kept together on the way: a group
+//! further along its own path than another waits for it.
 
 use serde::{Deserialize, Serialize};
 
@@ -94,7 +96,18 @@ pub struct Trajectory {
     reached: bool,
     stalled: bool,
     window: Option<(f64, f64)>,
+    together: Vec<Vec<usize>>,
+    start: Option<Vec<f64>>,
 }
+
+/// A group this much further along its path than the one furthest
+/// behind (as shares of each group's path at the first step) moves at
+/// full speed; [`STOP_AHEAD`] ahead it waits, in between it slows.
+const FREE_AHEAD: f64 = 0.05;
+const STOP_AHEAD: f64 = 0.15;
+/// A group with less than this to go at the first step is not kept
+/// with the others (its share of a path so short is noise), rad.
+const SHORTEST_PATH_RAD: f64 = 0.05;
 
 impl Trajectory {
     /// A trajectory to `target`, named after its key pose.
@@ -112,7 +125,26 @@ impl Trajectory {
             reached: false,
             stalled: false,
             window: None,
+            together: Vec::new(),
+            start: None,
         })
+    }
+
+    /// Keeps the joint `groups` (indices into the pose) together: each
+    /// covers its own path from where the first step finds it as fast as
+    /// the one furthest behind. Two arms pulling an object, one held back
+    /// by its force reaction (it feels the object) and the other not (its
+    /// bare surface pushes where no cell feels), otherwise push it across
+    /// into the arm that yields. Indices past the pose are left out.
+    pub fn together(mut self, groups: Vec<Vec<usize>>) -> Trajectory {
+        let dofs = self.target.len();
+        self.together = groups.into_iter().map(|g| g.into_iter().filter(|&j| j < dofs).collect()).collect();
+        self
+    }
+
+    /// Lets every joint go its own pace from now on.
+    pub fn apart(&mut self) {
+        self.together.clear();
     }
 
     /// The key pose's name.
@@ -156,10 +188,31 @@ impl Trajectory {
         for ((o, q), t) in out.iter_mut().zip(pose).zip(&self.target) {
             *o = (t - q) * scale;
         }
+        self.keep_together(pose, out);
         if !self.reached {
             event = event.or(self.watch_progress(distance, time_s));
         }
         Ok(event)
+    }
+
+    /// Slows each group ahead of the one furthest behind (see [`together`](Self::together)).
+    fn keep_together(&mut self, pose: &[f64], out: &mut [f64]) {
+        if self.together.len() < 2 {
+            return;
+        }
+        let to_go = |g: &Vec<usize>| g.iter().map(|&j| (self.target[j] - pose[j]).powi(2)).sum::<f64>().sqrt();
+        let left: Vec<f64> = self.together.iter().map(to_go).collect();
+        let start = self.start.get_or_insert_with(|| left.clone());
+        let share: Vec<Option<f64>> =
+            left.iter().zip(start.iter()).map(|(l, s)| (*s >= SHORTEST_PATH_RAD).then(|| l / s)).collect();
+        let behind = share.iter().flatten().fold(f64::NEG_INFINITY, |m, s| m.max(*s));
+        for (g, s) in self.together.iter().zip(&share) {
+            let Some(s) = s else { continue };
+            let k = ((STOP_AHEAD - (behind - s)) / (STOP_AHEAD - FREE_AHEAD)).clamp(0.0, 1.0);
+            for &j in g {
+                out[j] *= k;
+            }
+        }
     }
 
     /// Progress is judged on the whole pose (Euclidean distance to the
@@ -233,6 +286,34 @@ mod tests {
         let events = run(&mut t, &mut pose, 10.0, |q| vec![if q[0] > 0.3 { -0.4 * (q[0] - 0.3) * 10.0 } else { 0.0 }]);
         assert_eq!(events.iter().map(|e| e.1).collect::<Vec<_>>(), [TrajectoryEvent::Stalled]);
         assert!(pose[0] > 0.3 && pose[0] < 0.35);
+    }
+
+    #[test]
+    fn a_group_ahead_waits_for_the_one_held_back() {
+        let motion = Motion { max_velocity: 0.2, accuracy: 0.01, stop_at_target: true };
+        let new = || Trajectory::new("pulled", &[1.0, -1.0], motion, Timing::default()).unwrap();
+        // Joint 1 is held where it is for 5 s (an arm yielding to force).
+        let held = |t: &mut Trajectory| {
+            let mut pose = [0.0, 0.0];
+            let mut w = [0.0; 2];
+            for k in 0..(5.0 / DT) as usize {
+                t.step(&pose, k as f64 * DT, &mut w).unwrap();
+                pose[0] += w[0] * DT;
+            }
+            pose
+        };
+        let alone = held(&mut new());
+        assert!(alone[0] > 0.6, "without groups joint 0 goes on: {alone:?}");
+        let mut together = new().together(vec![vec![0], vec![1], vec![7]]);
+        let pose = held(&mut together);
+        assert!(pose[0] > FREE_AHEAD && pose[0] <= STOP_AHEAD + 1e-9, "waits {STOP_AHEAD} of its way ahead: {pose:?}");
+        // Let go, both arrive; apart, joint 0 alone goes on.
+        let mut pose = pose;
+        run(&mut together, &mut pose, 10.0, |_| vec![0.0; 2]);
+        assert!((pose[0] - 1.0).abs() <= 0.01 && (pose[1] + 1.0).abs() <= 0.01, "{pose:?}");
+        let mut apart = new().together(vec![vec![0], vec![1]]);
+        apart.apart();
+        assert!(held(&mut apart)[0] > 0.6);
     }
 
     #[test]
