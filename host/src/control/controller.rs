@@ -169,7 +169,9 @@ impl Controller {
             // Near the chest the arms close on the object each at its own
             // pace: held back there, they looked still to the person, who
             // let go of an object the pull's light grip does not carry.
-            if self.events.any(AreaKind::Chest, Modality::Proximity, self.params.transitions.contact_proximity) {
+            if t.is_together()
+                && self.events.any(AreaKind::Chest, Modality::Proximity, self.params.transitions.contact_proximity)
+            {
                 t.apart();
             }
             self.trajectory_event = t.step(pose, time_s, &mut self.scratch)?;

@@ -169,17 +169,15 @@ impl StateParams {
     }
 
     fn check(&self, state: &str) -> Result<(), ControlError> {
-        if self.together && self.pose.is_none() {
-            return Err(ControlError::Incomplete(format!(
-                "state.{state}: `together` keeps the arms together on a trajectory: give `pose` too"
-            )));
+        // Keys about a trajectory need one.
+        let about_trajectory = [
+            (self.stall_window_s.is_some(), "`stall_window_s` judges a trajectory"),
+            (self.together, "`together` keeps the arms together on a trajectory"),
+        ];
+        if let Some((_, what)) = about_trajectory.iter().find(|(given, _)| *given && self.pose.is_none()) {
+            return Err(ControlError::Incomplete(format!("state.{state}: {what}: give `pose` too")));
         }
         if self.stall_window_s.is_some() {
-            if self.pose.is_none() {
-                return Err(ControlError::Incomplete(format!(
-                    "state.{state}: `stall_window_s` judges a trajectory: give `pose` too"
-                )));
-            }
             self.timing(Timing::default()).check().map_err(|e| in_state(state, e))?;
         }
         for kind in AreaKind::ALL {

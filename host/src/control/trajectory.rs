@@ -147,6 +147,11 @@ impl Trajectory {
         self.together.clear();
     }
 
+    /// Whether joint groups are kept together.
+    pub fn is_together(&self) -> bool {
+        !self.together.is_empty()
+    }
+
     /// The key pose's name.
     pub fn name(&self) -> &str {
         &self.name
