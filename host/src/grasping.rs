@@ -397,7 +397,7 @@ pub fn grasp<R: Robot + SampleSource>(
     let areas = traced_areas(c.areas());
     let start = lab.time_s;
     let launch = start + LAUNCH_AT_S;
-    let (mut launched, mut held_s, mut supported_s, mut released) = (false, 0.0, 0.0, false);
+    let (mut launched, mut held_s, mut supported_s, mut released, mut ended) = (false, 0.0, 0.0, false, false);
     let mut watched = Watched::default();
     let mut at_release = None;
     let mut seen = verdict::Seen::default();
@@ -427,7 +427,16 @@ pub fn grasp<R: Robot + SampleSource>(
             });
             seen.at_release = Some((t - launch, truth));
         }
-        if (t >= launch && !std::mem::replace(&mut launched, true)) || release {
+        // The person took the object back into their hands: the grasp has
+        // failed, and the experimenter ends it with a pat rather than let
+        // the arms hug again what the person holds (squeezed against their
+        // hands, a box the right arm's bare surface pressed at 14 N struck
+        // a left arm's cell at pain as the arms let go).
+        let end = !released
+            && seen.taken_back.is_some()
+            && c.state().is_some_and(State::is_grasping)
+            && !std::mem::replace(&mut ended, true);
+        if (t >= launch && !std::mem::replace(&mut launched, true)) || release || end {
             lab.person.order(Order::Pat)?;
         }
         lab.period(&mut c, &taught.map)?;
@@ -512,6 +521,9 @@ fn watch_for_failure(
     }
     if seen.dropped.is_none() && watched.object.is_some_and(|o| o.fallen) {
         seen.dropped = Some(t);
+    }
+    if seen.taken_back.is_none() && watched.object.is_some_and(|o| o.taken_back) {
+        seen.taken_back = Some(t);
     }
     let holding = state == Some(State::Hold);
     seen.reached_hold |= holding;

@@ -124,6 +124,9 @@ pub struct Seen {
     pub cancelled_by: Option<(f64, Cause)>,
     /// When the truth first saw the object on the floor.
     pub dropped: Option<f64>,
+    /// When the person took the object back into their hands (it came
+    /// down with them as they let go).
+    pub taken_back: Option<f64>,
     /// When the grasp ended.
     pub end_s: f64,
 }
@@ -139,6 +142,9 @@ pub fn judge(seen: &Seen) -> Result<(), (Failure, Failed)> {
     }
     if let Some(t) = seen.dropped {
         return fail(Failure::Dropped, t, Why::NotHeld(NotHeld::Fallen));
+    }
+    if let Some(t) = seen.taken_back {
+        return fail(Failure::Slipped, t, Why::NotHeld(NotHeld::TakenBack));
     }
     if let Some((t, why)) = seen.lost_in_hold {
         return fail(Failure::Slipped, t, Why::NotHeld(why));
@@ -185,6 +191,10 @@ mod tests {
         );
         let fell = Seen { dropped: Some(4.0), ..resting };
         assert_eq!(failed(&fell), (Failure::Dropped, Failed { time_s: 4.0, why: Why::NotHeld(NotHeld::Fallen) }));
+        // The person took it back, and the experimenter's pat ended the grasp.
+        let kept = Seen { taken_back: Some(3.5), cancelled_by: Some((3.6, Cause::Pat)), ..Seen::default() };
+        let why = Why::NotHeld(NotHeld::TakenBack);
+        assert_eq!(failed(&kept), (Failure::Slipped, Failed { time_s: 3.5, why }));
         let running = Seen { timed_out: Some(180.0), ..Seen::default() };
         assert_eq!(failed(&running), (Failure::TimeOut, Failed { time_s: 180.0, why: Why::TimeLimit }));
         let cancel = |t: f64, c: Cause| Some((t, c));

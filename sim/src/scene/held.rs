@@ -69,6 +69,9 @@ pub struct ObjectTruth {
     pub support_n: Option<f64>,
     /// Whether it has fallen to the floor.
     pub fallen: bool,
+    /// The person took it back into their hands: it came down with them
+    /// as they let go, so the robot never carried it alone.
+    pub taken_back: bool,
 }
 
 impl ObjectTruth {
@@ -108,6 +111,7 @@ impl ObjectTruth {
             resting: None,
             support_n: None,
             fallen: false,
+            taken_back: false,
         }
     }
 
@@ -135,12 +139,14 @@ impl ObjectTruth {
         self.not_held().is_none()
     }
 
-    /// Why the object is not held, the first of: on the floor, on its
-    /// support, an arm off it, not between the arms, away from the chest;
-    /// none when it is held.
+    /// Why the object is not held, the first of: on the floor, in the
+    /// person's hands, on its support, an arm off it, not between the
+    /// arms, away from the chest; none when it is held.
     pub fn not_held(&self) -> Option<NotHeld> {
         if self.fallen {
             Some(NotHeld::Fallen)
+        } else if self.taken_back {
+            Some(NotHeld::TakenBack)
         } else if self.resting == Some(true) {
             Some(NotHeld::Resting)
         } else if self.arm_force_n[0] < ARM_CONTACT_N {
@@ -163,6 +169,8 @@ impl ObjectTruth {
 pub enum NotHeld {
     /// It lies on the floor.
     Fallen,
+    /// The person took it back into their hands.
+    TakenBack,
     /// Something other than the robot carries it (its support).
     Resting,
     /// The right arm does not press on it.
@@ -181,6 +189,7 @@ impl NotHeld {
     pub fn describe(self) -> &'static str {
         match self {
             NotHeld::Fallen => "on the floor",
+            NotHeld::TakenBack => "taken back into the person's hands",
             NotHeld::Resting => "standing on its support",
             NotHeld::RightArmOff => "the right arm off it",
             NotHeld::LeftArmOff => "the left arm off it",
@@ -234,6 +243,8 @@ mod tests {
         assert!(lifted.held(), "carried by the robot alone");
         assert_eq!(ObjectTruth { resting: Some(true), ..truth }.not_held(), Some(NotHeld::Resting));
         assert_eq!(ObjectTruth { fallen: true, resting: Some(true), ..truth }.not_held(), Some(NotHeld::Fallen));
+        let kept = ObjectTruth { taken_back: true, resting: Some(false), ..truth };
+        assert_eq!(kept.not_held(), Some(NotHeld::TakenBack), "the arms on it, the person's hands carrying it");
     }
 
     #[test]

@@ -334,6 +334,7 @@ impl Operator {
             resting: look.resting,
             support_n: look.support_n,
             fallen: look.fallen,
+            taken_back: matches!(self.handover, Handover::Kept),
             ..ObjectTruth::observe(p, self.back_m(p), offset, &self.arms, &look.contacts)
         })
     }
@@ -463,8 +464,9 @@ mod tests {
 
     /// The person hands a hugged object over: they wait for the arms to
     /// hold still, lower their hands, and let go; or, when it comes down
-    /// with their hands (`follows`), take it back and never let go.
-    fn hand_over(follows: bool) -> (f64, bool, bool) {
+    /// with their hands (`follows`), take it back and never let go. Also
+    /// whether the truth then has it in the person's hands.
+    fn hand_over(follows: bool) -> (f64, bool, bool, bool) {
         let robot = hrp2::robot();
         let setup = Setup::new(&robot, 4).unwrap();
         // Bolted down: a standing robot's sway moves its cells 1 mm.
@@ -508,21 +510,22 @@ mod tests {
                 stage.0.borrow_mut().look.object.as_mut().unwrap().pose.translation.z -= 0.001;
             }
         }
+        let in_hands = op.truth().unwrap().taken_back;
         let handled = stage.0.borrow();
-        (handled.lowered_m, handled.let_go, handled.taken_back)
+        (handled.lowered_m, handled.let_go, handled.taken_back, in_hands)
     }
 
     #[test]
     fn the_person_lowers_their_hands_and_lets_go_of_what_the_robot_carries() {
-        let (lowered, let_go, taken_back) = hand_over(false);
+        let (lowered, let_go, taken_back, in_hands) = hand_over(false);
         assert!(lowered > EASE_M * 0.9, "lowered by {lowered} m before letting go");
-        assert!(let_go && !taken_back);
+        assert!(let_go && !taken_back && !in_hands);
     }
 
     #[test]
     fn the_person_keeps_what_comes_down_with_their_hands() {
-        let (lowered, let_go, taken_back) = hand_over(true);
+        let (lowered, let_go, taken_back, in_hands) = hand_over(true);
         assert!(lowered > 0.0 && lowered < EASE_M / 2.0, "stopped lowering at {lowered} m");
-        assert!(!let_go && taken_back);
+        assert!(!let_go && taken_back && in_hands, "the truth has it in their hands");
     }
 }
