@@ -125,7 +125,7 @@ pub struct Seen {
     /// When the truth first saw the object on the floor.
     pub dropped: Option<f64>,
     /// When the person took the object back into their hands (it came
-    /// down with them as they let go).
+    /// down resting on them as they lowered them).
     pub taken_back: Option<f64>,
     /// When the grasp ended.
     pub end_s: f64,

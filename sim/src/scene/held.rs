@@ -69,8 +69,8 @@ pub struct ObjectTruth {
     pub support_n: Option<f64>,
     /// Whether it has fallen to the floor.
     pub fallen: bool,
-    /// The person took it back into their hands: it came down with them
-    /// as they let go, so the robot never carried it alone.
+    /// The person took it back into their hands: it came down resting on
+    /// them as they lowered them, so the robot never carried it alone.
     pub taken_back: bool,
 }
 
