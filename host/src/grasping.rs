@@ -21,6 +21,7 @@
 
 pub mod verdict;
 
+use std::collections::VecDeque;
 use std::time::Instant;
 
 use serde::Serialize;
@@ -42,10 +43,10 @@ use crate::control::ControlError;
 use crate::explore::{ExploreError, SensoryMotorMap};
 use crate::robot::{Robot, RobotError, SampleSource};
 
-/// Longest one grasp may take, from the launching pat, s: four hugs again
-/// of a heavy box, each pull creeping 25-30 s before it stalls, took up
-/// to 194 s in MuJoCo.
-const GRASP_LIMIT_S: f64 = 240.0;
+/// Longest one grasp may take, from the launching pat, s: seven hugs
+/// again of a heavy box, each pull creeping 25-30 s before it stalls, took
+/// up to 302 s in MuJoCo.
+const GRASP_LIMIT_S: f64 = 330.0;
 /// Longest wait for the person to answer an order, robot time, s (a
 /// lesson may take a minute).
 const ANSWER_LIMIT_S: f64 = 90.0;
@@ -207,6 +208,13 @@ pub struct GraspRun {
     /// What the truth said when the person patted to release (none: the
     /// controller never held it that long).
     pub at_release: Option<ObjectTruth>,
+    /// How far the object sank in the hold's last second before the
+    /// release pat, m (none: not released).
+    pub sank_at_release_m: Option<f64>,
+    /// It had stopped sinking by the release pat ([`verdict::settled`];
+    /// none: not released, or a world where objects never leave their
+    /// table): a held object that had not was still sliding down.
+    pub settled: Option<bool>,
     /// The state the controller ended in.
     pub controller_state: State,
     /// From the launching pat to the final state, s.
@@ -400,6 +408,9 @@ pub fn grasp<R: Robot + SampleSource>(
     let (mut launched, mut held_s, mut supported_s, mut released, mut ended) = (false, 0.0, 0.0, false, false);
     let mut watched = Watched::default();
     let mut at_release = None;
+    // How high the object was through the hold phase's last REST_S.
+    let mut path = VecDeque::new();
+    let mut sank_at_release_m = None;
     let mut seen = verdict::Seen::default();
     let pain_n = Calibration::default().force(f64::from(params.levels.force[3]));
     let mut trace = Vec::new();
@@ -421,6 +432,7 @@ pub fn grasp<R: Robot + SampleSource>(
         let release = holding && (held_s >= HOLD_S || supported_s >= HOLD_S) && !std::mem::replace(&mut released, true);
         if release {
             at_release = Some(watched.object);
+            sank_at_release_m = Some(sank_m(&path, watched.object.as_ref()));
             let truth = watched.object.map_or(Err(verdict::Why::NoObject), |o| match o.not_held() {
                 None => Ok(()),
                 Some(why) => Err(verdict::Why::NotHeld(why)),
@@ -445,6 +457,7 @@ pub fn grasp<R: Robot + SampleSource>(
         }
         let t = lab.time_s;
         watch_for_failure(&mut seen, &watched, &c, (t - launch, pain_n), released);
+        follow(&mut path, &watched, c.state() == Some(State::Hold), t);
         if t >= next_row {
             next_row += 1.0 / TRACE_HZ;
             trace.push(row(&c, &areas, lab.robot.positions(), t - launch, watched.object));
@@ -477,6 +490,11 @@ pub fn grasp<R: Robot + SampleSource>(
         reason: verdict.err().map(|(reason, _)| reason),
         failed: verdict.err().map(|(_, failed)| failed),
         at_release: at_release.flatten(),
+        sank_at_release_m,
+        // Where objects never leave their table nothing sinks.
+        settled: sank_at_release_m
+            .filter(|_| at_release.flatten().is_some_and(|o| o.resting.is_some()))
+            .map(verdict::settled),
         controller_state: end,
         time_s: state_log.last().map_or(0.0, |l| l.time_s),
         grip_force_max_n: watched.grip_force_max_n,
@@ -537,6 +555,30 @@ fn watch_for_failure(
     }
 }
 
+/// Keeps in `path` how high the object was (robot time `t`, s) over the
+/// hold phase's last [`verdict::REST_S`]: the phase as
+/// [`watch_for_failure`] has it, while the controller is `holding` and the
+/// person has let go.
+fn follow(path: &mut VecDeque<(f64, f64)>, watched: &Watched, holding: bool, t: f64) {
+    match watched.object {
+        Some(o) if holding && !watched.on_support() => path.push_back((t, o.centre_m[2])),
+        _ => path.clear(),
+    }
+    while path.front().is_some_and(|(t0, _)| t - t0 > verdict::REST_S) {
+        path.pop_front();
+    }
+}
+
+/// How far the object is `now` below where it was at the start of `path`,
+/// m (0 with no object or no path, or when it rose: arms pressing it
+/// about are not its weight pulling it down).
+fn sank_m(path: &VecDeque<(f64, f64)>, now: Option<&ObjectTruth>) -> f64 {
+    match (path.front(), now) {
+        (Some((_, then)), Some(o)) => (then - o.centre_m[2]).max(0.0),
+        _ => 0.0,
+    }
+}
+
 /// The traced areas: right arm, left arm and chest (by kind and order).
 fn traced_areas(areas: &Areas) -> [Option<AreaId>; 3] {
     let mut contact = areas.of_kind(AreaKind::Contact);
@@ -560,4 +602,47 @@ fn row(
         }
     }
     TraceRow { time_s, state: c.state().expect("grasp mode"), joints_rad, force, proximity, object }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn how_far_the_object_sank_is_measured_over_the_hold_s_last_second() {
+        let at = |z: f64| ObjectTruth {
+            gap_m: 0.0,
+            centre_m: [0.3, 0.0, z],
+            arm_force_n: [1.0, 1.0],
+            body_force_n: 2.0,
+            between_arms: true,
+            from_front: false,
+            resting: Some(false),
+            support_n: Some(0.0),
+            fallen: false,
+            taken_back: false,
+        };
+        let (mut path, mut watched) = (VecDeque::new(), Watched::default());
+        // Sinking 3 mm/s through a 3 s hold, sampled every control period.
+        let sink = |t: f64| 0.2 - 0.003 * t;
+        for k in 0..=750 {
+            let t = f64::from(k) * 0.004;
+            watched.object = Some(at(sink(t)));
+            follow(&mut path, &watched, true, t);
+        }
+        let now = at(sink(3.004));
+        assert!((sank_m(&path, Some(&now)) - 0.003).abs() < 2e-5, "the last second's 3 mm");
+        assert!(!verdict::settled(sank_m(&path, Some(&now))));
+        assert_eq!(sank_m(&path, Some(&at(0.3))), 0.0, "pushed up, not sinking");
+        assert!(path.len() <= 251, "a second's samples kept, no more: {}", path.len());
+        // Standing on the person's hands again, or out of Hold: the phase starts over.
+        watched.object = Some(ObjectTruth { resting: Some(true), ..now });
+        follow(&mut path, &watched, true, 3.008);
+        assert_eq!(sank_m(&path, Some(&now)), 0.0);
+        watched.object = Some(now);
+        follow(&mut path, &watched, true, 3.012);
+        follow(&mut path, &watched, false, 3.016);
+        assert!(path.is_empty());
+        assert_eq!(sank_m(&path, None), 0.0);
+    }
 }

@@ -8,12 +8,30 @@
 //! carried by the robot alone (see [`skin_sim::scene::held`])?
 //! Anything else is a failure with a reason, the robot time it was decided
 //! and what decided it.
+//!
+//! Held says where the object is, not that it stays there: one the arms
+//! hold but cannot carry slides down them, slowly enough to be between
+//! them at the pat. Whether it had stopped sinking ([`settled`]) is
+//! reported beside the verdict.
 
 use serde::Serialize;
 
 use skin_sim::scene::held::NotHeld;
 
 use crate::control::grasp::Cause;
+
+/// The window over which a held object must have stopped sinking, s: the
+/// hold's last second before the release pat.
+pub const REST_S: f64 = 1.0;
+/// A settled object sinks no more than this over [`REST_S`], m: 2 mm/s, a
+/// box still sinking so would be 12 cm down after a minute's hold.
+pub const REST_M: f64 = 0.002;
+
+/// Whether an object that sank `sank_m` over the hold's last [`REST_S`]
+/// had stopped sinking.
+pub fn settled(sank_m: f64) -> bool {
+    sank_m <= REST_M
+}
 
 /// Why a grasp failed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
@@ -209,6 +227,12 @@ mod tests {
         assert_eq!(failed(&patted), (Failure::Cancelled, Failed { time_s: 1.0, why: Why::Controller(Cause::Pat) }));
         let wrist = Seen { cancelled_by: cancel(2.5, Cause::NonContactForce), ..Seen::default() };
         assert_eq!(failed(&wrist).0, Failure::Cancelled);
+    }
+
+    #[test]
+    fn settled_is_at_most_2_mm_in_the_last_second() {
+        assert!(settled(0.0) && settled(REST_M), "the bound itself is at rest");
+        assert!(!settled(0.003), "3 mm down in the hold's last second: sliding");
     }
 
     #[test]

@@ -43,6 +43,10 @@ pub fn grasps(s: &mut String, r: &Report) {
                 if run.succeeded { "ok" } else { "bad" },
                 match (run.reason, run.failed) {
                     (Some(reason), Some(failed)) => escape(&format!("not held: {}, {failed}", reason.name())),
+                    _ if run.settled == Some(false) => format!(
+                        "held, still sliding down ({:.1} mm in the hold's last second)",
+                        1e3 * run.sank_at_release_m.unwrap_or(0.0)
+                    ),
                     _ => "held".to_owned(),
                 },
                 run.controller_state.name(),

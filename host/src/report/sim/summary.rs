@@ -16,8 +16,11 @@ impl Report {
         }
         if let Some(g) = &self.grasps {
             let held = g.runs.iter().filter(|r| r.succeeded).count();
-            let names: Vec<String> =
-                g.runs.iter().map(|r| format!("{} {}", r.object, r.reason.map_or("held", |why| why.name()))).collect();
+            let names: Vec<String> = g
+                .runs
+                .iter()
+                .map(|r| format!("{} {}", r.object, r.reason.map_or(held_name(r), |why| why.name())))
+                .collect();
             s += &format!("grasps: {held} of {} held ({})\n", g.runs.len(), names.join(", "));
         }
         if let Some(truth) = &self.truth {
@@ -30,5 +33,14 @@ impl Report {
             );
         }
         s
+    }
+}
+
+/// A held grasp's word in the summary: whether the object had come to rest.
+fn held_name(run: &crate::grasping::GraspRun) -> &'static str {
+    if run.settled == Some(false) {
+        "held (still sliding)"
+    } else {
+        "held"
     }
 }
