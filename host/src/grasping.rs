@@ -180,6 +180,12 @@ impl Watched {
     fn on_support(&self) -> bool {
         self.object.is_some_and(|o| o.resting == Some(true) && !o.fallen)
     }
+
+    /// The hold phase the verdict judges: the controller `holding`, the
+    /// person having let go.
+    fn in_hold_phase(&self, holding: bool) -> bool {
+        holding && !self.on_support()
+    }
 }
 
 /// Where an object was put, from the default spot.
@@ -410,7 +416,7 @@ pub fn grasp<R: Robot + SampleSource>(
     let mut at_release = None;
     // How high the object was through the hold phase's last REST_S.
     let mut path = VecDeque::new();
-    let mut sank_at_release_m = None;
+    let (mut sank_at_release_m, mut settled) = (None, None);
     let mut seen = verdict::Seen::default();
     let pain_n = Calibration::default().force(f64::from(params.levels.force[3]));
     let mut trace = Vec::new();
@@ -432,7 +438,10 @@ pub fn grasp<R: Robot + SampleSource>(
         let release = holding && (held_s >= HOLD_S || supported_s >= HOLD_S) && !std::mem::replace(&mut released, true);
         if release {
             at_release = Some(watched.object);
-            sank_at_release_m = Some(sank_m(&path, watched.object.as_ref()));
+            let sank = sank_m(&path, watched.object.as_ref());
+            sank_at_release_m = Some(sank);
+            // Where objects never leave their table nothing sinks.
+            settled = watched.object.filter(|o| o.resting.is_some()).map(|_| verdict::settled(sank));
             let truth = watched.object.map_or(Err(verdict::Why::NoObject), |o| match o.not_held() {
                 None => Ok(()),
                 Some(why) => Err(verdict::Why::NotHeld(why)),
@@ -491,10 +500,7 @@ pub fn grasp<R: Robot + SampleSource>(
         failed: verdict.err().map(|(_, failed)| failed),
         at_release: at_release.flatten(),
         sank_at_release_m,
-        // Where objects never leave their table nothing sinks.
-        settled: sank_at_release_m
-            .filter(|_| at_release.flatten().is_some_and(|o| o.resting.is_some()))
-            .map(verdict::settled),
+        settled,
         controller_state: end,
         time_s: state_log.last().map_or(0.0, |l| l.time_s),
         grip_force_max_n: watched.grip_force_max_n,
@@ -547,7 +553,7 @@ fn watch_for_failure(
     seen.reached_hold |= holding;
     if !released {
         // The hold phase: the last stay in Hold, from when the person let go.
-        if !holding || watched.on_support() {
+        if !watched.in_hold_phase(holding) {
             seen.lost_in_hold = None;
         } else if seen.lost_in_hold.is_none() {
             seen.lost_in_hold = watched.object.and_then(|o| o.not_held()).map(|why| (t, why));
@@ -561,7 +567,7 @@ fn watch_for_failure(
 /// person has let go.
 fn follow(path: &mut VecDeque<(f64, f64)>, watched: &Watched, holding: bool, t: f64) {
     match watched.object {
-        Some(o) if holding && !watched.on_support() => path.push_back((t, o.centre_m[2])),
+        Some(o) if watched.in_hold_phase(holding) => path.push_back((t, o.centre_m[2])),
         _ => path.clear(),
     }
     while path.front().is_some_and(|(t0, _)| t - t0 > verdict::REST_S) {
