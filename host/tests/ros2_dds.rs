@@ -23,11 +23,14 @@ fn rclpy_on_fast_dds_sees_the_demo_as_a_ros_2_node() {
     let domain = Domain::unique();
     let dir = std::env::temp_dir().join(format!("skin-ros2-dds-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    // rclpy first: its participant is up before the first message.
+    // rclpy first, the demo once its subscriptions exist (rclpy says
+    // "ready"): started side by side, a cold start once brought rclpy up
+    // after the demo's first announcements, and it did not hear the
+    // whole quick demo in time.
     let count = PER_STREAM.to_string();
     let checker_args: Vec<&str> = ["120", &count].into_iter().chain(STREAMS).collect();
-    let checker =
-        domain.python(&python, "ros2_dds.py", &checker_args).stdout(std::process::Stdio::piped()).spawn().unwrap();
+    let (checker, _, checker_log) =
+        common::announcing(&mut domain.python(&python, "ros2_dds.py", &checker_args), "ready");
     let id = domain.0.to_string();
     let args =
         ["demo", "--quick", "--no-record", "--json", "--ros2", "--imu", "--ros-domain", &id, "--out"].map(OsStr::new);
@@ -36,7 +39,15 @@ fn rclpy_on_fast_dds_sees_the_demo_as_a_ros_2_node() {
     let out = demo.wait_with_output().unwrap();
     let rest = drain.join().unwrap();
     assert!(out.status.success(), "the demo failed: {rest}");
-    let got = rclpy::json_of("ros2_dds.py", &checker.wait_with_output().unwrap());
+    let mut finished = checker.wait_with_output().unwrap();
+    finished.stderr = checker_log.join().unwrap().into_bytes();
+    let got = rclpy::json_of("ros2_dds.py", &finished);
+    assert_eq!(
+        got["missing"],
+        serde_json::json!([]),
+        "rclpy did not hear it all before the demo ended: {}",
+        got["live"]
+    );
 
     assert_eq!(got["rmw"], "rmw_fastrtps_cpp", "the checker runs on Fast DDS");
     // The graph: the node, its publishers with their types, and their QoS.

@@ -114,9 +114,10 @@ fn ci_steps() -> Vec<Step> {
         Step {
             // rclpy on Fast DDS, a Python zenoh peer and Foxglove client; libmujoco
             // of the pinned wheel, explore, a welded base, sim-endpoint over UDP,
-            // robot_with_skin.xml read by MuJoCo's Python package.
+            // robot_with_skin.xml read by MuJoCo's Python package. Every test
+            // program runs, past a failing one: a failure hides no other.
             name: "tests (every crate, with ROS 2 on DDS and Zenoh, ros2_control, Foxglove and the MuJoCo world)",
-            action: Action::Test(Vec::new()),
+            action: Action::Test(vec!["--no-fail-fast"]),
         },
         cargo("build skin-protocol (thumb)", "build -p skin-protocol --target thumbv7em-none-eabihf --no-default-features"),
         cargo(
@@ -306,13 +307,33 @@ fn json_string(line: &str, key: &str) -> Option<String> {
     (!value.contains('\\')).then(|| value.to_owned())
 }
 
+/// What a failed step's log says of its failure: each failing test's
+/// panic (its header and the message after it; with `--no-fail-fast` a
+/// later test program's output would push them out of the tail), then
+/// the log's last `lines`.
 fn print_tail(log: &Path, lines: usize) {
     if let Ok(text) = fs::read_to_string(log) {
         let all: Vec<&str> = text.lines().collect();
-        for l in &all[all.len().saturating_sub(lines)..] {
+        let tail = all.len().saturating_sub(lines);
+        for l in panics(&all[..tail]).into_iter().chain(all[tail..].iter().copied()) {
             println!("      | {l}");
         }
     }
+}
+
+/// The lines of `log` that say why a test failed: `---- name stdout ----`
+/// and up to six lines from each `panicked at`.
+fn panics<'a>(log: &[&'a str]) -> Vec<&'a str> {
+    let mut keep = vec![false; log.len()];
+    for (i, l) in log.iter().enumerate() {
+        if l.starts_with("---- ") {
+            keep[i] = true;
+        }
+        if l.contains("panicked at") {
+            keep[i..(i + 6).min(log.len())].iter_mut().for_each(|k| *k = true);
+        }
+    }
+    log.iter().zip(keep).filter(|(_, k)| *k).map(|(l, _)| *l).collect()
 }
 
 fn succeeds(program: &str, args: &[&str]) -> bool {
@@ -697,6 +718,37 @@ mod tests {
 
     /// A compiler-artifact line as cargo 1.95 prints it (shortened).
     const ARTIFACT: &str = r#"{"reason":"compiler-artifact","manifest_path":"/w/tests/Cargo.toml","target":{"kind":["test"],"crate_types":["bin"],"name":"qemu","src_path":"/w/tests/tests/qemu.rs","test":true},"executable":"/w/target/debug/deps/qemu-63ba01df0dff747a","fresh":true}"#;
+
+    #[test]
+    fn a_failed_logs_panics_are_picked_out() {
+        let log = [
+            "running 2 tests",
+            "test a ... ok",
+            "---- b stdout ----",
+            "",
+            "thread 'b' panicked at host/tests/b.rs:3:5:",
+            "b failed: why",
+            "stack backtrace:",
+            "   0: x",
+            "   1: y",
+            "   2: z",
+            "   3: w",
+            "test result: FAILED. 1 passed; 1 failed",
+        ];
+        assert_eq!(
+            super::panics(&log),
+            [
+                "---- b stdout ----",
+                "thread 'b' panicked at host/tests/b.rs:3:5:",
+                "b failed: why",
+                "stack backtrace:",
+                "   0: x",
+                "   1: y",
+                "   2: z"
+            ]
+        );
+        assert!(super::panics(&log[..2]).is_empty());
+    }
 
     #[test]
     fn a_test_program_and_its_package_are_read_from_cargos_json() {

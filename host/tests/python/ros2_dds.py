@@ -7,9 +7,13 @@ transient-local subscription to /robot_description.
 /tf_static is checked in the graph only: its type, tf2_msgs/TFMessage, has
 no wheel, and Fast DDS matches a reader to a writer by type name.
 
-Usage: ros2_dds.py SECONDS COUNT STREAM... Listens until every volatile
-topic has been heard, each STREAM topic COUNT times, and the late joiner
-has its description, or SECONDS have passed. Prints one JSON object.
+Usage: ros2_dds.py SECONDS COUNT STREAM... Says "ready" on stderr once
+its subscriptions exist (the test starts the demo then: a participant
+that joins after the demo's first announcement waits for its next one,
+10 s later). Listens until every volatile topic has been heard, each
+STREAM topic COUNT times, and the late joiner has its description; or
+until the demo's node, once seen, has left the graph; or SECONDS have
+passed. Prints one JSON object, with what was still missing.
 """
 
 import json
@@ -18,6 +22,7 @@ import time
 
 import rclpy
 import rclpy.utilities
+from rclpy.node import NodeNameNonExistentError
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Imu, JointState, PointCloud2
@@ -102,16 +107,32 @@ latched_qos = QoSProfile(
 )
 
 deadline = time.monotonic() + SECONDS
+print("ready", file=sys.stderr, flush=True)
 
 
 def publishers_of(topic):
     return [i for i in node.get_publishers_info_by_topic(topic) if i.node_name == "skin"]
 
 
+def graph_now():
+    """The graph while /skin is in it, else None."""
+    try:
+        return {
+            "nodes": sorted(ns.rstrip("/") + "/" + n for n, ns in node.get_node_names_and_namespaces()),
+            "skin_publishers": sorted(
+                [t, types] for t, types in node.get_publisher_names_and_types_by_node("skin", "/")
+            ),
+            "qos": {t: [qos_text(i) for i in publishers_of(t)] for t in list(VOLATILE) + LATCHED},
+        }
+    except NodeNameNonExistentError:
+        return None
+
+
 # The graph once every latched topic has a publisher of /skin: that is
 # when the demo has published them, and when the late joiner joins.
 while time.monotonic() < deadline and not all(publishers_of(t) for t in LATCHED):
     executor.spin_once(timeout_sec=0.05)
+seen = graph_now()
 late_node = rclpy.create_node("skin_late")
 late = {}
 late_node.create_subscription(String, "/robot_description", keep(late, "/robot_description"), latched_qos)
@@ -119,26 +140,22 @@ executor.add_node(late_node)
 
 # A stream, not one burst: /skin/imu comes as one message per cell at
 # each cloud, so heard once it may be a few messages of a single burst.
-def heard_enough():
-    streams = all(live.get(t, {}).get("count", 0) >= COUNT for t in STREAMS)
-    return streams and all(t in live for t in VOLATILE) and "/robot_description" in late
+def missing():
+    few = [t for t in VOLATILE if live.get(t, {}).get("count", 0) < (COUNT if t in STREAMS else 1)]
+    return few + ([] if "/robot_description" in late else ["late /robot_description"])
 
 
-while time.monotonic() < deadline and not heard_enough():
+# Until heard, or the demo's node seen has left (the demo is over).
+while time.monotonic() < deadline and missing() and (seen is None or ("skin", "/") in node.get_node_names_and_namespaces()):
     executor.spin_once(timeout_sec=0.05)
 # A moment more: a second copy of a latched message would arrive now.
 settle = time.monotonic() + 0.5
 while time.monotonic() < settle:
     executor.spin_once(timeout_sec=0.05)
 
-graph = {
-    "nodes": sorted(ns.rstrip("/") + "/" + n for n, ns in node.get_node_names_and_namespaces()),
-    "skin_publishers": sorted(
-        [t, types] for t, types in node.get_publisher_names_and_types_by_node("skin", "/")
-    ),
-    "qos": {t: [qos_text(i) for i in publishers_of(t)] for t in list(VOLATILE) + LATCHED},
-}
-print(json.dumps({"rmw": rmw, "live": live, "late": late, "graph": graph, "cells_latency_ms": sorted(cells_latency_ms)}))
+graph = graph_now() or seen or {"nodes": [], "skin_publishers": [], "qos": {}}
+result = {"rmw": rmw, "live": live, "late": late, "graph": graph, "missing": missing()}
+print(json.dumps(result | {"cells_latency_ms": sorted(cells_latency_ms)}))
 late_node.destroy_node()
 node.destroy_node()
 rclpy.shutdown()
