@@ -280,12 +280,18 @@ impl Operator {
         let truth = self.truth();
         self.handover = match std::mem::replace(&mut self.handover, Handover::LetGo) {
             Handover::Holding { hugged_since } => {
+                // Every cell, the hands' with them: the cells the person
+                // guides (links 1-3, shoulder to forearm) moved less than
+                // STILL_M in a second while a pull still drew a cylinder
+                // in, its joints turning up to 7 mrad/s, the wrists among
+                // them (`gen4_24`), and the person let go mid-pull.
                 let hugged_since = truth.filter(ObjectTruth::hugged).map(|_| {
-                    let arms: Vec<_> =
-                        self.setup.guided_cells.iter().flatten().map(|&u| poses[u] * Point3::origin()).collect();
+                    let cells: Vec<_> = poses.iter().map(|p| p * Point3::origin()).collect();
                     match hugged_since {
-                        Some((since, at)) if at.iter().zip(&arms).all(|(a, b)| (a - b).norm() < STILL_M) => (since, at),
-                        _ => (t, arms),
+                        Some((since, at)) if at.iter().zip(&cells).all(|(a, b)| (a - b).norm() < STILL_M) => {
+                            (since, at)
+                        }
+                        _ => (t, cells),
                     }
                 });
                 match (&hugged_since, truth) {
@@ -481,8 +487,9 @@ mod tests {
     /// The person hands a hugged object over: they wait for the arms to
     /// hold still, lower their hands, and let go; or, when it comes down
     /// with their hands, take it back and never let go. Also whether the
-    /// truth then has it in the person's hands.
-    fn hand_over(goes: Goes) -> (f64, bool, bool, bool) {
+    /// truth then has it in the person's hands. The right wrist turns at
+    /// `wrist_rad_s` throughout (an arm still moving).
+    fn hand_over(goes: Goes, wrist_rad_s: f64) -> (f64, bool, bool, bool) {
         let robot = hrp2::robot();
         let setup = Setup::new(&robot, 4).unwrap();
         // Bolted down: a standing robot's sway moves its cells 1 mm.
@@ -515,6 +522,9 @@ mod tests {
         assert!(op.truth().unwrap().hugged());
         let mut samples = Vec::new();
         let start = world.time_s();
+        let mut creep = vec![0.0; world.positions().len()];
+        creep[WRIST] = wrist_rad_s;
+        world.command(&creep).unwrap();
         while world.time_s() - start < HUG_WAIT_S + EASE_M / EASE_M_PER_S + 0.5 {
             op.act(&world);
             world.step(&mut samples);
@@ -536,7 +546,7 @@ mod tests {
     #[test]
     fn the_person_lowers_their_hands_and_lets_go_of_what_the_robot_carries() {
         for goes in [Goes::Stays, Goes::Settles] {
-            let (lowered, let_go, taken_back, in_hands) = hand_over(goes);
+            let (lowered, let_go, taken_back, in_hands) = hand_over(goes, 0.0);
             assert!(lowered > EASE_M * 0.9, "lowered by {lowered} m before letting go");
             assert!(let_go && !taken_back && !in_hands);
         }
@@ -544,8 +554,20 @@ mod tests {
 
     #[test]
     fn the_person_keeps_what_comes_down_with_their_hands() {
-        let (lowered, let_go, taken_back, in_hands) = hand_over(Goes::Follows);
+        let (lowered, let_go, taken_back, in_hands) = hand_over(Goes::Follows, 0.0);
         assert!(lowered > 0.0 && lowered < EASE_M / 2.0, "stopped lowering at {lowered} m");
         assert!(!let_go && taken_back && in_hands, "the truth has it in their hands");
+    }
+
+    /// The right wrist's pitch (`RARM_JOINT5`), which moves the hand's
+    /// cells and none of those the person guides.
+    const WRIST: usize = 5;
+
+    #[test]
+    fn the_person_waits_while_a_hand_still_moves() {
+        let (lowered, let_go, ..) = hand_over(Goes::Stays, 0.05);
+        assert_eq!((lowered, let_go), (0.0, false), "the person let go while the hand moved");
+        let (lowered, let_go, ..) = hand_over(Goes::Stays, 0.0002);
+        assert!(lowered > EASE_M * 0.9 && let_go, "0.2 mrad/s is still: lowered {lowered} m");
     }
 }
