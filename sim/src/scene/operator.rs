@@ -42,7 +42,7 @@ const PAT_DEPTH_M: f64 = 0.0015;
 /// still, before letting go of what it stands on, s: the robot has
 /// stopped pulling and holds it as it will.
 const HUG_WAIT_S: f64 = 1.0;
-/// The arms are still while none of their cells has moved this far in
+/// The arms are still while no cell of the skin has moved this far in
 /// [`HUG_WAIT_S`], m: stiller than the controller's own stall test (0.005
 /// rad in 1 s, 1.5-2.5 mm at the forearm's cells), so a pull creeping
 /// towards the chest is not taken for a hold (at 3 mm the person let a
