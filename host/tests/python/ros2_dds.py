@@ -8,9 +8,9 @@ transient-local subscription to /robot_description.
 no wheel, and Fast DDS matches a reader to a writer by type name.
 
 Usage: ros2_dds.py SECONDS COUNT STREAM... Says "ready" on stderr once
-its subscriptions exist (the test starts the demo then: a participant
-that joins after the demo's first announcement waits for its next one,
-10 s later). Listens until every volatile topic has been heard, each
+its subscriptions exist (the test starts the demo then: started side by
+side, rclpy came up late on a cold machine and missed part of the quick
+demo). Listens until every volatile topic has been heard, each
 STREAM topic COUNT times, and the late joiner has its description; or
 until the demo's node, once seen, has left the graph; or SECONDS have
 passed. Prints one JSON object, with what was still missing.
@@ -145,8 +145,11 @@ def missing():
     return few + ([] if "/robot_description" in late else ["late /robot_description"])
 
 
-# Until heard, or the demo's node seen has left (the demo is over).
-while time.monotonic() < deadline and missing() and (seen is None or ("skin", "/") in node.get_node_names_and_namespaces()):
+def demo_over():
+    return seen is not None and ("skin", "/") not in node.get_node_names_and_namespaces()
+
+
+while time.monotonic() < deadline and missing() and not demo_over():
     executor.spin_once(timeout_sec=0.05)
 # A moment more: a second copy of a latched message would arrive now.
 settle = time.monotonic() + 0.5
@@ -154,8 +157,10 @@ while time.monotonic() < settle:
     executor.spin_once(timeout_sec=0.05)
 
 graph = graph_now() or seen or {"nodes": [], "skin_publishers": [], "qos": {}}
-result = {"rmw": rmw, "live": live, "late": late, "graph": graph, "missing": missing()}
-print(json.dumps(result | {"cells_latency_ms": sorted(cells_latency_ms)}))
+print(json.dumps({
+    "rmw": rmw, "live": live, "late": late, "graph": graph, "missing": missing(),
+    "cells_latency_ms": sorted(cells_latency_ms),
+}))
 late_node.destroy_node()
 node.destroy_node()
 rclpy.shutdown()
