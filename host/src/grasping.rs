@@ -54,6 +54,11 @@ const ANSWER_LIMIT_S: f64 = 90.0;
 const LAUNCH_AT_S: f64 = 0.5;
 /// How long the robot holds an object before the person pats to release it, s.
 const HOLD_S: f64 = 3.0;
+/// How long the robot may hold an object the person still holds up before
+/// they pat to release it, s: they wait 2 s for the arms to be still and
+/// take 1.5 s to lower their hands, so at 3 s objects the robot carried
+/// were released still on their hands, judged resting.
+const LET_GO_LIMIT_S: f64 = 8.0;
 /// Trace rows per second (every control period is 250).
 const TRACE_HZ: f64 = 50.0;
 /// Longest the robot may take to go home between grasps, robot time, s.
@@ -427,7 +432,7 @@ pub fn grasp<R: Robot + SampleSource>(
         // again meanwhile), at a moment it holds. The hold phase starts
         // when the person has let go: until then the robot does not hold
         // the object alone (the person waits for the arms to stop). A
-        // person who has not let go after HOLD_S of holding never will:
+        // person who has not let go after LET_GO_LIMIT_S of holding never will:
         // released then, it is judged standing on their hands.
         let holding = c.state() == Some(State::Hold);
         if holding && watched.on_support() {
@@ -435,7 +440,8 @@ pub fn grasp<R: Robot + SampleSource>(
         } else if holding {
             held_s += lab.robot.tick_s();
         }
-        let release = holding && (held_s >= HOLD_S || supported_s >= HOLD_S) && !std::mem::replace(&mut released, true);
+        let release =
+            holding && (held_s >= HOLD_S || supported_s >= LET_GO_LIMIT_S) && !std::mem::replace(&mut released, true);
         if release {
             at_release = Some(watched.object);
             let sank = sank_m(&path, watched.object.as_ref());
