@@ -151,8 +151,8 @@ enum Handover {
     /// at the chest and held still, s, and where their cells were then.
     Holding { hugged_since: Option<(f64, Vec<Point3<f64>>)> },
     /// Lowering their hands since `since_s`, the object's centre then at
-    /// height `z_m`, the arms' cells where they were still.
-    Easing { since_s: f64, z_m: f64, arms: Vec<Point3<f64>> },
+    /// height `z_m`, the skin's cells where they were still.
+    Easing { since_s: f64, z_m: f64, cells: Vec<Point3<f64>> },
     /// Let go: the robot carries it.
     LetGo,
     /// It came down with their hands: they hold it where it is, and the
@@ -293,30 +293,23 @@ impl Operator {
                 // STILL_M in a second while a pull still drew a cylinder
                 // in, its joints turning up to 7 mrad/s, the wrists among
                 // them (`gen4_24`), and the person let go mid-pull.
-                let hugged_since = truth.filter(ObjectTruth::hugged).map(|_| {
-                    let cells: Vec<_> = poses.iter().map(|p| p * Point3::origin()).collect();
-                    match hugged_since {
-                        Some((since, at)) if at.iter().zip(&cells).all(|(a, b)| (a - b).norm() < STILL_M) => {
-                            (since, at)
-                        }
-                        _ => (t, cells),
-                    }
+                let hugged_since = truth.filter(ObjectTruth::hugged).map(|_| match hugged_since {
+                    Some((since, at)) if moved_m(&at, poses) < STILL_M => (since, at),
+                    _ => (t, poses.iter().map(|p| p * Point3::origin()).collect()),
                 });
                 match (hugged_since, truth) {
-                    (Some((since, arms)), Some(o)) if t - since >= HUG_WAIT_S => {
-                        Handover::Easing { since_s: t, z_m: o.centre_m[2], arms }
+                    (Some((since, cells)), Some(o)) if t - since >= HUG_WAIT_S => {
+                        Handover::Easing { since_s: t, z_m: o.centre_m[2], cells }
                     }
                     (hugged_since, _) => Handover::Holding { hugged_since },
                 }
             }
-            Handover::Easing { arms, .. }
-                if poses.iter().zip(&arms).any(|(p, a)| (p * Point3::origin() - a).norm() > MOVING_M) =>
-            {
+            Handover::Easing { cells, .. } if moved_m(&cells, poses) > MOVING_M => {
                 tracing::debug!(time_s = t, "the arms move again: the person holds the object up again");
                 self.stage.lower_support(0.0);
                 Handover::Holding { hugged_since: None }
             }
-            Handover::Easing { since_s, z_m, arms } => {
+            Handover::Easing { since_s, z_m, cells } => {
                 let down_m = (EASE_M_PER_S * (t - since_s)).min(EASE_M);
                 if truth.is_some_and(|o| o.centre_m[2] < z_m - FOLLOW_M && o.resting == Some(true)) {
                     tracing::debug!(time_s = t, "the object follows the person's hands down: they keep it");
@@ -327,7 +320,7 @@ impl Operator {
                     Handover::LetGo
                 } else {
                     self.stage.lower_support(down_m);
-                    Handover::Easing { since_s, z_m, arms }
+                    Handover::Easing { since_s, z_m, cells }
                 }
             }
             kept_or_let_go => kept_or_let_go,
@@ -375,6 +368,11 @@ impl Operator {
             }
         }
     }
+}
+
+/// How far the farthest of the skin's cells at `poses` has moved from `at`, m.
+fn moved_m(at: &[Point3<f64>], poses: &[Isometry3<f64>]) -> f64 {
+    at.iter().zip(poses).map(|(a, p)| (p * Point3::origin() - a).norm()).fold(0.0, f64::max)
 }
 
 #[cfg(test)]
