@@ -227,6 +227,41 @@ pub(super) struct Scenery {
     felt: Vec<[f64; 3]>,
 }
 
+/// Logs contact `i` of the object (at trace level, target
+/// `skin_sim::mujoco::stage`): why an object slides or stays is each
+/// contact's friction against its cone, which no skin reading shows. On
+/// the robot: its cell (a plate's, `felt`, or the nearest to bare
+/// surface) and the force the truth counts; `cell` none: on the tray or
+/// the floor.
+fn trace_contact(
+    data: &MjData<Box<MjModel>>,
+    i: usize,
+    object_first: bool,
+    cell: Option<usize>,
+    felt: bool,
+    force_n: f64,
+) {
+    if !tracing::enabled!(tracing::Level::TRACE) {
+        return;
+    }
+    let c = &data.contact()[i];
+    let f = data.contact_force(i);
+    // MuJoCo's normal points from the first geom to the second.
+    let into = if object_first { -1.0 } else { 1.0 };
+    tracing::trace!(
+        time_s = data.time(),
+        cell,
+        felt,
+        point = ?c.pos,
+        normal_into_object = ?[0, 1, 2].map(|k| into * c.frame[k]),
+        force_n,
+        solver_normal_n = f[0],
+        friction_n = f[1].hypot(f[2]),
+        friction = c.friction[0],
+        "object contact"
+    );
+}
+
 /// Adds the floor, the hands and the tray to `spec` (before the first compile).
 pub(super) fn furnish(spec: &mut MjSpec) {
     let option = spec.option_mut();
@@ -466,6 +501,9 @@ impl Scenery {
                 continue;
             };
             if other == self.floor_geom || other == self.tray_geom {
+                if !by_hand {
+                    trace_contact(data, i, object_geom == Some(g1), None, false, 0.0);
+                }
                 resting = true;
                 support_n += data.contact_force(i)[0].max(0.0);
                 fallen |= other == self.floor_geom;
@@ -517,6 +555,7 @@ impl Scenery {
             if !by_hand {
                 let cell =
                     plate.unwrap_or_else(|| self.nearest_cell(data, model.geom_bodyid()[other] as usize, &point));
+                trace_contact(data, i, object_geom == Some(g1), Some(cell), plate.is_some(), force_n);
                 look.contacts.push(Contact { cell, point, force_n, felt: plate.is_some() });
                 if plate.is_none() {
                     let bare = look.bare_force_max_n.get_or_insert(0.0);
