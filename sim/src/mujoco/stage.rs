@@ -501,9 +501,8 @@ impl Scenery {
                 continue;
             };
             if other == self.floor_geom || other == self.tray_geom {
-                if !by_hand {
-                    trace_contact(data, i, object_geom == Some(g1), None, false, 0.0);
-                }
+                // Only the object touches these (the palms collide with neither).
+                trace_contact(data, i, object_geom == Some(g1), None, false, 0.0);
                 resting = true;
                 support_n += data.contact_force(i)[0].max(0.0);
                 fallen |= other == self.floor_geom;
