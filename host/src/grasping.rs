@@ -238,9 +238,9 @@ pub struct GraspRun {
     pub hand_force_max_n: f64,
     /// Ground truth: the largest force on any one force cell, N.
     pub max_cell_force_n: f64,
-    /// Ground truth: the largest force of the object on the robot's bare
-    /// surface, where no force cell feels it, N (none: the world has no
-    /// honest measure of it; the built-in scene's bare surface is rigid).
+    /// Ground truth: the largest force of the object on one link's bare
+    /// surface (its contacts there summed), where no force cell feels it,
+    /// N (none: the world does not measure it).
     pub bare_force_max_n: Option<f64>,
     /// Pain-level touches the controller evaded.
     pub pain_events: usize,

@@ -10,6 +10,7 @@ use std::process::{Command, Output};
 use serde_json::Value;
 use skin_host::control::params::Params;
 use skin_sim::scene::force::Calibration;
+use skin_sim::scene::held::BARE_PAIN_N;
 
 fn skin(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_skin")).args(args).output().expect("the skin binary runs")
@@ -39,6 +40,9 @@ fn check_held(r: &Value) {
     assert_eq!(regrip.last(), Some(&"hold"), "{}: {path:?}", r["object"]);
     assert_eq!(path[path.len() - 2..], ["release", "done"], "{}", r["object"]);
     assert_eq!(r["pain_events"], 0, "{}", r["object"]);
+    // The truth measures what no cell feels too: a pinch on the bare surface.
+    let bare_n = r["bare_force_max_n"].as_f64().expect("the bare surface's force is measured");
+    assert!(bare_n <= BARE_PAIN_N, "{}: {bare_n} N on the bare surface", r["object"]);
     let truth = &r["at_release"];
     assert_eq!(truth["between_arms"], true, "{truth}");
     assert!(truth["gap_m"].as_f64().unwrap() <= 0.01, "against the chest: {truth}");

@@ -490,6 +490,8 @@ impl Scenery {
         // Per force cell (cell, force cell): the object's force and the hands'.
         let mut zones: Vec<[[f64; 3]; 2]> = vec![[[0.0; 3]; 2]; self.cells.len()];
         let (mut resting, mut fallen, mut support_n) = (false, false, 0.0);
+        // Per robot body: the object's force on its bare surface.
+        let mut bare_n: Vec<(usize, f64)> = Vec::new();
         let hand_geoms = self.hand_geom;
         for (i, c) in data.contact().iter().enumerate() {
             let (g1, g2) = (c.geom1 as usize, c.geom2 as usize);
@@ -552,15 +554,21 @@ impl Scenery {
                 }
             }
             if !by_hand {
-                let cell =
-                    plate.unwrap_or_else(|| self.nearest_cell(data, model.geom_bodyid()[other] as usize, &point));
+                let body = model.geom_bodyid()[other] as usize;
+                let cell = plate.unwrap_or_else(|| self.nearest_cell(data, body, &point));
                 trace_contact(data, i, object_geom == Some(g1), Some(cell), plate.is_some(), force_n);
                 look.contacts.push(Contact { cell, point, force_n, felt: plate.is_some() });
                 if plate.is_none() {
-                    let bare = look.bare_force_max_n.get_or_insert(0.0);
-                    *bare = bare.max(force_n);
+                    match bare_n.iter_mut().find(|(b, _)| *b == body) {
+                        Some((_, sum)) => *sum += force_n,
+                        None => bare_n.push((body, force_n)),
+                    }
                 }
             }
+        }
+        if let Some(&(_, most)) = bare_n.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
+            let bare = look.bare_force_max_n.get_or_insert(0.0);
+            *bare = bare.max(most);
         }
         for (felt, [object, hand]) in self.felt.iter_mut().zip(zones) {
             *felt = [0, 1, 2].map(|k| object[k] + hand[k]);

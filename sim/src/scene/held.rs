@@ -19,9 +19,10 @@ use super::{Contact, Placed};
 pub const AGAINST_CHEST_M: f64 = 0.01;
 /// At least this much force of the object on an arm's skin is contact, N.
 pub const ARM_CONTACT_N: f64 = 0.05;
-/// A contact force of an object on the robot's bare surface (where no force
-/// cell feels it) above this is pain, N: ten times the weight of the
-/// heaviest object file's object (0.8 kg), a squeeze that crushes cardboard.
+/// A force of an object on one link's bare surface (where no force cell
+/// feels it; its contacts there summed) above this is pain, N: ten times
+/// the weight of the heaviest object file's object (0.8 kg), a squeeze
+/// that crushes cardboard.
 pub const BARE_PAIN_N: f64 = 80.0;
 
 /// Which arm a skin cell is on.

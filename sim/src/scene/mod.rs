@@ -153,6 +153,7 @@ pub struct Scene {
     max_force_n: f64,
     max_object_force_n: f64,
     max_hand_force_n: f64,
+    max_bare_force_n: f64,
 }
 
 impl Scene {
@@ -171,6 +172,7 @@ impl Scene {
             max_force_n: 0.0,
             max_object_force_n: 0.0,
             max_hand_force_n: 0.0,
+            max_bare_force_n: 0.0,
         }
     }
 
@@ -233,11 +235,19 @@ impl Scene {
         self.max_hand_force_n
     }
 
+    /// The largest force of the objects on one bare surface (what one
+    /// [`Scene::add_bare_surface`] added: in the experiments, a link's)
+    /// since the start (or the last reset), N: a pinch no cell feels.
+    pub fn max_bare_force_n(&self) -> f64 {
+        self.max_bare_force_n
+    }
+
     /// Forgets the largest forces.
     pub fn reset_max_force(&mut self) {
         self.max_force_n = 0.0;
         self.max_object_force_n = 0.0;
         self.max_hand_force_n = 0.0;
+        self.max_bare_force_n = 0.0;
     }
 
     /// Where the robot touched an object at the last [`Scene::sense`]:
@@ -296,6 +306,7 @@ impl Scene {
         }
         for bare in &self.bare {
             let Some(pose) = poses.get(bare.cell) else { continue };
+            let mut on_surface_n = 0.0;
             let centre = pose * bare.bound.0;
             for (placed, load) in self.objects.iter().zip(loads.iter_mut()) {
                 // The broad phase: no point of the surface can be inside.
@@ -316,11 +327,13 @@ impl Scene {
                         let into_body = -(placed.pose.rotation * placed.object.shape.normal(&local));
                         let force_n = depth * placed.object.stiffness_n_per_m;
                         self.contacts.push(Contact { cell: bare.cell, point: at, force_n, felt: false });
+                        on_surface_n += force_n;
                         let centre = placed.pose.translation.vector;
                         load.press(&centre, &at, &into_body, force_n, placed.object.stiffness_n_per_m);
                     }
                 }
             }
+            self.max_bare_force_n = self.max_bare_force_n.max(on_surface_n);
         }
         for (placed, load) in self.objects.iter_mut().zip(loads) {
             slide(placed, &load, self.damping_n_s_per_m, dt);
@@ -562,6 +575,26 @@ mod tests {
         let unfelt = scene.contacts();
         assert!(unfelt.iter().all(|c| !c.felt && c.cell == 0 && c.force_n > 0.0) && !unfelt.is_empty());
         assert!(scene.objects()[0].pose.translation.x > start + 0.005, "the lid was pushed away");
+    }
+
+    #[test]
+    fn a_bare_surface_s_force_is_its_points_summed_the_largest_surface_kept_until_reset() {
+        let mut scene = Scene::new(SkinModel::default());
+        scene.place(Object::by_name("box_lid").unwrap(), Isometry3::translation(0.1, 0.0, 0.0));
+        let lid = scene.objects()[0].object.clone();
+        let face_x = 0.1 + lid.shape.distance(&Point3::new(-1.0, 0.0, 0.0)) - 1.0;
+        // Five points 1 mm into the lid's -x face on one surface, one on another.
+        let depth = 0.001;
+        scene.add_bare_surface(0, (-2..=2).map(|k| Point3::new(face_x + depth, f64::from(k) * 0.01, 0.0)).collect());
+        scene.add_bare_surface(0, vec![Point3::new(face_x + depth, 0.03, 0.0)]);
+        scene.sense(0.0, &[Isometry3::identity()]);
+        let expected = 5.0 * depth * lid.stiffness_n_per_m;
+        assert!((scene.max_bare_force_n() - expected).abs() < 1e-6 * expected, "{} N", scene.max_bare_force_n());
+        scene.clear_objects();
+        scene.sense(0.004, &[Isometry3::identity()]);
+        assert!((scene.max_bare_force_n() - expected).abs() < 1e-6 * expected, "the largest is kept");
+        scene.reset_max_force();
+        assert_eq!(scene.max_bare_force_n(), 0.0);
     }
 
     #[test]

@@ -81,7 +81,7 @@ impl Stage for SharedScene {
             max_force_n: scene.max_force_n(),
             grip_force_max_n: scene.max_object_force_n(),
             hand_force_max_n: scene.max_hand_force_n(),
-            bare_force_max_n: None,
+            bare_force_max_n: Some(scene.max_bare_force_n()),
             object: scene.objects().first().cloned(),
             contacts: scene.contacts().to_vec(),
             resting: None,

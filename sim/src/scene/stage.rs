@@ -48,9 +48,9 @@ pub struct Look {
     pub grip_force_max_n: f64,
     /// The same of the person's hands alone, N.
     pub hand_force_max_n: f64,
-    /// The largest force of the object on the robot's bare surface (where
-    /// no force cell is) since it was put, N; none where the world has no
-    /// honest measure of it (the built-in scene's rigid bare surface).
+    /// The largest force of the object on one link's bare surface (where
+    /// no force cell is; its contacts there summed) since it was put, N;
+    /// none where the world does not measure it.
     pub bare_force_max_n: Option<f64>,
     /// The object as it is now.
     pub object: Option<Placed>,
