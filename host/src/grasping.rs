@@ -240,7 +240,7 @@ pub struct GraspRun {
     pub max_cell_force_n: f64,
     /// Ground truth: the largest force of the object on one link's bare
     /// surface (its contacts there summed), where no force cell feels it,
-    /// N (none: the world does not measure it).
+    /// N (none: nothing was put in the world).
     pub bare_force_max_n: Option<f64>,
     /// Pain-level touches the controller evaded.
     pub pain_events: usize,

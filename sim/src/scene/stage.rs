@@ -50,7 +50,8 @@ pub struct Look {
     pub hand_force_max_n: f64,
     /// The largest force of the object on one link's bare surface (where
     /// no force cell is; its contacts there summed) since it was put, N;
-    /// none where the world does not measure it.
+    /// both worlds measure it, and MuJoCo's says none until an object is
+    /// first put.
     pub bare_force_max_n: Option<f64>,
     /// The object as it is now.
     pub object: Option<Placed>,
