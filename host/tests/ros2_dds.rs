@@ -42,11 +42,14 @@ fn rclpy_on_fast_dds_sees_the_demo_as_a_ros_2_node() {
     let mut finished = checker.wait_with_output().unwrap();
     finished.stderr = checker_log.join().unwrap().into_bytes();
     let got = rclpy::json_of("ros2_dds.py", &finished);
+    // Once in about 20 runs rclpy heard every stream but /skin/imu, not one
+    // message of it: say what the graph and the demo's log showed then.
     assert_eq!(
         got["missing"],
         serde_json::json!([]),
-        "rclpy did not hear it all before the demo ended: {}",
-        got["live"]
+        "rclpy did not hear it all before the demo ended: {}\nthe graph: {}\nthe demo's log: {rest}",
+        got["live"],
+        got["graph"]
     );
 
     assert_eq!(got["rmw"], "rmw_fastrtps_cpp", "the checker runs on Fast DDS");
@@ -85,8 +88,11 @@ fn rclpy_on_fast_dds_sees_the_demo_as_a_ros_2_node() {
     let joints = &live("/joint_states")["last"];
     assert_eq!((joints["joints"].as_u64(), joints["positions"].as_u64()), (Some(14), Some(14)), "{joints}");
     assert_eq!(joints["finite"], true);
-    let g = live("/skin/imu")["last"]["g"].as_f64().unwrap();
-    assert!((0.5..1.5).contains(&g), "a cell feels about 1 g, not {g} g");
+    // The first, heard while the skin organizes and the robot stands
+    // still: the checker stops listening at any moment, and a cell on an
+    // arm the exploration moves felt 1.77 g when it stopped.
+    let g = live("/skin/imu")["first"]["g"].as_f64().unwrap();
+    assert!((0.5..1.5).contains(&g), "a still cell feels about 1 g, not {g} g");
     assert!(live("/skin/imu")["last"]["frame"].as_str().unwrap().starts_with("skin_cell_"));
     assert!(live("/skin/events")["first"]["markers"].as_u64().unwrap() > 0);
     // A stream, not one message: the cloud and joint states many times.

@@ -149,8 +149,13 @@ def demo_over():
     return seen is not None and ("skin", "/") not in node.get_node_names_and_namespaces()
 
 
+# The graph is looked at again every second while listening: the writers
+# of the streams come with their first messages, after the latched ones.
+looked = time.monotonic()
 while time.monotonic() < deadline and missing() and not demo_over():
     executor.spin_once(timeout_sec=0.05)
+    if time.monotonic() - looked > 1.0:
+        seen, looked = graph_now() or seen, time.monotonic()
 # A moment more: a second copy of a latched message would arrive now.
 settle = time.monotonic() + 0.5
 while time.monotonic() < settle:
