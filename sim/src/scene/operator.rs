@@ -318,7 +318,11 @@ impl Operator {
                 let down_m = (EASE_M_PER_S * (t - since_s)).min(EASE_M);
                 let bottom = down_m >= EASE_M;
                 if truth.is_some_and(|o| o.resting == Some(true) && (bottom || o.centre_m[2] < z_m - FOLLOW_M)) {
-                    tracing::debug!(time_s = t, "the object follows the person's hands down: they keep it");
+                    tracing::debug!(
+                        time_s = t,
+                        down_m,
+                        "the object rests on the person's hands as they lower them: they keep it"
+                    );
                     self.stage.take_back();
                     Handover::Kept
                 } else if bottom {
