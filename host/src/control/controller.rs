@@ -176,7 +176,17 @@ impl Controller {
             }
             self.trajectory_event = t.step(pose, time_s, &mut self.scratch)?;
             if let Some(e) = self.trajectory_event {
-                debug!(pose = t.name(), event = ?e, time_s, "trajectory");
+                // Each area's levels, proximity then force: what the grasp
+                // decides on when a pose is reached or the arms stall.
+                let touch: Vec<_> = self
+                    .areas
+                    .ids()
+                    .map(|a| {
+                        let level = |m| self.events.level(a, m);
+                        (self.areas.name(a), level(Modality::Proximity), level(Modality::Force))
+                    })
+                    .collect();
+                debug!(pose = t.name(), event = ?e, time_s, ?touch, q = ?pose, "trajectory");
             }
             for (c, w) in self.command.iter_mut().zip(&self.scratch) {
                 *c += w;

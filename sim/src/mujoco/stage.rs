@@ -257,6 +257,8 @@ fn trace_contact(
         force_n,
         solver_normal_n = f[0],
         friction_n = f[1].hypot(f[2]),
+        // On the object, world frame: which way each contact drags it.
+        friction_on_object = ?[0, 1, 2].map(|k| into * (f[1] * c.frame[3 + k] + f[2] * c.frame[6 + k])),
         friction = c.friction[0],
         "object contact"
     );
