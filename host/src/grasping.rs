@@ -135,6 +135,15 @@ pub struct Logged {
     pub cause: Cause,
 }
 
+/// When a force first reached its largest, and in which state.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Peak {
+    /// s after the launching pat (before it: negative).
+    pub time_s: f64,
+    /// The controller's state then.
+    pub state: State,
+}
+
 /// One row of a grasp's trace.
 #[derive(Clone, Debug, Serialize)]
 pub struct TraceRow {
@@ -238,6 +247,9 @@ pub struct GraspRun {
     pub hand_force_max_n: f64,
     /// Ground truth: the largest force on any one force cell, N.
     pub max_cell_force_n: f64,
+    /// When that force was reached, and in which state: where a grasp
+    /// comes near pain (none: no force cell was touched).
+    pub max_cell_force_at: Option<Peak>,
     /// Ground truth: the largest force of the object on one link's bare
     /// surface (its contacts there summed), where no force cell feels it,
     /// N (none: nothing was put in the world).
@@ -418,6 +430,7 @@ pub fn grasp<R: Robot + SampleSource>(
     let launch = start + LAUNCH_AT_S;
     let (mut launched, mut held_s, mut supported_s, mut released, mut ended) = (false, 0.0, 0.0, false, false);
     let mut watched = Watched::default();
+    let (mut peak_n, mut peak) = (0.0, None);
     let mut at_release = None;
     // How high the object was through the hold phase's last REST_S.
     let mut path = VecDeque::new();
@@ -472,6 +485,10 @@ pub fn grasp<R: Robot + SampleSource>(
         }
         let t = lab.time_s;
         watch_for_failure(&mut seen, &watched, &c, (t - launch, pain_n), released);
+        if watched.max_force_n > peak_n {
+            peak_n = watched.max_force_n;
+            peak = c.state().map(|state| Peak { time_s: t - launch, state });
+        }
         follow(&mut path, &watched, c.state() == Some(State::Hold), t);
         if t >= next_row {
             next_row += 1.0 / TRACE_HZ;
@@ -512,6 +529,7 @@ pub fn grasp<R: Robot + SampleSource>(
         grip_force_max_n: watched.grip_force_max_n,
         hand_force_max_n: watched.hand_force_max_n,
         max_cell_force_n: watched.max_force_n,
+        max_cell_force_at: peak,
         bare_force_max_n: watched.bare_force_max_n,
         pain_events,
         wall_s: started.elapsed().as_secs_f64(),

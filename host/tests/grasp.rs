@@ -52,6 +52,11 @@ fn check_held(r: &Value) {
     assert!(pats_n > 0.1, "{}: the person patted: {pats_n} N", r["object"]);
     let max_n = r["max_cell_force_n"].as_f64().unwrap();
     assert!(max_n >= grip_n.max(pats_n) && max_n < pain_n, "{}: {max_n} N, pain at {pain_n} N", r["object"]);
+    // Reached in a state the grasp went through, or at rest before the launching pat.
+    let at = &r["max_cell_force_at"];
+    let state = at["state"].as_str().unwrap();
+    assert!(path.contains(&state) || state == "home", "{}: {at}", r["object"]);
+    assert!(at["time_s"].as_f64().unwrap() <= r["time_s"].as_f64().unwrap(), "{}: {at}", r["object"]);
 }
 
 /// The paper's claim: all five objects with one parameter set, no pain.
