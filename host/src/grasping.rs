@@ -430,7 +430,7 @@ pub fn grasp<R: Robot + SampleSource>(
     let launch = start + LAUNCH_AT_S;
     let (mut launched, mut held_s, mut supported_s, mut released, mut ended) = (false, 0.0, 0.0, false, false);
     let mut watched = Watched::default();
-    let (mut peak_n, mut peak) = (0.0, None);
+    let mut peak = None;
     let mut at_release = None;
     // How high the object was through the hold phase's last REST_S.
     let mut path = VecDeque::new();
@@ -480,13 +480,13 @@ pub fn grasp<R: Robot + SampleSource>(
             lab.person.order(Order::Pat)?;
         }
         lab.period(&mut c, &taught.map)?;
+        let max_before_n = watched.max_force_n;
         for note in lab.notes.drain(..) {
             watched.hear(&note);
         }
         let t = lab.time_s;
         watch_for_failure(&mut seen, &watched, &c, (t - launch, pain_n), released);
-        if watched.max_force_n > peak_n {
-            peak_n = watched.max_force_n;
+        if watched.max_force_n > max_before_n {
             peak = c.state().map(|state| Peak { time_s: t - launch, state });
         }
         follow(&mut path, &watched, c.state() == Some(State::Hold), t);

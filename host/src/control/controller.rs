@@ -175,7 +175,7 @@ impl Controller {
                 t.apart();
             }
             self.trajectory_event = t.step(pose, time_s, &mut self.scratch)?;
-            if let Some(e) = self.trajectory_event {
+            if let Some(e) = self.trajectory_event.filter(|_| tracing::enabled!(tracing::Level::DEBUG)) {
                 // Each area's levels, proximity then force: what the grasp
                 // decides on when a pose is reached or the arms stall.
                 let touch: Vec<_> = self
