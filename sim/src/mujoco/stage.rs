@@ -6,10 +6,10 @@
 //! adds to the robot's model, through mjSpec: a floor 1 m below the root,
 //! two spheres for the person's palms, free bodies put where the person
 //! holds them every tick (they touch the robot, not the object), and a
-//! mocap tray for the person's hands under the object (it touches the
-//! object only). An object put down is a free body with the
-//! object file's mass and friction and a contact softness from its
-//! stiffness; putting one down recompiles the model from the kept spec and
+//! tray for the person's hands under the object (it touches the object
+//! only), put under it every tick and giving way to the arms' pull. An
+//! object put down is a free body with the object file's mass and
+//! friction and a contact softness from its stiffness; putting one down recompiles the model from the kept spec and
 //! carries the robot's state over. Taking an object back, the person's
 //! hands carry it where they took it, as forces on its free joint. The
 //! person ([`crate::scene::operator`]) acts on it through [`SharedStage`],
@@ -19,7 +19,7 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use mujoco_rs::prelude::*;
-use mujoco_rs::wrappers::mj_editing::{MjsBody, SpecObject};
+use mujoco_rs::wrappers::mj_editing::SpecObject;
 use nalgebra::{Isometry3, Point3, Translation3, Vector3};
 
 use crate::scene::hand::Hand;
@@ -39,6 +39,22 @@ const TRAY_HALF_M: f64 = 0.01;
 /// The tray's half extent as a fraction of the object's, so the arms
 /// closing around the object's sides do not meet the person's hands.
 const TRAY_FRACTION: f64 = 0.7;
+/// Mass of the tray, kg, and at least this many times the object's (the
+/// person holds it up, weightless to MuJoCo): MuJoCo's contact stiffness
+/// is an acceleration, so the object's contact with a tray as light as it
+/// gives as much more as their reduced mass is less than the object's
+/// (a 40 kg box on a 20 kg tray went through it to the floor).
+const TRAY_MASS_KG: f64 = 20.0;
+const TRAY_MASS_PER_OBJECT_MASS: f64 = 25.0;
+/// How readily the person's hands go with an object the arms draw
+/// towards the robot: the fraction of its pace towards the robot's root
+/// the tray moves at (away or sideways, not at all). A tray standing
+/// still (a mocap body) rubbed on the object as a fixed surface whose
+/// friction outweighed the arms' drag: 18 of 45 failures of 400 grasps
+/// were pulls that stalled hug after hug. Going with the object at its
+/// full pace, the object shot ahead of the converging forearms to the
+/// chest. At half, 371 of 400 were held (355 standing still).
+const TRAY_PACE: f64 = 0.5;
 /// Contact stiffness of a hand on a cell's cover plate over one of its
 /// force cells, N/m: the palm (3000 N/m) in series with the skin's foam
 /// under that force cell (1500 N/m), which alone bears a load there.
@@ -208,7 +224,8 @@ pub(super) struct Scenery {
     hand_geom: [usize; HANDS],
     /// Where each palm's free joint is in `qpos` and `qvel`.
     hand_q: [(usize, usize); HANDS],
-    tray_mocap: usize,
+    /// Where the tray's free joint is in `qpos` and `qvel`.
+    tray_q: (usize, usize),
     tray_geom: usize,
     floor_geom: usize,
     object: Option<Body>,
@@ -300,22 +317,19 @@ pub(super) fn furnish(spec: &mut MjSpec) {
         palm.set_solmix(OBJECT_SOLMIX);
         palm.set_priority(SOFT_PRIORITY);
     }
-    let tray = mocap(world, "stage:tray");
+    // A free body too, put under the object every tick with the velocity
+    // the person's hands move at, which MuJoCo's friction sees.
+    let tray = world.add_body();
+    let _ = tray.set_name("stage:tray");
+    *tray.pos_mut() = PARKED;
+    tray.set_gravcomp(1.0);
+    tray.add_free_joint();
     let plate = tray.add_geom();
     let _ = plate.set_name("stage:tray");
     plate.set_type(MjtGeomBase::mjGEOM_BOX);
     *plate.size_mut() = [0.05, 0.05, TRAY_HALF_M];
     plate.set_contype(SUPPORT_TYPE);
     plate.set_conaffinity(0);
-}
-
-/// A mocap body named `name`, parked.
-fn mocap<'a>(world: &'a mut MjsBody, name: &str) -> &'a mut MjsBody {
-    let body = world.add_body();
-    let _ = body.set_name(name);
-    body.set_mocap(true);
-    *body.pos_mut() = PARKED;
-    body
 }
 
 impl Scenery {
@@ -328,18 +342,14 @@ impl Scenery {
         forces: [[f64; 2]; 3],
     ) -> Result<Scenery, String> {
         let id = |kind, name: &str| model.name_to_id(kind, name).ok_or_else(|| format!("the model lacks {name}"));
-        let mocap_of = |name: &str| -> Result<usize, String> {
-            let body = id(MjtObjBase::mjOBJ_BODY, name)?;
-            Ok(model.body_mocapid()[body] as usize)
-        };
-        let palm = |k: usize| -> Result<(usize, usize), String> {
-            let joint = model.body_jntadr()[id(MjtObjBase::mjOBJ_BODY, &format!("stage:hand{k}"))?] as usize;
+        let free = |name: &str| -> Result<(usize, usize), String> {
+            let joint = model.body_jntadr()[id(MjtObjBase::mjOBJ_BODY, name)?] as usize;
             Ok((model.jnt_qposadr()[joint] as usize, model.jnt_dofadr()[joint] as usize))
         };
         Ok(Scenery {
-            hand_q: [palm(0)?, palm(1)?],
+            hand_q: [free("stage:hand0")?, free("stage:hand1")?],
             hand_geom: [id(MjtObjBase::mjOBJ_GEOM, "stage:hand0")?, id(MjtObjBase::mjOBJ_GEOM, "stage:hand1")?],
-            tray_mocap: mocap_of("stage:tray")?,
+            tray_q: free("stage:tray")?,
             tray_geom: id(MjtObjBase::mjOBJ_GEOM, "stage:tray")?,
             floor_geom: id(MjtObjBase::mjOBJ_GEOM, "stage:floor")?,
             object: None,
@@ -385,14 +395,16 @@ impl Scenery {
         // The person's hands stay under the object as the arms drag it
         // over them (as the built-in scene's support does): a tray left
         // where the object was put down let it tip off its back edge.
-        let tray = match &self.object {
+        let (tray, pace) = match &self.object {
             Some(body) if props.supporting => {
                 let at = &data.qpos()[body.qpos..body.qpos + 2];
-                [at[0], at[1], body.tray_z - props.lowered_m]
+                ([at[0], at[1], body.tray_z - props.lowered_m], yielding(data, body))
             }
-            _ => PARKED,
+            _ => (PARKED, [0.0; 2]),
         };
-        data.mocap_pos_mut()[self.tray_mocap] = tray;
+        let (qpos, qvel) = self.tray_q;
+        data.qpos_mut()[qpos..qpos + 7].copy_from_slice(&[tray[0], tray[1], tray[2], 1.0, 0.0, 0.0, 0.0]);
+        data.qvel_mut()[qvel..qvel + 6].copy_from_slice(&[pace[0], pace[1], 0.0, 0.0, 0.0, 0.0]);
     }
 
     /// Recompiles the model with `object` (or none) and carries the
@@ -550,10 +562,7 @@ impl Scenery {
                 // The force cells measure the part along the cell's normal.
                 let normal = Vector3::new(c.frame[0], c.frame[1], c.frame[2]);
                 let along = force_n * normal.dot(&(cell.rotation * Vector3::z())).abs();
-                let shares = super::cells::shares(&self.forces, local.x, local.y);
-                for (k, share) in shares.iter().enumerate() {
-                    zones[u][usize::from(by_hand)][k] += along * share;
-                }
+                super::cells::bear(&mut zones[u][usize::from(by_hand)], &self.forces, [local.x, local.y], along);
             }
             if !by_hand {
                 let body = model.geom_bodyid()[other] as usize;
@@ -662,6 +671,7 @@ fn add_object(spec: &mut MjSpec, object: &Object, pose: &Isometry3<f64>) -> f64 
     let tray_half = [half(Vector3::x()), half(Vector3::y())];
     if let Some(plate) = spec.geom_mut("stage:tray") {
         *plate.size_mut() = [tray_half[0], tray_half[1], TRAY_HALF_M];
+        plate.set_mass(TRAY_MASS_KG.max(TRAY_MASS_PER_OBJECT_MASS * object.mass_kg));
     }
     tray_z_under(object, pose)
 }
@@ -699,6 +709,20 @@ fn steady(data: &mut MjData<Box<MjModel>>, body: &Body) {
     let f = &mut data.qfrc_applied_mut()[body.qvel..body.qvel + 6];
     f[..3].fill(0.0);
     f[3..].copy_from_slice(local.as_slice());
+}
+
+/// The horizontal velocity of the person's hands under `body`: with it
+/// where the arms draw it towards the robot's root (the world's origin),
+/// at [`TRAY_PACE`] of its pace, and still where it goes any other way.
+fn yielding(data: &MjData<Box<MjModel>>, body: &Body) -> [f64; 2] {
+    let (q, v) = (&data.qpos()[body.qpos..body.qpos + 2], &data.qvel()[body.qvel..body.qvel + 2]);
+    let distance = q[0].hypot(q[1]);
+    if distance < 1e-6 {
+        return [0.0; 2];
+    }
+    let toward = [-q[0] / distance, -q[1] / distance];
+    let pace = (v[0] * toward[0] + v[1] * toward[1]).max(0.0) * TRAY_PACE;
+    [pace * toward[0], pace * toward[1]]
 }
 
 /// Height of the tray's centre that carries `object` standing at `pose`.
