@@ -341,6 +341,11 @@ impl Grasp {
                     // arm, which has closed without seeing it: pressing
                     // pushes the object towards the other arm.
                     Some((Load, Cause::Stalled))
+                } else if trajectory == Some(Reached) && any(Chest, Proximity, t.contact_proximity) {
+                    // A hug begun again where an earlier pull left the
+                    // object at the chest, inside the closed pose: the pull
+                    // closes the arms further on it.
+                    Some((Pull, Cause::Reached))
                 } else {
                     fail(trajectory)
                 }
@@ -395,7 +400,10 @@ impl Grasp {
                     Some((Squeeze, Cause::Chest))
                 } else if straining {
                     again(Cause::Force)
-                } else if lost {
+                } else if lost && trajectory.is_some() {
+                    // Squeezed between converging forearms, an object may
+                    // shoot ahead of them to the chest: the arms pull on to
+                    // the pulled pose, and it is lost only there.
                     Some((Cancel, Cause::ContactLost))
                 } else if stalled {
                     again(Cause::Stalled)
@@ -666,6 +674,9 @@ mod tests {
         assert_eq!(r.step(Some(Stalled)), State::Cancel, "stalled with nothing seen: missed");
         let mut r = contact(0.0);
         assert_eq!(r.step(Some(Reached)), State::Cancel, "closed without touching it: missed");
+        let mut r = contact(0.0);
+        set(&mut r.ev, 4, 0.2, 0.0);
+        assert_eq!(r.step(Some(Reached)), State::Pull, "closed short of it at the chest: close on it");
     }
 
     #[test]
@@ -696,7 +707,12 @@ mod tests {
         let mut r = Run::pulling();
         set(&mut r.ev, 2, 0.0, 0.0);
         set(&mut r.ev, 3, 0.0, 0.0);
+        assert_eq!(r.step(None), State::Pull, "out of the arms' sight: pull on to the pulled pose");
         assert_eq!(r.step(Some(Stalled)), State::Cancel, "stalled with the object lost: nothing to hug");
+        let mut r = Run::pulling();
+        set(&mut r.ev, 2, 0.0, 0.0);
+        set(&mut r.ev, 3, 0.0, 0.0);
+        assert_eq!(r.step(Some(Reached)), State::Cancel, "pulled with the object lost: nothing pulled");
     }
 
     #[test]
@@ -765,7 +781,10 @@ mod tests {
                     match after {
                         State::Squeeze => prop_assert_eq!(before, State::Pull),
                         State::Hold => prop_assert_eq!(before, State::Squeeze),
-                        State::Pull => prop_assert!(matches!(before, State::Load | State::Hold)),
+                        State::Pull => prop_assert!(matches!(
+                            before,
+                            State::Contact | State::Load | State::Squeeze | State::Hold
+                        )),
                         State::Release => prop_assert!(matches!(before, State::Squeeze | State::Hold)),
                         State::Done => prop_assert_eq!(before, State::Release),
                         s if s.is_grasping() && before.is_rest() => prop_assert_eq!(s, State::Open),
