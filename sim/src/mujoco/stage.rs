@@ -9,8 +9,9 @@
 //! tray for the person's hands under the object (it touches the object
 //! only), put under it every tick and giving way to the arms' pull. An
 //! object put down is a free body with the object file's mass and
-//! friction and a contact softness from its stiffness; putting one down recompiles the model from the kept spec and
-//! carries the robot's state over. Taking an object back, the person's
+//! friction and a contact softness from its stiffness; putting one down
+//! recompiles the model from the kept spec and carries the robot's state
+//! over. Taking an object back, the person's
 //! hands carry it where they took it, as forces on its free joint. The
 //! person ([`crate::scene::operator`]) acts on it through [`SharedStage`],
 //! as on the built-in scene.
@@ -389,8 +390,7 @@ impl Scenery {
         let props = self.shared.0.borrow();
         for (k, &(qpos, qvel)) in self.hand_q.iter().enumerate() {
             let at: [f64; 3] = props.hands.get(k).map_or(PARKED, |h| h.centre.coords.into());
-            data.qpos_mut()[qpos..qpos + 7].copy_from_slice(&[at[0], at[1], at[2], 1.0, 0.0, 0.0, 0.0]);
-            data.qvel_mut()[qvel..qvel + 6].fill(0.0);
+            place(data, (qpos, qvel), at, [0.0; 2]);
         }
         // The person's hands stay under the object as the arms drag it
         // over them (as the built-in scene's support does): a tray left
@@ -402,9 +402,7 @@ impl Scenery {
             }
             _ => (PARKED, [0.0; 2]),
         };
-        let (qpos, qvel) = self.tray_q;
-        data.qpos_mut()[qpos..qpos + 7].copy_from_slice(&[tray[0], tray[1], tray[2], 1.0, 0.0, 0.0, 0.0]);
-        data.qvel_mut()[qvel..qvel + 6].copy_from_slice(&[pace[0], pace[1], 0.0, 0.0, 0.0, 0.0]);
+        place(data, self.tray_q, tray, pace);
     }
 
     /// Recompiles the model with `object` (or none) and carries the
@@ -709,6 +707,13 @@ fn steady(data: &mut MjData<Box<MjModel>>, body: &Body) {
     let f = &mut data.qfrc_applied_mut()[body.qvel..body.qvel + 6];
     f[..3].fill(0.0);
     f[3..].copy_from_slice(local.as_slice());
+}
+
+/// Puts the free body whose free joint starts at `qpos` and `qvel`
+/// upright at `at`, moving horizontally at `velocity`.
+fn place(data: &mut MjData<Box<MjModel>>, (qpos, qvel): (usize, usize), at: [f64; 3], velocity: [f64; 2]) {
+    data.qpos_mut()[qpos..qpos + 7].copy_from_slice(&[at[0], at[1], at[2], 1.0, 0.0, 0.0, 0.0]);
+    data.qvel_mut()[qvel..qvel + 6].copy_from_slice(&[velocity[0], velocity[1], 0.0, 0.0, 0.0, 0.0]);
 }
 
 /// The horizontal velocity of the person's hands under `body`: with it
