@@ -1,5 +1,5 @@
 //! The grasping experiment's lab in MuJoCo: an object put down stands on
-//! the person's tray, falls to the floor when they let go and stays in
+//! the person's tray (a box with rounded edges too), falls to the floor when they let go and stays in
 //! their hands when they take it back, a pat is felt by the patted cell
 //! alone (through MuJoCo's contacts on its cover plate), as a light touch,
 //! not pain, and the cells see the person and objects, not the robot.
@@ -77,6 +77,32 @@ fn an_object_stands_on_the_tray_and_falls_when_the_person_lets_go() {
     stage.put(None);
     run(&mut world, 1);
     assert_eq!(stage.look().object, None, "taken away");
+}
+
+/// A box with rounded edges is built rounded (a convex mesh): it stands
+/// flat and still on the tray as a sharp box does, its weight borne, and
+/// the next box put down replaces it and its mesh.
+#[test]
+fn rounded_boxes_stand_flat_on_the_tray_one_after_another() {
+    let setup = Setup::new(&hrp2::robot(), 2).unwrap();
+    let (mut world, stage) = experiment_world(None, &setup, 2).unwrap();
+    for (name, yaw_rad) in [("moving_box", 0.3), ("delivery_box", -0.2)] {
+        let bx = Object::by_name(name).unwrap();
+        let weight = bx.mass_kg * 9.81;
+        let pose = object_pose(&bx, &Placement { yaw_rad, ..Placement::default() }, stage.skin().surface_offset_m);
+        stage.put(Some((bx, pose)));
+        run(&mut world, 500);
+        let look = stage.look();
+        let stood = look.object.expect("the object is there").pose;
+        assert!(
+            (stood.translation.vector - pose.translation.vector).norm() < 0.002,
+            "{name} stands where put: {stood}"
+        );
+        assert!(stood.rotation.angle_to(&pose.rotation) < 0.01, "{name} upright, as turned: {stood}");
+        assert_eq!((look.resting, look.fallen), (Some(true), false), "{name} on the tray");
+        let carried = look.support_n.expect("MuJoCo tells the support's force");
+        assert!((carried - weight).abs() < 0.05 * weight, "the tray bears {name}: {carried} N of {weight} N");
+    }
 }
 
 /// Patting to release what the robot carries, the person first takes it
