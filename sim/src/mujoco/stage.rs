@@ -723,7 +723,7 @@ fn add_object(spec: &mut MjSpec, object: &Object, pose: &Isometry3<f64>) -> f64 
 /// lowers them slowly), raised back no more than `step_m` a tick and not
 /// once they bear the object's weight (`bearing`), as hands put back
 /// under an object the arms hold: put back in one tick, hands lowered
-/// 3 cm struck a box the arms held with 38 N, and a forearm cell under it
+/// 3 cm struck a box the arms held with 38 N, and a chest cell it pressed
 /// passed pain (`gen3_24`).
 fn lowering(now_m: f64, wanted_m: f64, bearing: bool, step_m: f64) -> f64 {
     if wanted_m >= now_m {
