@@ -1,9 +1,10 @@
 //! The grasping experiment's lab in MuJoCo: an object put down stands on
-//! the person's tray (a box with rounded edges too), falls to the floor when they let go and stays in
-//! their hands when they take it back, a pat is felt by the patted cell
+//! the person's tray (a box with rounded edges too), falls to the floor
+//! when they let go and stays in their hands when they take it back, a pat is felt by the patted cell
 //! alone (through MuJoCo's contacts on its cover plate), as a light touch,
 //! not pain, and the cells see the person and objects, not the robot.
 
+use nalgebra::Isometry3;
 use skin_model::robot::hrp2;
 use skin_protocol::Sample;
 use skin_sim::mujoco::experiment_world;
@@ -37,6 +38,19 @@ fn drive(world: &mut World, target: &[f64], max: f64, ticks: usize) -> Vec<(skin
     out
 }
 
+/// Asserts that the object `name` of `weight_n` stands on the tray where
+/// and as turned as `pose` put it, the tray bearing its weight; its pose.
+fn stands_on_the_tray(stage: &dyn Stage, name: &str, pose: &Isometry3<f64>, weight_n: f64) -> Isometry3<f64> {
+    let look = stage.look();
+    let stood = look.object.expect("the object is there").pose;
+    assert!((stood.translation.vector - pose.translation.vector).norm() < 0.002, "{name} stands where put: {stood}");
+    assert!(stood.rotation.angle_to(&pose.rotation) < 0.01, "{name} upright, as turned: {stood}");
+    assert_eq!((look.resting, look.fallen), (Some(true), false), "{name} on the tray");
+    let carried = look.support_n.expect("MuJoCo tells the support's force");
+    assert!((carried - weight_n).abs() < 0.05 * weight_n, "the tray bears {name}: {carried} N of {weight_n} N");
+    stood
+}
+
 #[test]
 fn an_object_stands_on_the_tray_and_falls_when_the_person_lets_go() {
     let setup = Setup::new(&hrp2::robot(), 1).unwrap();
@@ -48,15 +62,10 @@ fn an_object_stands_on_the_tray_and_falls_when_the_person_lets_go() {
     let pose = object_pose(&bin, &Placement { yaw_rad: 0.2, ..Placement::default() }, stage.skin().surface_offset_m);
     stage.put(Some((bin, pose)));
     run(&mut world, 250);
+    let stood = stands_on_the_tray(&stage, "the bin", &pose, weight);
     let look = stage.look();
-    let stood = look.object.expect("the object is there").pose;
-    assert!((stood.translation.vector - pose.translation.vector).norm() < 0.002, "it stands where put: {stood}");
-    assert!(stood.rotation.angle_to(&pose.rotation) < 0.01, "upright, as turned");
-    assert_eq!((look.resting, look.fallen), (Some(true), false), "on the tray");
     assert!(look.contacts.is_empty(), "the robot at home does not touch it");
     assert_eq!(look.bare_force_max_n, Some(0.0));
-    let carried = look.support_n.expect("MuJoCo tells the support's force");
-    assert!((carried - weight).abs() < 0.05 * weight, "the tray bears its weight: {carried} N of {weight} N");
 
     // Lowered, the tray takes the object down with it.
     stage.lower_support(0.02);
@@ -92,16 +101,7 @@ fn rounded_boxes_stand_flat_on_the_tray_one_after_another() {
         let pose = object_pose(&bx, &Placement { yaw_rad, ..Placement::default() }, stage.skin().surface_offset_m);
         stage.put(Some((bx, pose)));
         run(&mut world, 500);
-        let look = stage.look();
-        let stood = look.object.expect("the object is there").pose;
-        assert!(
-            (stood.translation.vector - pose.translation.vector).norm() < 0.002,
-            "{name} stands where put: {stood}"
-        );
-        assert!(stood.rotation.angle_to(&pose.rotation) < 0.01, "{name} upright, as turned: {stood}");
-        assert_eq!((look.resting, look.fallen), (Some(true), false), "{name} on the tray");
-        let carried = look.support_n.expect("MuJoCo tells the support's force");
-        assert!((carried - weight).abs() < 0.05 * weight, "the tray bears {name}: {carried} N of {weight} N");
+        stands_on_the_tray(&stage, name, &pose, weight);
     }
 }
 

@@ -662,12 +662,14 @@ fn plate_contact_stiffness(object: &Object) -> f64 {
 /// Adds `object` at `pose` as a free body; returns the height of the
 /// tray's centre under it.
 fn add_object(spec: &mut MjSpec, object: &Object, pose: &Isometry3<f64>) -> f64 {
-    if let Shape::Box { half, round_m } = object.shape {
-        if round_m > MIN_ROUND_M {
-            let mesh = spec.add_mesh();
-            let _ = mesh.set_name("stage:object");
-            mesh.set_uservert(&rounded_box(half, round_m));
-        }
+    let rounded = match object.shape {
+        Shape::Box { half, round_m } if round_m > MIN_ROUND_M => Some(rounded_box(half, round_m)),
+        _ => None,
+    };
+    if let Some(vertices) = &rounded {
+        let mesh = spec.add_mesh();
+        let _ = mesh.set_name("stage:object");
+        mesh.set_uservert(vertices);
     }
     let body = spec.world_body_mut().add_body();
     let _ = body.set_name("stage:object");
@@ -680,7 +682,7 @@ fn add_object(spec: &mut MjSpec, object: &Object, pose: &Isometry3<f64>) -> f64 
         // makes MuJoCo's collider flip the contact's normal between the
         // plate's face and the box's from one tick to the next, and the
         // depth gathered along the one comes back as a blow along the other.
-        Shape::Box { round_m, .. } if round_m > MIN_ROUND_M => {
+        Shape::Box { .. } if rounded.is_some() => {
             geom.set_meshname("stage:object");
             (MjtGeomBase::mjGEOM_MESH, [0.0; 3])
         }
