@@ -46,11 +46,10 @@ fn python_reads_the_shipped_objects_as_we_do() {
                 assert_eq!(xyz(&shape["box"]["half"]), [half.x, half.y, half.z]);
                 assert_eq!(n(&shape["box"]["round_m"]), round_m);
             }
-            Shape::Cylinder { radius, half_height } => {
-                assert_eq!(
-                    [n(&shape["cylinder"]["radius"]), n(&shape["cylinder"]["half_height"])],
-                    [radius, half_height]
-                );
+            Shape::Cylinder { radius, half_height, round_m } => {
+                let c = &shape["cylinder"];
+                let rim = c.get("round_m").map_or(0.0, n);
+                assert_eq!([n(&c["radius"]), n(&c["half_height"]), rim], [radius, half_height, round_m]);
             }
             Shape::Sphere { radius } => assert_eq!(n(&shape["sphere"]["radius"]), radius),
             Shape::Blob { semi, bump_m, bump_rad_per_m } => {

@@ -316,7 +316,7 @@ mod tests {
         assert_eq!(s.pull.motion().map(|(n, m)| (n.to_owned(), m.max_velocity)), Some(("pulled".into(), 0.05)));
         assert!(s.hold.motion().is_none());
         assert_eq!(s.squeeze.motion().map(|(n, _)| n.to_owned()), Some("pulled".into()));
-        assert_eq!(s.hold.gains(AreaKind::Contact).force, Primitive::new(0.25, 2.0), "Table 4: 0.10, 0.8");
+        assert_eq!(s.hold.gains(AreaKind::Contact).force, Primitive::new(0.30, 2.0), "Table 4: 0.10, 0.8");
         assert_eq!(s.release.gains(AreaKind::Contact).proximity, Primitive::new(0.01, 0.2));
         // The pull alone judges its progress over a longer window.
         assert_eq!(s.pull.timing(p.timing), Timing { stall_window_s: 3.0, ..p.timing });

@@ -662,10 +662,7 @@ fn plate_contact_stiffness(object: &Object) -> f64 {
 /// Adds `object` at `pose` as a free body; returns the height of the
 /// tray's centre under it.
 fn add_object(spec: &mut MjSpec, object: &Object, pose: &Isometry3<f64>) -> f64 {
-    let rounded = match object.shape {
-        Shape::Box { half, round_m } if round_m > MIN_ROUND_M => Some(rounded_box(half, round_m)),
-        _ => None,
-    };
+    let rounded = rounded_mesh(&object.shape);
     if let Some(vertices) = &rounded {
         let mesh = spec.add_mesh();
         let _ = mesh.set_name("stage:object");
@@ -678,16 +675,12 @@ fn add_object(spec: &mut MjSpec, object: &Object, pose: &Isometry3<f64>) -> f64 
     let geom = body.add_geom();
     let _ = geom.set_name("stage:object");
     let (kind, size) = match object.shape {
-        // Its rounding kept: a sharp box's edge flat on a cover plate
-        // makes MuJoCo's collider flip the contact's normal between the
-        // plate's face and the box's from one tick to the next, and the
-        // depth gathered along the one comes back as a blow along the other.
-        Shape::Box { .. } if rounded.is_some() => {
+        _ if rounded.is_some() => {
             geom.set_meshname("stage:object");
             (MjtGeomBase::mjGEOM_MESH, [0.0; 3])
         }
         Shape::Box { half, .. } => (MjtGeomBase::mjGEOM_BOX, [half.x, half.y, half.z]),
-        Shape::Cylinder { radius, half_height } => (MjtGeomBase::mjGEOM_CYLINDER, [radius, half_height, 0.0]),
+        Shape::Cylinder { radius, half_height, .. } => (MjtGeomBase::mjGEOM_CYLINDER, [radius, half_height, 0.0]),
         Shape::Sphere { radius } => (MjtGeomBase::mjGEOM_SPHERE, [radius, 0.0, 0.0]),
         // Its bumps left out: MuJoCo collides with convex shapes.
         Shape::Blob { semi, .. } => (MjtGeomBase::mjGEOM_ELLIPSOID, [semi.x, semi.y, semi.z]),
@@ -737,10 +730,31 @@ fn lowering(now_m: f64, wanted_m: f64, bearing: bool, step_m: f64) -> f64 {
     }
 }
 
-/// Rounder than this, m, a box is built rounded ([`rounded_box`]).
+/// Rounder than this, m, a box's edges or a cylinder's rims are built
+/// rounded ([`rounded_mesh`]).
 const MIN_ROUND_M: f64 = 1e-4;
-/// Facets per quarter circle of a rounded box's edges: 22.5 degrees apart.
+/// Facets per quarter circle of a rounded edge or rim: 22.5 degrees apart.
 const ROUNDING_STEPS: usize = 4;
+/// Facets around a rounded cylinder: 7.5 degrees apart, its side within
+/// 0.3 mm of the circle at the largest radius an object file draws.
+const AROUND_STEPS: usize = 48;
+
+/// The vertices of a convex mesh for `shape` if its edges or rims are
+/// rounded, its rounding kept: a sharp box's edge or cylinder's rim on a
+/// cover plate makes MuJoCo's collider flip the contact's normal between
+/// the plate's face and the object's from one tick to the next, and the
+/// depth gathered along the one comes back as a blow along the other
+/// (a box's edge in `gen3_01`; a cylinder's bottom rim on the lowest
+/// chest cell, 26 N, in `gen3_17`).
+fn rounded_mesh(shape: &Shape) -> Option<Vec<f32>> {
+    match *shape {
+        Shape::Box { half, round_m } if round_m > MIN_ROUND_M => Some(rounded_box(half, round_m)),
+        Shape::Cylinder { radius, half_height, round_m } if round_m > MIN_ROUND_M => {
+            Some(rounded_cylinder(radius, half_height, round_m))
+        }
+        _ => None,
+    }
+}
 
 /// The vertices (x y z, for MuJoCo's mesh) whose convex hull is a box of
 /// half-extents `half` with edges and corners rounded to `round_m`: each
@@ -758,6 +772,25 @@ fn rounded_box(half: Vector3<f64>, round_m: f64) -> Vec<f32> {
                 let u = Vector3::new(a as f64, b as f64, (n - a - b) as f64).normalize();
                 let p = (inner + u * r).component_mul(&sign);
                 vertices.extend(p.iter().map(|&x| x as f32));
+            }
+        }
+    }
+    vertices
+}
+
+/// The vertices (x y z) whose convex hull is an upright cylinder with
+/// rims rounded to `round_m`: [`AROUND_STEPS`] quarter circles of
+/// [`ROUNDING_STEPS`] steps about each rim.
+fn rounded_cylinder(radius: f64, half_height: f64, round_m: f64) -> Vec<f32> {
+    let r = round_m.min(radius).min(half_height);
+    let mut vertices = Vec::new();
+    for k in 0..AROUND_STEPS {
+        let around = std::f64::consts::TAU * k as f64 / AROUND_STEPS as f64;
+        for a in 0..=ROUNDING_STEPS {
+            let up = std::f64::consts::FRAC_PI_2 * a as f64 / ROUNDING_STEPS as f64;
+            let (out, z) = (radius - r + r * up.cos(), half_height - r + r * up.sin());
+            for z in [z, -z] {
+                vertices.extend([out * around.cos(), out * around.sin(), z].map(|x| x as f32));
             }
         }
     }
@@ -865,11 +898,32 @@ mod tests {
     }
 
     #[test]
+    fn a_rounded_cylinder_s_vertices_lie_on_its_surface_and_reach_its_side_and_ends() {
+        let (radius, half_height, round_m) = (0.114, 0.141, 0.005);
+        let shape = Shape::Cylinder { radius, half_height, round_m };
+        let points = vertices(&rounded_cylinder(radius, half_height, round_m));
+        assert_eq!(points.len(), AROUND_STEPS * (ROUNDING_STEPS + 1) * 2);
+        for p in &points {
+            assert!(shape.distance(p).abs() < 1e-7, "{p} is {} m off the surface", shape.distance(p));
+        }
+        let reach = |f: fn(&Point3<f64>) -> f64| points.iter().map(f).fold(f64::MIN, f64::max);
+        assert!((reach(|p| p.x) - radius).abs() < 1e-7 && (reach(|p| -p.z) - half_height).abs() < 1e-7);
+        // The rim is cut by the rounding: no vertex where the sharp rim is.
+        let rim = Point3::new(radius, 0.0, half_height);
+        let nearest = points.iter().map(|p| (p - rim).norm()).fold(f64::MAX, f64::min);
+        assert!(nearest > round_m * (2f64.sqrt() - 1.0) - 1e-7, "{nearest} m from the rim");
+    }
+
+    /// A mesh's vertices as points.
+    fn vertices(mesh: &[f32]) -> Vec<Point3<f64>> {
+        mesh.chunks(3).map(|p| Point3::new(p[0].into(), p[1].into(), p[2].into())).collect()
+    }
+
+    #[test]
     fn a_rounded_box_s_vertices_lie_on_its_surface_and_reach_its_faces() {
         let (half, round_m) = (Vector3::new(0.05, 0.156, 0.138), 0.016);
         let shape = Shape::Box { half, round_m };
-        let points: Vec<Point3<f64>> =
-            rounded_box(half, round_m).chunks(3).map(|p| Point3::new(p[0].into(), p[1].into(), p[2].into())).collect();
+        let points = vertices(&rounded_box(half, round_m));
         assert_eq!(points.len(), 8 * (ROUNDING_STEPS + 1) * (ROUNDING_STEPS + 2) / 2);
         for p in &points {
             assert!(shape.distance(p).abs() < 1e-7, "{p} is {} m off the surface", shape.distance(p));

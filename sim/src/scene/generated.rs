@@ -24,6 +24,9 @@ use super::placement::{Placement, JITTER_YAW_RAD, OBJECT_GAP_M};
 pub const FORWARD_M: f64 = 0.20;
 /// How far sideways of the default spot a placement is drawn, either way, m.
 pub const SIDEWAYS_M: f64 = 0.20;
+/// Radius of a generated cylinder's rims, m: rolled, as a can's or a
+/// bucket's.
+const CYLINDER_RIM_M: f64 = 0.005;
 /// Draws tried per placement before saying no placement reaches the object.
 const TRIES: usize = 2000;
 /// Clearance of the object from the robot's surface in the home and open
@@ -43,7 +46,11 @@ pub fn object_file(name: &str, rng: &mut impl Rng) -> String {
             r(0.10, 0.17),
             r(0.005, 0.02)
         ),
-        1 => format!("{{ cylinder = {{ radius = {:.3}, half_height = {:.3} }} }}", r(0.10, 0.14), r(0.10, 0.17)),
+        1 => format!(
+            "{{ cylinder = {{ radius = {:.3}, half_height = {:.3}, round_m = {CYLINDER_RIM_M} }} }}",
+            r(0.10, 0.14),
+            r(0.10, 0.17)
+        ),
         2 => format!("{{ sphere = {{ radius = {:.3} }} }}", r(0.10, 0.14)),
         _ => format!(
             "{{ blob = {{ semi = [{:.3}, {:.3}, {:.3}], bump_m = {:.3}, bump_rad_per_m = {:.1} }} }}",

@@ -44,6 +44,6 @@ mod tests {
         assert!(Object::by_name("piano").is_none());
         let hardest = all.iter().max_by(|a, b| a.stiffness_n_per_m.total_cmp(&b.stiffness_n_per_m)).unwrap();
         assert_eq!(hardest.name, "delivery_box");
-        assert_eq!(all[0].shape, Shape::Cylinder { radius: 0.14, half_height: 0.17 });
+        assert_eq!(all[0].shape, Shape::Cylinder { radius: 0.14, half_height: 0.17, round_m: 0.0 });
     }
 }

@@ -4,7 +4,8 @@
 //! ```toml
 //! name = "paint_bucket"
 //! shape = { cylinder = { radius = 0.12, half_height = 0.15 } }
-//! # or { box = { half = [0.1, 0.15, 0.1], round_m = 0.01 } }, { sphere = { radius = 0.1 } },
+//! # or { cylinder = { radius = 0.12, half_height = 0.15, round_m = 0.005 } } (rims rounded),
+//! #    { box = { half = [0.1, 0.15, 0.1], round_m = 0.01 } }, { sphere = { radius = 0.1 } },
 //! #    { blob = { semi = [0.1, 0.12, 0.1], bump_m = 0.01, bump_rad_per_m = 25.0 } }
 //! mass_kg = 0.6
 //! stiffness_n_per_m = 3000.0
@@ -17,7 +18,7 @@
 //! Every key but the placement is required and unknown keys are refused, so
 //! a typo cannot silently keep a default; every value is range-checked and
 //! a mistake names its key. Physically impossible values (a size, mass or
-//! stiffness of zero or less, edges rounder than the box, bumps deeper than
+//! stiffness of zero or less, edges or rims rounder than the body, bumps deeper than
 //! the blob) are refused, and so are values past what the simulated arms
 //! could ever meet (a half size over 1 m, a mass over 1000 kg), which are
 //! typos.
@@ -86,17 +87,19 @@ fn halves(key: &str, v: &Vector3<f64>) -> Result<(), ObjectError> {
     Ok(())
 }
 
-/// Checks a shape is a body: sizes in (0, 1] m, edges no rounder than the
-/// box, bumps no deeper than half the blob.
+/// Checks a shape is a body: sizes in (0, 1] m, edges and rims no rounder
+/// than the body, bumps no deeper than half the blob.
 fn check_shape(shape: &Shape) -> Result<(), ObjectError> {
     match *shape {
         Shape::Box { half, round_m } => {
             halves("shape.box.half", &half)?;
             in_range("shape.box.round_m", round_m, 0.0, half.min(), "from 0 to the smallest half size")
         }
-        Shape::Cylinder { radius, half_height } => {
+        Shape::Cylinder { radius, half_height, round_m } => {
             self::half("shape.cylinder.radius", radius)?;
-            self::half("shape.cylinder.half_height", half_height)
+            self::half("shape.cylinder.half_height", half_height)?;
+            let most = radius.min(half_height);
+            in_range("shape.cylinder.round_m", round_m, 0.0, most, "from 0 to the smaller of radius and half height")
         }
         Shape::Sphere { radius } => self::half("shape.sphere.radius", radius),
         Shape::Blob { semi, bump_m, bump_rad_per_m } => {
@@ -186,11 +189,12 @@ mod tests {
     fn the_issue_example_reads() {
         let at = parse(BUCKET).unwrap();
         assert_eq!(at.object.name, "paint_bucket");
-        assert_eq!(at.object.shape, Shape::Cylinder { radius: 0.12, half_height: 0.15 });
+        assert_eq!(at.object.shape, Shape::Cylinder { radius: 0.12, half_height: 0.15, round_m: 0.0 });
         assert_eq!((at.object.mass_kg, at.object.friction), (0.6, 0.4));
         assert_eq!(at.placement, Placement { offset_m: Vector3::new(0.0, 0.03, 0.0), yaw_rad: 0.3 });
         for shape in [
             "{ box = { half = [0.1, 0.15, 0.1], round_m = 0.01 } }",
+            "{ cylinder = { radius = 0.12, half_height = 0.15, round_m = 0.005 } }",
             "{ sphere = { radius = 0.1 } }",
             "{ blob = { semi = [0.1, 0.12, 0.1], bump_m = 0.01, bump_rad_per_m = 25.0 } }",
         ] {
@@ -214,6 +218,7 @@ mod tests {
             ("friction = 0.4", "friction = inf", "friction"),
             ("radius = 0.12", "radius = -0.12", "shape.cylinder.radius"),
             ("half_height = 0.15", "half_height = 5.0", "shape.cylinder.half_height"),
+            ("half_height = 0.15", "half_height = 0.15, round_m = 0.13", "shape.cylinder.round_m"),
             (cyl, "{ box = { half = [0.1, 0.0, 0.1] } }", "shape.box.half[1]"),
             (cyl, "{ box = { half = [0.1, 0.1, 0.1], round_m = 0.2 } }", "shape.box.round_m"),
             (cyl, "{ blob = { semi = [0.1, 0.1, 0.1], bump_m = 0.09 } }", "shape.blob.bump_m"),

@@ -21,12 +21,15 @@ pub enum Shape {
         #[serde(default)]
         round_m: f64,
     },
-    /// An upright cylinder.
+    /// An upright cylinder with rounded rims.
     Cylinder {
         /// Radius, m.
         radius: f64,
         /// Half height, m.
         half_height: f64,
+        /// Radius of its rims (a can's or a bucket's is rolled), m.
+        #[serde(default)]
+        round_m: f64,
     },
     /// A sphere.
     Sphere {
@@ -54,9 +57,9 @@ impl Shape {
                 let q = p.coords.abs() - half.add_scalar(-round_m);
                 q.sup(&Vector3::zeros()).norm() + q.max().min(0.0) - round_m
             }
-            Shape::Cylinder { radius, half_height } => {
-                let d = [p.coords.xy().norm() - radius, p.z.abs() - half_height];
-                d[0].max(d[1]).min(0.0) + (d[0].max(0.0).powi(2) + d[1].max(0.0).powi(2)).sqrt()
+            Shape::Cylinder { radius, half_height, round_m } => {
+                let d = [p.coords.xy().norm() - radius + round_m, p.z.abs() - half_height + round_m];
+                d[0].max(d[1]).min(0.0) + (d[0].max(0.0).powi(2) + d[1].max(0.0).powi(2)).sqrt() - round_m
             }
             Shape::Sphere { radius } => p.coords.norm() - radius,
             Shape::Blob { semi, bump_m, bump_rad_per_m } => {
@@ -91,7 +94,9 @@ impl Shape {
     pub fn extent(&self, dir: &Vector3<f64>) -> f64 {
         match *self {
             Shape::Box { half, round_m } => (half.add_scalar(-round_m)).dot(&dir.abs()) + round_m,
-            Shape::Cylinder { radius, half_height } => radius * dir.xy().norm() + half_height * dir.z.abs(),
+            Shape::Cylinder { radius, half_height, round_m } => {
+                (radius - round_m) * dir.xy().norm() + (half_height - round_m) * dir.z.abs() + round_m
+            }
             Shape::Sphere { radius } => radius,
             Shape::Blob { .. } => {
                 let side = if dir.z.abs() < 0.9 { Vector3::z() } else { Vector3::x() };
@@ -140,7 +145,7 @@ impl Shape {
             Shape::Box { half, .. } => r_m - half.norm(),
             // Not `hypot`, which costs more than the distance it saves;
             // the rounding is far below the broad phase's margin.
-            Shape::Cylinder { radius, half_height } => r_m - (radius * radius + half_height * half_height).sqrt(),
+            Shape::Cylinder { radius, half_height, .. } => r_m - (radius * radius + half_height * half_height).sqrt(),
             Shape::Sphere { radius } => r_m - radius,
             Shape::Blob { semi, bump_m, bump_rad_per_m } => {
                 let scale = 1.0 + 1.3 * bump_m * bump_rad_per_m;
@@ -169,7 +174,7 @@ impl Shape {
     pub fn thinnest_half(&self) -> f64 {
         match *self {
             Shape::Box { half, .. } => half.min(),
-            Shape::Cylinder { radius, half_height } => radius.min(half_height),
+            Shape::Cylinder { radius, half_height, .. } => radius.min(half_height),
             Shape::Sphere { radius } => radius,
             Shape::Blob { semi, .. } => semi.min(),
         }
@@ -179,7 +184,7 @@ impl Shape {
     pub fn bounding_radius(&self) -> f64 {
         match *self {
             Shape::Box { half, .. } => half.norm(),
-            Shape::Cylinder { radius, half_height } => radius.hypot(half_height),
+            Shape::Cylinder { radius, half_height, .. } => radius.hypot(half_height),
             Shape::Sphere { radius } => radius,
             Shape::Blob { semi, bump_m, .. } => semi.max() + bump_m,
         }
@@ -200,10 +205,15 @@ mod tests {
         assert!((rounded.distance(&Point3::new(0.15, 0.0, 0.0)) - 0.05).abs() < 1e-12, "faces stay");
         let corner = Point3::new(0.1, 0.2, 0.0);
         assert!((rounded.distance(&corner) - 0.02 * (2f64.sqrt() - 1.0)).abs() < 1e-12, "edges are round");
-        let c = Shape::Cylinder { radius: 0.1, half_height: 0.2 };
+        let c = Shape::Cylinder { radius: 0.1, half_height: 0.2, round_m: 0.0 };
         assert!((c.distance(&Point3::new(0.0, 0.3, 0.0)) - 0.2).abs() < 1e-12);
         assert!((c.distance(&Point3::new(0.0, 0.0, 0.25)) - 0.05).abs() < 1e-12);
         assert!((c.normal(&Point3::new(0.0, 0.3, 0.0)) - Vector3::y()).norm() < 1e-6);
+        let rim = Point3::new(0.0, 0.1, 0.2);
+        assert!(c.distance(&rim).abs() < 1e-12, "a sharp rim");
+        let rolled = Shape::Cylinder { radius: 0.1, half_height: 0.2, round_m: 0.01 };
+        assert!((rolled.distance(&Point3::new(0.0, 0.3, 0.0)) - 0.2).abs() < 1e-12, "the side stays");
+        assert!((rolled.distance(&rim) - 0.01 * (2f64.sqrt() - 1.0)).abs() < 1e-12, "rims are round");
         let s = Shape::Sphere { radius: 0.04 };
         assert!((s.distance(&Point3::new(0.0, 0.0, 0.05)) - 0.01).abs() < 1e-12);
     }
@@ -257,7 +267,7 @@ mod tests {
             let [x, y, z] = size;
             let shape = [
                 Shape::Box { half: Vector3::new(x, y, z), round_m: x.min(y).min(z) / 2.0 },
-                Shape::Cylinder { radius: x, half_height: y },
+                Shape::Cylinder { radius: x, half_height: y, round_m: x.min(y) * z / 0.6 },
                 Shape::Sphere { radius: x },
                 Shape::Blob { semi: Vector3::new(x, y, z), bump_m: bumps.0, bump_rad_per_m: bumps.1 },
             ][shape];
@@ -275,8 +285,11 @@ mod tests {
         assert!((b.extent(&diagonal) - 0.3 / 2f64.sqrt()).abs() < 1e-12, "a corner reaches furthest");
         let rounded = Shape::Box { half: Vector3::new(0.1, 0.2, 0.3), round_m: 0.02 };
         assert!((rounded.extent(&-Vector3::y()) - 0.2).abs() < 1e-12);
-        let c = Shape::Cylinder { radius: 0.1, half_height: 0.2 };
+        let c = Shape::Cylinder { radius: 0.1, half_height: 0.2, round_m: 0.0 };
         assert!((c.extent(&diagonal) - 0.1).abs() < 1e-12 && (c.extent(&Vector3::z()) - 0.2).abs() < 1e-12);
+        let rolled = Shape::Cylinder { radius: 0.1, half_height: 0.2, round_m: 0.02 };
+        let up = Vector3::new(1.0, 0.0, 1.0).normalize();
+        assert!((rolled.extent(&up) - (0.08 + 0.18) / 2f64.sqrt() - 0.02).abs() < 1e-12, "a rim reaches less far");
         assert_eq!(Shape::Sphere { radius: 0.04 }.extent(&diagonal), 0.04);
     }
 
@@ -284,8 +297,8 @@ mod tests {
     fn the_thinnest_half_is_how_deep_the_middle_lies() {
         for shape in [
             Shape::Box { half: Vector3::new(0.2, 0.07, 0.3), round_m: 0.01 },
-            Shape::Cylinder { radius: 0.11, half_height: 0.09 },
-            Shape::Cylinder { radius: 0.05, half_height: 0.2 },
+            Shape::Cylinder { radius: 0.11, half_height: 0.09, round_m: 0.0 },
+            Shape::Cylinder { radius: 0.05, half_height: 0.2, round_m: 0.01 },
             Shape::Sphere { radius: 0.13 },
         ] {
             let middle = -shape.distance(&Point3::origin());
