@@ -6,7 +6,7 @@
 //! distance is a bound, not exact (its bumps are scaled down so the bound
 //! holds), which is all contact and ray marching need.
 
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Point3, SVector, Vector2, Vector3};
 
 /// A shape in its own frame, centred on the origin, z up (as object files
 /// write it: `{ box = { half = [x, y, z], round_m = r } }`).
@@ -53,13 +53,10 @@ impl Shape {
     /// Signed distance from `p` (shape frame) to the surface, m.
     pub fn distance(&self, p: &Point3<f64>) -> f64 {
         match *self {
-            Shape::Box { half, round_m } => {
-                let q = p.coords.abs() - half.add_scalar(-round_m);
-                q.sup(&Vector3::zeros()).norm() + q.max().min(0.0) - round_m
-            }
+            Shape::Box { half, round_m } => rounded(p.coords.abs() - half.add_scalar(-round_m), round_m),
             Shape::Cylinder { radius, half_height, round_m } => {
-                let d = [p.coords.xy().norm() - radius + round_m, p.z.abs() - half_height + round_m];
-                d[0].max(d[1]).min(0.0) + (d[0].max(0.0).powi(2) + d[1].max(0.0).powi(2)).sqrt() - round_m
+                let q = Vector2::new(p.coords.xy().norm() - radius, p.z.abs() - half_height);
+                rounded(q.add_scalar(round_m), round_m)
             }
             Shape::Sphere { radius } => p.coords.norm() - radius,
             Shape::Blob { semi, bump_m, bump_rad_per_m } => {
@@ -189,6 +186,14 @@ impl Shape {
             Shape::Blob { semi, bump_m, .. } => semi.max() + bump_m,
         }
     }
+}
+
+/// Signed distance of a point `q` past the inner box of a shape whose
+/// edges are rounded by `round_m` (per axis, how far beyond the inner box's
+/// half size it lies): the box's in three axes, the cylinder's in two
+/// (out from its axis, up from its middle).
+fn rounded<const D: usize>(q: SVector<f64, D>, round_m: f64) -> f64 {
+    q.sup(&SVector::zeros()).norm() + q.max().min(0.0) - round_m
 }
 
 #[cfg(test)]
