@@ -42,8 +42,9 @@ fn rclpy_on_fast_dds_sees_the_demo_as_a_ros_2_node() {
     let mut finished = checker.wait_with_output().unwrap();
     finished.stderr = checker_log.join().unwrap().into_bytes();
     let got = rclpy::json_of("ros2_dds.py", &finished);
-    // Twice in 72 runs rclpy heard no /skin/imu at all: its writer's send
-    // window was full (the demo's log: WouldBlock) though the graph had it.
+    // /skin/imu is subscribed best effort (REP 2003's sensor data): a
+    // reliable subscription stalled for good after a handful of messages
+    // in 1 of 24 runs, its writer's window full (the log: WouldBlock).
     assert_eq!(
         got["missing"],
         serde_json::json!([]),

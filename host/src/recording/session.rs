@@ -19,7 +19,7 @@ use super::{RecordError, COMMAND, EXPLORE_START, INTERFACE, STATE};
 use crate::config::PortConfig;
 use crate::explore::Exploration;
 use crate::interface::Event;
-use crate::ros::msgs::{Datagram, Message, Stamp, StringMsg};
+use crate::ros::msgs::{Datagram, Imu, JointState, MarkerArray, Message, PointCloud2, Stamp, StringMsg, TfMessage};
 use crate::ros::outlet::Outlet;
 use crate::ros::skin::{self, SkinTopics};
 use crate::view::{Feed, Update};
@@ -139,8 +139,22 @@ impl Session {
         self.tell(|| Update::Grasp(*transition));
     }
 
-    /// Publishes the ROS 2 topics to `outlet` too from now on.
-    pub fn add_outlet(&mut self, outlet: Box<dyn Outlet>) {
+    /// Publishes the ROS 2 topics to `outlet` too from now on, declaring
+    /// each first.
+    pub fn add_outlet(&mut self, mut outlet: Box<dyn Outlet>) {
+        let imu = self.imu.then_some((skin::IMU, <Imu as Message>::TYPE));
+        for (topic, ty) in [
+            (skin::CELLS, <PointCloud2 as Message>::TYPE),
+            (skin::EVENTS, <MarkerArray as Message>::TYPE),
+            (skin::JOINT_STATES, <JointState as Message>::TYPE),
+            (skin::TF_STATIC, <TfMessage as Message>::TYPE),
+            (skin::ROBOT_DESCRIPTION, <StringMsg as Message>::TYPE),
+        ]
+        .into_iter()
+        .chain(imu)
+        {
+            outlet.declare(topic, ty);
+        }
         self.outlets.push(outlet);
     }
 

@@ -33,6 +33,24 @@ pub const TF_STATIC: &str = "/tf_static";
 /// `/robot_description`: the learned tree with the skin's frames, as URDF (transient local).
 pub const ROBOT_DESCRIPTION: &str = "/robot_description";
 
+/// How a topic's publishers keep history.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Keep {
+    /// Keep-last depth.
+    pub depth: u32,
+    /// Late subscribers get the last `depth` messages (transient local).
+    pub latched: bool,
+}
+
+/// How `topic` is kept: the description and the cells' frames latched,
+/// the last one; the rest rclcpp's usual 10.
+pub fn keep(topic: &str) -> Keep {
+    match topic {
+        TF_STATIC | ROBOT_DESCRIPTION => Keep { depth: 1, latched: true },
+        _ => Keep { depth: 10, latched: false },
+    }
+}
+
 /// Full scale of one force cell, N (Table 1: 0-10 N).
 const FORCE_FULL_SCALE_N: f32 = 10.0;
 

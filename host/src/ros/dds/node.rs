@@ -1,5 +1,6 @@
 //! The node: one DDS participant (a ros2-client context), the ROS 2 node
-//! on it, and a writer per topic created on the topic's first message.
+//! on it, and a writer per topic created when the topic is declared (or
+//! on its first message).
 
 use std::net::{IpAddr, Ipv4Addr};
 
@@ -14,21 +15,16 @@ use crate::ros::outlet::Outlet;
 use crate::ros::schema::MsgType;
 use crate::ros::skin;
 
-/// Keep-last depth of volatile topics (rclcpp's usual 10).
-const DEPTH: usize = 10;
-
-/// QoS of `topic` as the Zenoh node declares it: reliable; the latched
-/// topics transient local, keep last 1. A full send window drops the
-/// message (counted) rather than stall the host's pipeline.
+/// QoS of `topic` as the Zenoh node declares it: reliable, kept as
+/// [`skin::keep`] says. A full send window drops the message (counted)
+/// rather than stall the host's pipeline.
 pub fn qos_of(topic: &str) -> QosProfile {
-    let (durability, depth) = match topic {
-        skin::TF_STATIC | skin::ROBOT_DESCRIPTION => (Durability::TransientLocal, 1),
-        _ => (Durability::Volatile, DEPTH),
-    };
+    let keep = skin::keep(topic);
+    let durability = if keep.latched { Durability::TransientLocal } else { Durability::Volatile };
     QosProfile::publisher_default()
         .reliability(Reliability::Reliable { when_full: WhenFull::Fail })
         .durability(durability)
-        .history(History::KeepLast { depth })
+        .history(History::KeepLast { depth: keep.depth as usize })
 }
 
 /// `pkg/msg/Type` as ros2-client names it.
@@ -107,6 +103,15 @@ impl Node {
         self.dropped
     }
 
+    /// The writer of `topic`, created if it is new; `None` (counted as a
+    /// drop) if it cannot be.
+    fn writer(&mut self, topic: &'static str, ty: &'static MsgType) -> Option<usize> {
+        if let Some(i) = self.writers.iter().position(|w| w.topic == topic) {
+            return Some(i);
+        }
+        self.create(topic, ty).map_err(|e| self.drop_one(format_args!("{e}"))).ok()
+    }
+
     fn create(&mut self, topic: &'static str, ty: &'static MsgType) -> Result<usize, DdsError> {
         let qos = qos_of(topic);
         let name = Name::parse(topic).map_err(|e| DdsError::create(topic, format!("{e:?}")))?;
@@ -125,14 +130,12 @@ impl Node {
 }
 
 impl Outlet for Node {
+    fn declare(&mut self, topic: &'static str, ty: &'static MsgType) {
+        self.writer(topic, ty);
+    }
+
     fn publish(&mut self, topic: &'static str, ty: &'static MsgType, _time_ns: u64, cdr: &[u8]) {
-        let i = match self.writers.iter().position(|w| w.topic == topic) {
-            Some(i) => i,
-            None => match self.create(topic, ty) {
-                Ok(i) => i,
-                Err(e) => return self.drop_one(format_args!("{e}")),
-            },
-        };
+        let Some(i) = self.writer(topic, ty) else { return };
         let Some(raw) = RawCdr::from_message(cdr) else {
             return self.drop_one(format_args!("a message on {topic} is not little-endian CDR"));
         };
@@ -153,7 +156,7 @@ mod tests {
             assert_eq!((q.durability, q.history), (Durability::TransientLocal, History::KeepLast { depth: 1 }));
         }
         let q = qos_of(skin::CELLS);
-        assert_eq!((q.durability, q.history), (Durability::Volatile, History::KeepLast { depth: DEPTH }));
+        assert_eq!((q.durability, q.history), (Durability::Volatile, History::KeepLast { depth: 10 }));
         assert!(matches!(q.reliability, Reliability::Reliable { .. }));
     }
 

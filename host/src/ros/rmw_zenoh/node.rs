@@ -1,5 +1,5 @@
 //! The node: one Zenoh session, its liveliness token, and a publisher per
-//! topic declared on the topic's first message.
+//! topic, declared before its first message or on it.
 
 use std::time::Duration;
 
@@ -13,8 +13,6 @@ use crate::ros::outlet::Outlet;
 use crate::ros::schema::MsgType;
 use crate::ros::skin;
 
-/// Keep-last depth of volatile topics (rclcpp's usual 10).
-const DEPTH: u32 = 10;
 /// How often a transient-local publisher tells subscribers its last
 /// sequence number when it changed, so a missed message is fetched from
 /// its cache (rmw_zenoh's sporadic heartbeat).
@@ -55,12 +53,10 @@ fn list(items: &[String]) -> String {
     serde_json::to_string(items).unwrap_or_else(|_| "[]".to_owned())
 }
 
-/// QoS of `topic`: the latched topics are transient local, keep last 1.
+/// QoS of `topic`: kept as [`skin::keep`] says.
 fn qos_of(topic: &str) -> Qos {
-    match topic {
-        skin::TF_STATIC | skin::ROBOT_DESCRIPTION => Qos { depth: 1, transient_local: true },
-        _ => Qos { depth: DEPTH, transient_local: false },
-    }
+    let keep = skin::keep(topic);
+    Qos { depth: keep.depth, transient_local: keep.latched }
 }
 
 impl Node {
@@ -96,7 +92,25 @@ impl Node {
         self.dropped
     }
 
-    fn declare(&mut self, topic: &'static str, ty: &'static MsgType) -> Result<usize, ZenohError> {
+    /// The publisher of `topic`, declared if it is new; `None` (counted as
+    /// a drop) if it cannot be.
+    fn publisher(&mut self, topic: &'static str, ty: &'static MsgType) -> Option<usize> {
+        if let Some(i) = self.publishers.iter().position(|p| p.topic == topic) {
+            return Some(i);
+        }
+        match self.create(topic, ty) {
+            Ok(i) => Some(i),
+            Err(e) => {
+                if self.dropped == 0 {
+                    tracing::error!("ROS 2 over Zenoh: {e}");
+                }
+                self.dropped += 1;
+                None
+            }
+        }
+    }
+
+    fn create(&mut self, topic: &'static str, ty: &'static MsgType) -> Result<usize, ZenohError> {
         let qos = qos_of(topic);
         let entity_id = self.publishers.len() as u32 + 1;
         let token_key = self.name.publisher_token(entity_id, topic, ty, self.config.hashes, qos);
@@ -127,20 +141,12 @@ fn declare_token(session: &Session, key: String) -> Result<zenoh::liveliness::Li
 }
 
 impl Outlet for Node {
+    fn declare(&mut self, topic: &'static str, ty: &'static MsgType) {
+        self.publisher(topic, ty);
+    }
+
     fn publish(&mut self, topic: &'static str, ty: &'static MsgType, time_ns: u64, cdr: &[u8]) {
-        let i = match self.publishers.iter().position(|p| p.topic == topic) {
-            Some(i) => i,
-            None => match self.declare(topic, ty) {
-                Ok(i) => i,
-                Err(e) => {
-                    if self.dropped == 0 {
-                        tracing::error!("ROS 2 over Zenoh: {e}");
-                    }
-                    self.dropped += 1;
-                    return;
-                }
-            },
-        };
+        let Some(i) = self.publisher(topic, ty) else { return };
         let p = &mut self.publishers[i];
         p.sequence += 1;
         let attachment = attachment::encode(p.sequence, time_ns.min(i64::MAX as u64) as i64, p.gid);
