@@ -56,7 +56,9 @@ impl SpinRecv {
     }
 
     /// As [`UdpSocket::recv_from`] on a blocking `socket` (its read
-    /// timeout bounds the wait), trying without blocking first.
+    /// timeout bounds the wait), trying without blocking first. A signal
+    /// that interrupts the wait is waited through: a debugger attached to
+    /// `skin demo` ended its robot link with "Interrupted system call".
     pub fn recv_from(&mut self, socket: &UdpSocket, buf: &mut [u8]) -> io::Result<(usize, SocketAddr)> {
         if self.resting > 0 {
             self.resting -= 1;
@@ -69,7 +71,12 @@ impl SpinRecv {
                 answered => return answered,
             }
         }
-        socket.recv_from(buf)
+        loop {
+            match socket.recv_from(buf) {
+                Err(e) if e.kind() == ErrorKind::Interrupted => continue,
+                got => return got,
+            }
+        }
     }
 
     /// Tries a non-blocking `socket` until a datagram or an error comes,
@@ -136,6 +143,33 @@ mod tests {
         let e = never.recv_from(&rx, &mut buf).unwrap_err();
         assert!(matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut), "{e}");
         assert_eq!(never.resting, 0);
+    }
+
+    #[test]
+    #[allow(unsafe_code)] // to install a handler and send a signal
+    fn a_signal_does_not_end_the_wait() {
+        use std::os::unix::thread::JoinHandleExt;
+        extern "C" fn nothing(_: libc::c_int) {}
+        // A handler without SA_RESTART: the signal interrupts recvfrom.
+        // SAFETY: a zeroed sigaction with a handler that does nothing, for
+        // a signal nothing else in this test binary uses.
+        unsafe {
+            let mut action: libc::sigaction = std::mem::zeroed();
+            action.sa_sigaction = nothing as extern "C" fn(libc::c_int) as libc::sighandler_t;
+            assert_eq!(libc::sigaction(libc::SIGUSR2, &action, std::ptr::null_mut()), 0);
+        }
+        let (rx, to) = socket(Duration::from_secs(10));
+        let waiting = std::thread::spawn(move || {
+            let mut buf = [0u8; 8];
+            let got = SpinRecv::new(Duration::ZERO).recv_from(&rx, &mut buf);
+            got.map(|(n, _)| buf[..n].to_vec())
+        });
+        std::thread::sleep(Duration::from_millis(100));
+        // SAFETY: the thread is alive, blocked in its wait.
+        assert_eq!(unsafe { libc::pthread_kill(waiting.as_pthread_t(), libc::SIGUSR2) }, 0);
+        std::thread::sleep(Duration::from_millis(100));
+        UdpSocket::bind("127.0.0.1:0").unwrap().send_to(b"after", to).unwrap();
+        assert_eq!(waiting.join().unwrap().unwrap(), b"after");
     }
 
     #[test]
