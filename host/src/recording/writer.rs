@@ -82,7 +82,7 @@ impl McapWriter {
     fn channel(&mut self, topic: &'static str, ty: &MsgType) -> Result<u16, mcap::McapError> {
         let schema = self.writer.add_schema(ty.name, "ros2msg", ty.ros2msg().as_bytes())?;
         let mut metadata = BTreeMap::new();
-        if matches!(topic, crate::ros::skin::TF_STATIC | crate::ros::skin::ROBOT_DESCRIPTION) {
+        if crate::ros::skin::keep(topic).latched {
             metadata.insert("offered_qos_profiles".to_owned(), LATCHED_QOS.to_owned());
         }
         self.writer.add_channel(schema, topic, "cdr", &metadata)

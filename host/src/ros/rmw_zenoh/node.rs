@@ -98,16 +98,15 @@ impl Node {
         if let Some(i) = self.publishers.iter().position(|p| p.topic == topic) {
             return Some(i);
         }
-        match self.create(topic, ty) {
-            Ok(i) => Some(i),
-            Err(e) => {
-                if self.dropped == 0 {
-                    tracing::error!("ROS 2 over Zenoh: {e}");
-                }
-                self.dropped += 1;
-                None
-            }
+        self.create(topic, ty).map_err(|e| self.drop_one(format_args!("{e}"))).ok()
+    }
+
+    /// Counts a message not sent, logging the first.
+    fn drop_one(&mut self, why: std::fmt::Arguments<'_>) {
+        if self.dropped == 0 {
+            tracing::warn!("ROS 2 over Zenoh: {why}");
         }
+        self.dropped += 1;
     }
 
     fn create(&mut self, topic: &'static str, ty: &'static MsgType) -> Result<usize, ZenohError> {
@@ -151,10 +150,7 @@ impl Outlet for Node {
         p.sequence += 1;
         let attachment = attachment::encode(p.sequence, time_ns.min(i64::MAX as u64) as i64, p.gid);
         if let Err(e) = p.publisher.put(cdr.to_vec()).attachment(attachment.to_vec()).wait() {
-            if self.dropped == 0 {
-                tracing::warn!("ROS 2 over Zenoh: a message on {topic} was not sent: {e}");
-            }
-            self.dropped += 1;
+            self.drop_one(format_args!("a message on {topic} was not sent: {e}"));
         }
     }
 }
