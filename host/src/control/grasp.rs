@@ -10,8 +10,9 @@
 //! when the chest is close *and* every contact area feels force (or the arms stall against the
 //! object while one feels it: the object is what holds them back), so the
 //! arms hold the object, not the chest alone; then the arms squeeze it
-//! until a cell feels the high force level (a chest cell the medium one,
-//! or they can close no further) and hold that pose, so the grip can
+//! until a cell feels the high force level (a chest cell the medium one)
+//! with both arms on it (one will do once the chest's cells feel the high
+//! level, or when they can close no further) and hold that pose, so the grip can
 //! carry the object's weight once the person lets go (the chest may then
 //! bear it harder: only pain ends the hold); loading that reaches the
 //! closed pose with the object still near both arms (narrow or soft: the
@@ -416,15 +417,22 @@ impl Grasp {
             // more than the object's own friction on its support: the
             // arms close on until a cell anywhere, the chest's too (whose
             // cells cannot move away), feels the squeeze level, then hold
-            // that pose. Arms that can close no further hold where they are.
-            // An arm that lost the object while the other pressed on is
-            // pulled in again, as in Hold (it would hold with one arm).
+            // that pose, once every arm feels it: a pull that ended
+            // straining with one arm pins the object against the chest, and
+            // the arm that never touched it holds nothing while the person
+            // holds it up (`gen3_08`: 0 N on the left arm for 8 s). Only
+            // the chest's high level ends the squeeze with one arm: the arm
+            // pressing on pushed the object into the chest's cells, pain
+            // within 0.1 s (`gen2_13`). Arms that can close no further hold
+            // where they are. An arm that lost the object while the other
+            // pressed on is pulled in again, as in Hold.
             Squeeze => {
+                let squeezed = touch.highest(Force) >= t.squeeze_force || any(Chest, Force, t.squeeze_chest_force);
                 if lost {
                     Some((Cancel, Cause::ContactLost))
                 } else if slipped {
                     Some((Pull, Cause::Slipped))
-                } else if touch.highest(Force) >= t.squeeze_force || any(Chest, Force, t.squeeze_chest_force) {
+                } else if (squeezed && every(Contact, Force, 1)) || any(Chest, Force, t.squeeze_force) {
                     Some((Hold, Cause::Squeezed))
                 } else {
                     trajectory.map(|e| (Hold, Cause::of(e)))
@@ -615,12 +623,35 @@ mod tests {
         assert_eq!(r.step(None), State::Squeeze);
         assert_eq!(r.step(None), State::Squeeze, "both arms feel it again");
         set(&mut r.ev, 4, 0.9, 0.11);
-        set(&mut r.ev, 2, 0.9, 0.0);
+        set(&mut r.ev, 2, 0.9, 0.05);
         assert_eq!(r.step(None), State::Hold, "squeezed");
-        for _ in 0..=(SLIP_S / 0.004) as usize {
-            r.step(None);
+        set(&mut r.ev, 2, 0.9, 0.0);
+        assert_eq!(r.after_a_slip(State::Hold), State::Pull, "the arm that felt it while squeezing counts in Hold too");
+    }
+
+    #[test]
+    fn the_squeeze_closes_until_every_arm_feels_the_object() {
+        /// A pull that ended straining with the right arm alone, the chest
+        /// close and feeling `chest`: squeezing.
+        fn one_arm(chest: f32) -> Run {
+            let mut r = Run::pulling();
+            set(&mut r.ev, 2, 0.9, 0.0);
+            set(&mut r.ev, 3, 0.9, 0.35);
+            set(&mut r.ev, 4, 0.9, chest);
+            assert_eq!(r.step(None), State::Squeeze, "one arm strains, the chest close");
+            r
         }
-        assert_eq!(r.g.state(), State::Pull, "the arm that felt it while squeezing counts in Hold too");
+        let mut r = one_arm(0.15);
+        for _ in 0..1000 {
+            assert_eq!(r.step(None), State::Squeeze, "the left arm never touched it: it closes on");
+        }
+        set(&mut r.ev, 2, 0.9, 0.05);
+        assert_eq!(r.step(None), State::Hold, "both arms feel it");
+        let mut r = one_arm(0.15);
+        set(&mut r.ev, 4, 0.9, 0.31);
+        assert_eq!(r.step(None), State::Hold, "the chest cannot move away: pressing on would hurt it");
+        let mut r = one_arm(0.0);
+        assert_eq!(r.step(Some(TrajectoryEvent::Stalled)), State::Hold, "it can close no further");
     }
 
     #[test]
