@@ -10,9 +10,9 @@
 //! when the chest is close *and* every contact area feels force (or the arms stall against the
 //! object while one feels it: the object is what holds them back), so the
 //! arms hold the object, not the chest alone; then the arms squeeze it
-//! until a cell feels the high force level (a chest cell the medium one)
-//! with both arms on it (one will do once the chest's cells feel the high
-//! level, or when they can close no further) and hold that pose, so the grip can
+//! until both arms feel it and a cell feels the high force level (a chest
+//! cell the medium one), or a chest cell the high level, or they can close
+//! no further, and hold that pose, so the grip can
 //! carry the object's weight once the person lets go (the chest may then
 //! bear it harder: only pain ends the hold); loading that reaches the
 //! closed pose with the object still near both arms (narrow or soft: the
