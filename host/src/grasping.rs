@@ -30,6 +30,7 @@ use skin_sim::scene::force::Calibration;
 use skin_sim::scene::held::{ObjectTruth, BARE_PAIN_N};
 use skin_sim::scene::operator::{Note, Order};
 use skin_sim::scene::placement::ObjectAt;
+use skin_sim::scene::stage::{TAKE_AWAY_M, TAKE_AWAY_M_PER_S};
 use tracing::info;
 
 use crate::control::areas::{parse_specs, AreaId, AreaKind, Areas};
@@ -47,6 +48,11 @@ use crate::robot::{Robot, RobotError, SampleSource};
 /// again of a heavy box, each pull creeping 25-30 s before it stalls, took
 /// up to 302 s in MuJoCo.
 const GRASP_LIMIT_S: f64 = 330.0;
+/// How long after the person took the object back the experimenter ends
+/// a grasp the controller has not given up, s: the time the person takes
+/// to carry it away out of the arms, and a second for the arms to notice
+/// it is gone.
+const CARRIED_AWAY_S: f64 = TAKE_AWAY_M / TAKE_AWAY_M_PER_S + 1.0;
 /// Longest wait for the person to answer an order, robot time, s (a
 /// lesson may take a minute).
 const ANSWER_LIMIT_S: f64 = 90.0;
@@ -467,13 +473,11 @@ pub fn grasp<R: Robot + SampleSource>(
             });
             seen.at_release = Some((t - launch, truth));
         }
-        // The person took the object back into their hands: the grasp has
-        // failed, and the experimenter ends it with a pat rather than let
-        // the arms hug again what the person holds (squeezed against their
-        // hands, a box the right arm's bare surface pressed at 14 N struck
-        // a left arm's cell at pain as the arms let go).
+        // The person took the object back into their hands and carries it
+        // away: the grasp has failed, and the arms, losing it, give up.
+        // Arms still grasping once it is gone are ended with a pat.
         let end = !released
-            && seen.taken_back.is_some()
+            && seen.taken_back.is_some_and(|at| t - launch - at >= CARRIED_AWAY_S)
             && c.state().is_some_and(State::is_grasping)
             && !std::mem::replace(&mut ended, true);
         if (t >= launch && !std::mem::replace(&mut launched, true)) || release || end {

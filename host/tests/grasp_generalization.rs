@@ -211,11 +211,13 @@ fn a_hundred_objects_anywhere_the_arms_reach_in_each_world() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// Too wide for the arms, too heavy to carry: without pain in every
-/// world; not held where gravity acts. The built-in world, which has no
-/// gravity, slides the wide box sideways on its support until the arms
-/// squeeze its ends, and may call that held; a wider box is in the way of
-/// the opening arms (0.7 m: pain while opening).
+/// Too wide for the arms, too heavy to carry: not held, without pain,
+/// and given up (`cancelled`) in every world. Their pulls stall hug after
+/// hug; or, where the person's hands go along with the pull (MuJoCo), the
+/// heavy box reaches the chest, comes down with the person's hands as they
+/// let it go, and they carry it away, out of the arms that then lose it.
+/// A wider box is in the way of the opening arms (0.7 m: pain while
+/// opening).
 #[test]
 #[ignore]
 fn objects_that_cannot_be_held_fail_without_pain() {
@@ -236,17 +238,10 @@ fn objects_that_cannot_be_held_fail_without_pain() {
             let what = format!("{world}: {}", r["object"]);
             assert_ne!(r["reason"], "pain", "{what}");
             assert_eq!(r["pain_events"], 0, "{what}");
-            if *world == "built-in" && r["object"] == "too_wide" {
-                continue;
-            }
             assert_eq!(r["succeeded"], false, "{what}");
-            // The controller gives up; or it holds on, and the person,
-            // feeling the object come down with their hands, never lets
-            // go or takes it back: it ends on their hands, not carried
-            // by the robot.
-            let gave_up = r["controller_state"] == "cancelled";
-            let kept = ["resting", "taken_back"].iter().any(|&w| r["failed"]["why"]["not_held"] == w);
-            assert!(gave_up || kept, "{what}: the controller gives up or the person keeps it: {r}");
+            // The controller gives up: the pulls stall, or the object the
+            // person took back and carried away is lost to the arms.
+            assert_eq!(r["controller_state"], "cancelled", "{what}: {r}");
         }
     }
     std::fs::remove_dir_all(&dir).unwrap();

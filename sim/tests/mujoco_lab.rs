@@ -12,7 +12,7 @@ use skin_sim::scene::experiment::{object_pose, Setup};
 use skin_sim::scene::force::Calibration;
 use skin_sim::scene::object::Object;
 use skin_sim::scene::placement::Placement;
-use skin_sim::scene::stage::Stage;
+use skin_sim::scene::stage::{Stage, TAKE_AWAY_M, TAKE_AWAY_M_PER_S};
 use skin_sim::world::World;
 
 /// Steps `ticks` control periods; the samples of the last.
@@ -108,7 +108,7 @@ fn rounded_boxes_stand_flat_on_the_tray_one_after_another() {
 /// Patting to release what the robot carries, the person first takes it
 /// into their hands: a falling object stops where they took it.
 #[test]
-fn an_object_taken_back_stays_where_the_person_took_it() {
+fn an_object_taken_back_is_carried_away_down_and_held_there() {
     let setup = Setup::new(&hrp2::robot(), 3).unwrap();
     let (mut world, stage) = experiment_world(None, &setup, 3).unwrap();
     let bin = Object::by_name("trash_bin").unwrap();
@@ -117,13 +117,19 @@ fn an_object_taken_back_stays_where_the_person_took_it() {
     run(&mut world, 50);
     stage.let_go();
     run(&mut world, 25);
-    let falling = stage.look().object.expect("the object is there").pose.translation.z;
+    let height = |stage: &dyn Stage| stage.look().object.expect("the object is there").pose.translation.z;
+    let falling = height(&stage);
     assert!(falling < pose.translation.z - 0.01, "it falls once let go: {falling}");
-    stage.take_back();
-    run(&mut world, 250);
+    stage.carry_away();
+    let period_s = world.config().tick_s;
+    let periods = |s: f64| (s / period_s).round() as usize;
+    run(&mut world, periods(1.0));
+    let carried = falling - height(&stage);
+    assert!((carried - TAKE_AWAY_M_PER_S).abs() < 0.02, "carried down at their pace: {carried} m in 1 s");
+    run(&mut world, periods(TAKE_AWAY_M / TAKE_AWAY_M_PER_S));
     let look = stage.look();
-    let held = look.object.expect("the object is there").pose.translation.z;
-    assert!((held - falling).abs() < 0.02, "in the person's hands near where taken: {held} (taken at {falling})");
+    let carried = falling - height(&stage);
+    assert!((carried - TAKE_AWAY_M).abs() < 0.02, "held {TAKE_AWAY_M} m below where taken: {carried} m");
     assert_eq!((look.resting, look.fallen), (Some(false), false), "on nothing but the person's hands");
 }
 

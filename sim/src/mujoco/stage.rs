@@ -26,7 +26,7 @@ use nalgebra::{Isometry3, Point3, Translation3, Vector3};
 use crate::scene::hand::Hand;
 use crate::scene::object::Object;
 use crate::scene::shape::Shape;
-use crate::scene::stage::{Look, Stage};
+use crate::scene::stage::{Look, Stage, TAKE_AWAY_M, TAKE_AWAY_M_PER_S};
 use crate::scene::{Contact, Placed, SkinModel};
 
 /// Height of the floor below the root (the chest), m: what a dropped object lands on.
@@ -146,8 +146,9 @@ struct Props {
     supporting: bool,
     /// ...this far below where they put it down, m.
     lowered_m: f64,
-    /// The person takes the object into their hands where it is now.
-    taking_back: bool,
+    /// The person takes the object into their hands where it is now, and
+    /// whether to carry it away.
+    taking_back: Option<bool>,
     look: Look,
 }
 
@@ -197,7 +198,11 @@ impl Stage for SharedStage {
     }
 
     fn take_back(&self) {
-        self.0.borrow_mut().taking_back = true;
+        self.0.borrow_mut().taking_back = Some(false);
+    }
+
+    fn carry_away(&self) {
+        self.0.borrow_mut().taking_back = Some(true);
     }
 
     fn look(&self) -> Look {
@@ -219,8 +224,9 @@ struct Body {
     upright: nalgebra::UnitQuaternion<f64>,
     /// Its largest principal moment of inertia, kg m^2.
     inertia: f64,
-    /// Where the person holds it in their hands, taken back (none: not).
-    in_hands_at: Option<[f64; 3]>,
+    /// Where the person took it into their hands (none: not), and since
+    /// when they carry it away, s.
+    in_hands_at: Option<([f64; 3], Option<f64>)>,
     /// How far below `tray_z` the tray is, m, and when it was put there, s.
     lowered_m: f64,
     lowered_at_s: f64,
@@ -385,12 +391,16 @@ impl Scenery {
         }
         let taking_back = std::mem::take(&mut self.shared.0.borrow_mut().taking_back);
         if let Some(body) = &mut self.object {
-            if taking_back {
-                body.in_hands_at = Some(object_pose(data, body.qpos).translation.vector.into());
+            if let Some(away) = taking_back {
+                let at = object_pose(data, body.qpos).translation.vector.into();
+                body.in_hands_at = Some((at, away.then(|| data.time())));
             }
             let supporting = self.shared.0.borrow().supporting;
             match body.in_hands_at {
-                Some(at) => hold_in_hands(data, body, at),
+                Some((at, away_since_s)) => {
+                    let down_m = away_since_s.map_or(0.0, |s| (TAKE_AWAY_M_PER_S * (data.time() - s)).min(TAKE_AWAY_M));
+                    hold_in_hands(data, body, [at[0], at[1], at[2] - down_m]);
+                }
                 None if supporting => steady(data, body),
                 None => data.qfrc_applied_mut()[body.qvel..body.qvel + 6].fill(0.0),
             }
@@ -404,7 +414,7 @@ impl Scenery {
         // over them (as the built-in scene's support does): a tray left
         // where the object was put down let it tip off its back edge.
         let (tray, pace) = match &mut self.object {
-            Some(body) if props.supporting => {
+            Some(body) if props.supporting && body.in_hands_at.is_none() => {
                 let weight = body.object.mass_kg * -data.model().opt().gravity[2];
                 let bearing = props.look.support_n.is_some_and(|n| n >= weight);
                 let step_m = RAISE_M_PER_S * (data.time() - body.lowered_at_s);

@@ -160,8 +160,8 @@ enum Handover {
     Easing { since_s: f64, z_m: f64, cells: Vec<Point3<f64>> },
     /// Let go: the robot carries it.
     LetGo,
-    /// It came down with their hands: they hold it where it is, and the
-    /// robot never carries it alone.
+    /// It came down with their hands: they take it and carry it away,
+    /// and the robot never carries it alone.
     Kept,
 }
 
@@ -287,7 +287,7 @@ impl Operator {
     /// on the chest, drops it mid-pull), then lower their hands slowly and
     /// let go, unless the object comes down with them, or still rests on
     /// their hands once lowered: then the robot cannot carry it, and they
-    /// take it into their hands where it is
+    /// take it into their hands where it is and carry it away
     /// (whether the arms can carry it is the test, not the person's nerve).
     fn hand_over(&mut self, t: f64, poses: &[Isometry3<f64>]) {
         let truth = self.truth();
@@ -323,7 +323,7 @@ impl Operator {
                         down_m,
                         "the object rests on the person's hands as they lower them: they keep it"
                     );
-                    self.stage.take_back();
+                    self.stage.carry_away();
                     Handover::Kept
                 } else if bottom {
                     self.stage.let_go();
@@ -490,6 +490,9 @@ mod tests {
         }
         fn take_back(&self) {
             self.0.borrow_mut().taken_back = true;
+        }
+        fn carry_away(&self) {
+            self.take_back();
         }
         fn look(&self) -> Look {
             self.0.borrow().look.clone()

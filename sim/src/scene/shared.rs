@@ -75,6 +75,8 @@ impl Stage for SharedScene {
 
     fn take_back(&self) {}
 
+    fn carry_away(&self) {}
+
     fn look(&self) -> Look {
         let scene = self.get();
         Look {

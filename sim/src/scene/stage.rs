@@ -12,6 +12,13 @@ use super::hand::Hand;
 use super::object::Object;
 use super::{Contact, Placed, SkinModel};
 
+/// How far below where they took it the person carries an object they
+/// took back, m: down past the arms by more than the tallest generated
+/// object (0.34 m).
+pub const TAKE_AWAY_M: f64 = 0.4;
+/// How fast they carry it away, m/s: carefully.
+pub const TAKE_AWAY_M_PER_S: f64 = 0.1;
+
 /// A stage the person acts on, between control periods.
 pub trait Stage {
     /// The skin's sensing layers (where a guiding hand is held for an
@@ -35,6 +42,11 @@ pub trait Stage {
     /// before patting to release it, so that it does not drop as the arms
     /// open (an object on a table that stays needs nothing).
     fn take_back(&self);
+    /// The person takes the object into their hands where it is now and
+    /// carries it away, down out of the arms ([`TAKE_AWAY_M`] at
+    /// [`TAKE_AWAY_M_PER_S`]), as one takes a box back from someone who
+    /// cannot hold it (an object on a table that stays needs nothing).
+    fn carry_away(&self);
     /// What the person sees now.
     fn look(&self) -> Look;
 }
