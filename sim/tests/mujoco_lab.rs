@@ -105,10 +105,9 @@ fn rounded_boxes_stand_flat_on_the_tray_one_after_another() {
     }
 }
 
-/// Patting to release what the robot carries, the person first takes it
-/// into their hands: a falling object stops where they took it.
-#[test]
-fn an_object_taken_back_is_carried_away_down_and_held_there() {
+/// A trash bin put down, then let go of: falling, 0.1 s later. The stage
+/// and its world, and the bin's height then, m.
+fn falling_bin() -> (World, impl Stage, f64) {
     let setup = Setup::new(&hrp2::robot(), 3).unwrap();
     let (mut world, stage) = experiment_world(None, &setup, 3).unwrap();
     let bin = Object::by_name("trash_bin").unwrap();
@@ -117,9 +116,34 @@ fn an_object_taken_back_is_carried_away_down_and_held_there() {
     run(&mut world, 50);
     stage.let_go();
     run(&mut world, 25);
-    let height = |stage: &dyn Stage| stage.look().object.expect("the object is there").pose.translation.z;
     let falling = height(&stage);
     assert!(falling < pose.translation.z - 0.01, "it falls once let go: {falling}");
+    (world, stage, falling)
+}
+
+/// The height of the object on `stage`, m.
+fn height(stage: &impl Stage) -> f64 {
+    stage.look().object.expect("the object is there").pose.translation.z
+}
+
+/// Patting to release what the robot carries, the person first takes it
+/// into their hands: a falling object stops where they took it.
+#[test]
+fn an_object_taken_back_stays_where_the_person_took_it() {
+    let (mut world, stage, falling) = falling_bin();
+    stage.take_back();
+    run(&mut world, 250);
+    let look = stage.look();
+    let held = height(&stage);
+    assert!((held - falling).abs() < 0.02, "in the person's hands near where taken: {held} (taken at {falling})");
+    assert_eq!((look.resting, look.fallen), (Some(false), false), "on nothing but the person's hands");
+}
+
+/// An object the robot does not carry, the person takes and carries away,
+/// down out of the arms.
+#[test]
+fn an_object_taken_back_is_carried_away_down_and_held_there() {
+    let (mut world, stage, falling) = falling_bin();
     stage.carry_away();
     let period_s = world.config().tick_s;
     let periods = |s: f64| (s / period_s).round() as usize;

@@ -202,7 +202,10 @@ impl Stage for SharedStage {
     }
 
     fn carry_away(&self) {
-        self.0.borrow_mut().taking_back = Some(true);
+        // Their hands hold the object now, not the tray under it.
+        let mut props = self.0.borrow_mut();
+        props.taking_back = Some(true);
+        props.supporting = false;
     }
 
     fn look(&self) -> Look {
@@ -414,7 +417,7 @@ impl Scenery {
         // over them (as the built-in scene's support does): a tray left
         // where the object was put down let it tip off its back edge.
         let (tray, pace) = match &mut self.object {
-            Some(body) if props.supporting && body.in_hands_at.is_none() => {
+            Some(body) if props.supporting => {
                 let weight = body.object.mass_kg * -data.model().opt().gravity[2];
                 let bearing = props.look.support_n.is_some_and(|n| n >= weight);
                 let step_m = RAISE_M_PER_S * (data.time() - body.lowered_at_s);
