@@ -61,9 +61,9 @@ const LAUNCH_AT_S: f64 = 0.5;
 /// How long the robot holds an object before the person pats to release it, s.
 const HOLD_S: f64 = 3.0;
 /// How long the robot may hold an object the person still holds up before
-/// they pat to release it, s: they wait 2 s for the arms to be still and
-/// take 1.5 s to lower their hands, so at 3 s objects the robot carried
-/// were released still on their hands, judged resting.
+/// they pat to release it, s, in one hold: they wait 2 s for the arms to
+/// be still and take 1.5 s to lower their hands, so at 3 s objects the
+/// robot carried were released still on their hands, judged resting.
 const LET_GO_LIMIT_S: f64 = 8.0;
 /// Trace rows per second (every control period is 250).
 const TRACE_HZ: f64 = 50.0;
@@ -209,6 +209,38 @@ impl Watched {
     /// person having let go.
     fn in_hold_phase(&self, holding: bool) -> bool {
         holding && !self.on_support()
+    }
+}
+
+/// When the person pats to release: once the robot has held the object
+/// for [`HOLD_S`] in all after they let go (an arm that lets go pulls
+/// again meanwhile), at a moment it holds. Until they let go the robot
+/// does not hold it alone (they wait for the arms to stop); a person who
+/// has not let go after [`LET_GO_LIMIT_S`] of one hold never will, and
+/// it is judged standing on their hands. A grip taken again (an arm lost
+/// the object and pulled) starts that wait again, as it starts their
+/// handover again: counted over every hold, a grip taken again 5 s in had
+/// 3 s left, too short to wait 2 s and lower their hands 1.5 s
+/// (`gen3_24`, noise seed 0).
+#[derive(Default)]
+struct ReleasePat {
+    held_s: f64,
+    supported_s: f64,
+    released: bool,
+}
+
+impl ReleasePat {
+    /// Whether the pat is due now, after one control period of `tick_s`,
+    /// the controller `holding` and the object `on_support` or not; true
+    /// once at most.
+    fn due(&mut self, holding: bool, on_support: bool, tick_s: f64) -> bool {
+        match (holding, on_support) {
+            (true, true) => self.supported_s += tick_s,
+            (true, false) => self.held_s += tick_s,
+            (false, _) => self.supported_s = 0.0,
+        }
+        let due = holding && (self.held_s >= HOLD_S || self.supported_s >= LET_GO_LIMIT_S);
+        due && !std::mem::replace(&mut self.released, true)
     }
 }
 
@@ -441,7 +473,8 @@ pub fn grasp<R: Robot + SampleSource>(
     let areas = traced_areas(c.areas());
     let start = lab.time_s;
     let launch = start + LAUNCH_AT_S;
-    let (mut launched, mut held_s, mut supported_s, mut released, mut ended) = (false, 0.0, 0.0, false, false);
+    let (mut launched, mut ended) = (false, false);
+    let mut pat = ReleasePat::default();
     let mut watched = Watched::default();
     let mut peak = None;
     let mut at_release = None;
@@ -454,20 +487,8 @@ pub fn grasp<R: Robot + SampleSource>(
     let mut next_row = launch;
     let end = loop {
         let t = lab.time_s;
-        // Released once held for HOLD_S in all (an arm that lets go pulls
-        // again meanwhile), at a moment it holds. The hold phase starts
-        // when the person has let go: until then the robot does not hold
-        // the object alone (the person waits for the arms to stop). A
-        // person who has not let go after LET_GO_LIMIT_S of holding never will:
-        // released then, it is judged standing on their hands.
         let holding = c.state() == Some(State::Hold);
-        if holding && watched.on_support() {
-            supported_s += lab.robot.tick_s();
-        } else if holding {
-            held_s += lab.robot.tick_s();
-        }
-        let release =
-            holding && (held_s >= HOLD_S || supported_s >= LET_GO_LIMIT_S) && !std::mem::replace(&mut released, true);
+        let release = pat.due(holding, watched.on_support(), lab.robot.tick_s());
         if release {
             at_release = Some(watched.object);
             let sank = sank_m(&path, watched.object.as_ref());
@@ -483,7 +504,7 @@ pub fn grasp<R: Robot + SampleSource>(
         // The person took the object back into their hands and carries it
         // away: the grasp has failed, and the arms, losing it, give up.
         // Arms still grasping once it is gone are ended with a pat.
-        let end = !released
+        let end = !pat.released
             && seen.taken_back.is_some_and(|at| t - launch - at >= CARRIED_AWAY_S)
             && c.state().is_some_and(State::is_grasping)
             && !std::mem::replace(&mut ended, true);
@@ -496,7 +517,7 @@ pub fn grasp<R: Robot + SampleSource>(
             watched.hear(&note);
         }
         let t = lab.time_s;
-        watch_for_failure(&mut seen, &watched, &c, (t - launch, pain_n), released);
+        watch_for_failure(&mut seen, &watched, &c, (t - launch, pain_n), pat.released);
         if watched.max_force_n > max_before_n {
             peak = c.state().map(|state| Peak { time_s: t - launch, state });
         }
@@ -648,6 +669,26 @@ fn row(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_release_pat_waits_for_the_hold_and_gives_each_grip_its_time() {
+        let tick = 0.004;
+        let run = |pat: &mut ReleasePat, holding: bool, on_support: bool, s: f64| {
+            let ticks = (s / tick).round() as u32;
+            (0..ticks).filter(|_| pat.due(holding, on_support, tick)).count()
+        };
+        let mut pat = ReleasePat::default();
+        assert_eq!(run(&mut pat, true, false, HOLD_S - 0.1), 0, "held, not long enough");
+        assert_eq!(run(&mut pat, false, false, 1.0), 0, "pulling again: no pat");
+        assert_eq!(run(&mut pat, true, false, 1.0), 1, "held HOLD_S in all, once");
+        assert_eq!(run(&mut pat, true, false, 5.0), 0, "one pat");
+        // Still on the person's hands: they wait LET_GO_LIMIT_S of one hold.
+        let mut pat = ReleasePat::default();
+        assert_eq!(run(&mut pat, true, true, LET_GO_LIMIT_S - 3.0), 0);
+        assert_eq!(run(&mut pat, false, true, 0.5), 0, "a grip taken again");
+        assert_eq!(run(&mut pat, true, true, LET_GO_LIMIT_S - 0.1), 0, "its wait starts over");
+        assert_eq!(run(&mut pat, true, true, 0.2), 1);
+    }
 
     #[test]
     fn how_far_the_object_sank_is_measured_over_the_hold_s_last_second() {
