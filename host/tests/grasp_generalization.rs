@@ -164,13 +164,26 @@ fn table(columns: &[Column]) -> String {
     s
 }
 
-/// Every grasp of `runs` held, or at least `percent` of them, without pain.
-fn check_goal(world: &str, runs: &[Value], percent: usize) {
-    let held = runs.iter().filter(|r| r["succeeded"] == true).count();
-    let pains: u64 = runs.iter().map(|r| r["pain_events"].as_u64().unwrap()).sum();
-    assert!(held * 100 >= percent * runs.len(), "{world}: {held} of {} held", runs.len());
-    assert_eq!(pains, 0, "{world}");
-    assert_eq!(failed_for(runs, "pain"), 0, "{world}");
+/// Each world that misses the goal (at least `percent` of its grasps
+/// held, none in pain), with what it missed by; all of them are said
+/// before the test fails, so one world missing does not hide the others.
+fn check_goal(columns: &[Column], percent: usize) {
+    let missed: Vec<String> = columns
+        .iter()
+        .filter_map(|c| {
+            let held = c.runs.iter().filter(|r| r["succeeded"] == true).count();
+            let pains: u64 = c.runs.iter().map(|r| r["pain_events"].as_u64().unwrap()).sum();
+            let in_pain = failed_for(&c.runs, "pain");
+            (held * 100 < percent * c.runs.len() || pains > 0 || in_pain > 0).then(|| {
+                format!(
+                    "{}: {held} of {} held, {pains} pain events, {in_pain} grasps failed in pain",
+                    c.world,
+                    c.runs.len()
+                )
+            })
+        })
+        .collect();
+    assert!(missed.is_empty(), "goal {percent}% held without pain missed by {}", missed.join("; "));
 }
 
 #[test]
@@ -185,7 +198,7 @@ fn a_hundred_generated_objects_at_random_spots() {
         "objects seed {OBJECT_SEED}, placements --jitter {PLACEMENT_SEED}\n{}",
         table(std::slice::from_ref(&column))
     );
-    check_goal(column.world, &column.runs, 95);
+    check_goal(std::slice::from_ref(&column), 95);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -205,9 +218,7 @@ fn a_hundred_objects_anywhere_the_arms_reach_in_each_world() {
         "objects seeds {SIDE_BY_SIDE_SEEDS:?}, {share} each, placed anywhere both arms reach\n{}",
         table(&columns)
     );
-    for c in &columns {
-        check_goal(c.world, &c.runs, 95);
-    }
+    check_goal(&columns, 95);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
